@@ -1,0 +1,14 @@
+// Subcommands of the `loci` command line. Each module's commands live in their own file and
+// register themselves on the CLI11 app; main.cc calls every Register*.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace loci::cli {
+
+// Exit code of the command that ran (set by the command's callback).
+int& ExitCode();
+
+void RegisterEvalCommands(CLI::App& app);
+
+}  // namespace loci::cli

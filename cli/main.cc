@@ -1,0 +1,25 @@
+// `loci`: the command line of the loci semantic map (evaluation, synthetic scenes, detection,
+// exports, queries, benchmarks). `loci --help` lists the commands.
+#include <spdlog/spdlog.h>
+
+#include "cli/commands.h"
+
+namespace loci::cli {
+int& ExitCode() {
+  static int code = 0;
+  return code;
+}
+}  // namespace loci::cli
+
+int main(int argc, char** argv) {
+  CLI::App app{"loci: semantic map server tools"};
+  app.require_subcommand(1);
+  std::string log_level = "info";
+  app.add_option("--log-level", log_level, "trace|debug|info|warn|error")->capture_default_str();
+  app.parse_complete_callback([&] { spdlog::set_level(spdlog::level::from_str(log_level)); });
+
+  loci::cli::RegisterEvalCommands(app);
+
+  CLI11_PARSE(app, argc, argv);
+  return loci::cli::ExitCode();
+}

@@ -1,0 +1,125 @@
+#include "common/trajectory_eval.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include <Eigen/Geometry>
+
+#include "common/time.h"
+
+namespace loci {
+
+ErrorStats ComputeErrorStats(std::vector<double> e) {
+  ErrorStats s;
+  s.count = e.size();
+  if (e.empty()) return s;
+  double sum = 0, sum2 = 0;
+  for (double x : e) {
+    sum += x;
+    sum2 += x * x;
+  }
+  s.mean = sum / e.size();
+  s.rmse = std::sqrt(sum2 / e.size());
+  s.std = std::sqrt(std::max(0.0, sum2 / e.size() - s.mean * s.mean));
+  std::sort(e.begin(), e.end());
+  s.min = e.front();
+  s.max = e.back();
+  // numpy.median: mean of the two middle values for even counts.
+  const size_t n = e.size();
+  s.median = n % 2 ? e[n / 2] : 0.5 * (e[n / 2 - 1] + e[n / 2]);
+  return s;
+}
+
+namespace {
+
+std::vector<int64_t> Stamps(const Trajectory& t) {
+  std::vector<int64_t> s;
+  s.reserve(t.size());
+  for (const auto& p : t) s.push_back(p.t_ns);
+  return s;
+}
+
+// Index of the stamp closest to t in a sorted vector.
+size_t ClosestIndex(const std::vector<int64_t>& sorted, int64_t t) {
+  auto it = std::lower_bound(sorted.begin(), sorted.end(), t);
+  if (it == sorted.begin()) return 0;
+  if (it == sorted.end()) return sorted.size() - 1;
+  const size_t hi = it - sorted.begin();
+  return (t - sorted[hi - 1] <= sorted[hi] - t) ? hi - 1 : hi;
+}
+
+Trajectory Sorted(Trajectory t) {
+  std::sort(t.begin(), t.end(),
+            [](const StampedPose& a, const StampedPose& b) { return a.t_ns < b.t_ns; });
+  return t;
+}
+
+}  // namespace
+
+StatusOr<AteResult> ComputeAte(const Trajectory& gt_in, const Trajectory& est_in,
+                               const AteOptions& opt) {
+  const Trajectory gt = Sorted(gt_in), est = Sorted(est_in);
+  std::vector<int64_t> tg = Stamps(gt), te = Stamps(est);
+  for (auto& t : te) t += opt.offset_ns;
+  const auto pairs = AssociateStamps(tg, te, opt.max_dt_ns);
+  if (pairs.size() < 3) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "ATE: only ", pairs.size(),
+        " stamp pairs within the association window; are these the right files?"));
+  }
+  Eigen::Matrix3Xd src(3, pairs.size()), dst(3, pairs.size());
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    dst.col(k) = gt[pairs[k].first].T_world_cam.translation();
+    src.col(k) = est[pairs[k].second].T_world_cam.translation();
+  }
+  // Horn's closed form == Umeyama without scale.
+  const Eigen::Matrix4d T = Eigen::umeyama(src, dst, false);
+  AteResult r;
+  r.T_gt_est.matrix() = T;
+  r.pairs = pairs.size();
+  std::vector<double> err(pairs.size());
+  for (size_t k = 0; k < pairs.size(); ++k) err[k] = (r.T_gt_est * src.col(k) - dst.col(k)).norm();
+  r.trans_m = ComputeErrorStats(std::move(err));
+  return r;
+}
+
+StatusOr<RpeResult> ComputeRpe(const Trajectory& gt_in, const Trajectory& est_in,
+                               const RpeOptions& opt) {
+  const Trajectory gt = Sorted(gt_in), est = Sorted(est_in);
+  if (gt.size() < 2 || est.size() < 2) {
+    return absl::InvalidArgumentError("RPE: need at least two poses in each trajectory");
+  }
+  const std::vector<int64_t> tg = Stamps(gt), te = Stamps(est);
+  std::vector<int64_t> intervals;
+  for (size_t k = 1; k < tg.size(); ++k) intervals.push_back(tg[k] - tg[k - 1]);
+  std::nth_element(intervals.begin(), intervals.begin() + intervals.size() / 2, intervals.end());
+  const int64_t gt_max_dt = 2 * intervals[intervals.size() / 2];
+  const int64_t delta_ns = SecondsToNs(opt.delta_s);
+
+  std::vector<double> et, er;
+  for (size_t i = 0; i < te.size(); ++i) {
+    const size_t j = ClosestIndex(te, te[i] + delta_ns);
+    if (j == te.size() - 1) continue;  // evaluate_rpe.py drops pairs ending at the last pose
+    const size_t gi = ClosestIndex(tg, te[i] + opt.offset_ns);
+    const size_t gj = ClosestIndex(tg, te[j] + opt.offset_ns);
+    if (std::llabs(tg[gi] - (te[i] + opt.offset_ns)) > gt_max_dt ||
+        std::llabs(tg[gj] - (te[j] + opt.offset_ns)) > gt_max_dt) {
+      continue;
+    }
+    const SE3d d_est = est[i].T_world_cam.inverse() * est[j].T_world_cam;
+    const SE3d d_gt = gt[gi].T_world_cam.inverse() * gt[gj].T_world_cam;
+    const SE3d e = d_est.inverse() * d_gt;
+    et.push_back(e.translation().norm());
+    er.push_back(RotationAngleRad(e));
+  }
+  if (et.empty()) return absl::InvalidArgumentError("RPE: no pose pairs overlap ground truth");
+  RpeResult r;
+  r.delta_s = opt.delta_s;
+  r.pairs = et.size();
+  r.trans_m = ComputeErrorStats(std::move(et));
+  r.rot_rad = ComputeErrorStats(std::move(er));
+  return r;
+}
+
+}  // namespace loci
