@@ -1,0 +1,35 @@
+// A snapshot of one fused map object as the query engine, exports and evaluation see it.
+// Every position is in the map frame, metres.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace loci {
+
+struct MapObject {
+  int64_t id = 0;
+  std::string class_name;        // argmax of `labels`
+  double confidence = 0;         // probability of class_name
+  std::vector<std::pair<std::string, double>> labels;  // label distribution, sums to 1
+  Eigen::Vector3d centroid_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d aabb_min_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d aabb_max_m = Eigen::Vector3d::Zero();
+  // Oriented box: centre, half sizes along its axes, rotation R_map_box.
+  Eigen::Vector3d obb_center_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d obb_half_extent_m = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d R_map_box = Eigen::Matrix3d::Identity();
+  int64_t first_seen_ns = 0;
+  int64_t last_seen_ns = 0;
+  std::vector<std::string> robots;  // robot names that observed it
+  std::string last_robot;
+  uint32_t observation_count = 0;
+  uint32_t point_count = 0;
+  bool confirmed = false;
+};
+
+}  // namespace loci

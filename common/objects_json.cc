@@ -1,0 +1,65 @@
+#include "common/objects_json.h"
+
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+namespace loci {
+namespace {
+
+nlohmann::json Vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+Eigen::Vector3d ToVec(const nlohmann::json& j) {
+  if (!j.is_array() || j.size() != 3) throw std::runtime_error("expected [x, y, z]");
+  return {j[0].get<double>(), j[1].get<double>(), j[2].get<double>()};
+}
+
+}  // namespace
+
+StatusOr<GroundTruthScene> ReadObjectsJson(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return absl::NotFoundError(absl::StrCat("cannot open ", path));
+  GroundTruthScene scene;
+  try {
+    const nlohmann::json j = nlohmann::json::parse(in);
+    if (j.contains("up")) scene.up = ToVec(j["up"]);
+    for (const auto& o : j.at("objects")) {
+      GroundTruthObject g;
+      g.id = o.at("id").get<int64_t>();
+      g.class_name = o.at("class_name").get<std::string>();
+      g.centroid_m = ToVec(o.at("centroid_m"));
+      g.extent_m = ToVec(o.at("extent_m"));
+      g.aabb_min_m = o.contains("aabb_min_m") ? ToVec(o["aabb_min_m"]) : g.centroid_m - g.extent_m / 2;
+      g.aabb_max_m = o.contains("aabb_max_m") ? ToVec(o["aabb_max_m"]) : g.centroid_m + g.extent_m / 2;
+      g.on_id = o.contains("on") && !o["on"].is_null() ? o["on"].get<int64_t>() : 0;
+      g.dynamic = o.value("dynamic", false);
+      scene.objects.push_back(std::move(g));
+    }
+  } catch (const std::exception& e) {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": ", e.what()));
+  }
+  return scene;
+}
+
+Status WriteObjectsJson(const std::string& path, const GroundTruthScene& scene) {
+  nlohmann::json j;
+  j["frame"] = "world";
+  j["up"] = Vec(scene.up);
+  j["objects"] = nlohmann::json::array();
+  for (const GroundTruthObject& g : scene.objects) {
+    j["objects"].push_back({{"id", g.id},
+                            {"class_name", g.class_name},
+                            {"centroid_m", Vec(g.centroid_m)},
+                            {"extent_m", Vec(g.extent_m)},
+                            {"aabb_min_m", Vec(g.aabb_min_m)},
+                            {"aabb_max_m", Vec(g.aabb_max_m)},
+                            {"on", g.on_id ? nlohmann::json(g.on_id) : nlohmann::json(nullptr)},
+                            {"dynamic", g.dynamic}});
+  }
+  std::ofstream out(path);
+  if (!out) return absl::PermissionDeniedError(absl::StrCat("cannot write ", path));
+  out << j.dump(2) << "\n";
+  return out ? absl::OkStatus() : absl::DataLossError(absl::StrCat("short write to ", path));
+}
+
+}  // namespace loci
