@@ -1,0 +1,203 @@
+#include "detection/multi_object_tracker.h"
+
+#include <algorithm>
+
+#include "common/config.h"
+#include "detection/decode.h"
+#include "detection/hungarian.h"
+
+namespace loci::detection {
+namespace {
+constexpr double kForbidden = 1e9;
+}  // namespace
+
+StatusOr<TrackerOptions> TrackerOptions::FromYaml(const YAML::Node& node) {
+  TrackerOptions o;
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "n_init", &o.n_init));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "max_age", &o.max_age));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "min_iou", &o.min_iou));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "mahalanobis_gate", &o.mahalanobis_gate));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "max_appearance_distance", &o.max_appearance_distance));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "motion_weight", &o.motion_weight));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "max_cascade_cost", &o.max_cascade_cost));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "max_iou_distance", &o.max_iou_distance));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "appearance_momentum", &o.appearance_momentum));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "std_weight_position", &o.std_weight_position));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "std_weight_velocity", &o.std_weight_velocity));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "hue_bins", &o.appearance.hue_bins));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "saturation_bins", &o.appearance.saturation_bins));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "min_saturation", &o.appearance.min_saturation));
+  LOCI_RETURN_IF_ERROR(o.Validate());
+  return o;
+}
+
+Status TrackerOptions::Validate() const {
+  if (n_init < 1 || max_age < 1) {
+    return absl::InvalidArgumentError("tracker: n_init and max_age must be >= 1");
+  }
+  if (!(min_iou >= 0.f && min_iou <= 1.f) || !(mahalanobis_gate > 0.0) ||
+      !(motion_weight >= 0.0 && motion_weight <= 1.0) || !(max_cascade_cost > 0.0) ||
+      !(max_iou_distance > 0.0 && max_iou_distance <= 1.0) ||
+      !(appearance_momentum >= 0.0 && appearance_momentum < 1.0) ||
+      !(max_appearance_distance > 0.0) || !(std_weight_position > 0.0) ||
+      !(std_weight_velocity > 0.0)) {
+    return absl::InvalidArgumentError("tracker: a gate, weight or noise parameter is out of range");
+  }
+  if (appearance.hue_bins < 1 || appearance.saturation_bins < 1 || appearance.max_side_px < 1) {
+    return absl::InvalidArgumentError("tracker: histogram bins must be >= 1");
+  }
+  return absl::OkStatus();
+}
+
+MultiObjectTracker::MultiObjectTracker(TrackerOptions options) : options_(std::move(options)) {}
+
+void MultiObjectTracker::Reset() {
+  tracks_.clear();
+  next_id_ = 1;
+  next_internal_id_ = 1;
+}
+
+template <typename CostFn>
+void MultiObjectTracker::Match(const std::vector<int>& track_idx, std::vector<int>* det_idx,
+                               CostFn cost, std::vector<std::pair<int, int>>* matches) {
+  if (track_idx.empty() || det_idx->empty()) return;
+  std::vector<std::vector<double>> c(track_idx.size(), std::vector<double>(det_idx->size()));
+  for (size_t r = 0; r < track_idx.size(); ++r) {
+    for (size_t k = 0; k < det_idx->size(); ++k) c[r][k] = cost(track_idx[r], (*det_idx)[k]);
+  }
+  const std::vector<int> assign = SolveAssignment(c, kForbidden);
+  std::vector<char> used(det_idx->size(), false);
+  for (size_t r = 0; r < track_idx.size(); ++r) {
+    if (assign[r] < 0) continue;
+    matches->emplace_back(track_idx[r], (*det_idx)[assign[r]]);
+    used[assign[r]] = true;
+  }
+  std::vector<int> rest;
+  for (size_t k = 0; k < det_idx->size(); ++k) {
+    if (!used[k]) rest.push_back((*det_idx)[k]);
+  }
+  *det_idx = std::move(rest);
+}
+
+void MultiObjectTracker::Update(const cv::Mat& bgr, std::vector<Detection2D>* detections) {
+  std::vector<Detection2D>& dets = *detections;
+  for (Track& t : tracks_) {
+    t.kf.Predict();
+    ++t.age;
+    ++t.time_since_update;
+  }
+  const bool use_appearance = !bgr.empty() && bgr.type() == CV_8UC3;
+  std::vector<cv::Mat> features(dets.size());
+  if (use_appearance) {
+    for (size_t i = 0; i < dets.size(); ++i) {
+      features[i] = HsvHistogram(bgr, dets[i].box_px, dets[i].mask, options_.appearance);
+    }
+  }
+  std::vector<cv::Rect2f> predicted(tracks_.size());
+  for (size_t i = 0; i < tracks_.size(); ++i) predicted[i] = tracks_[i].kf.Box();
+
+  // Stage 1: matching cascade over confirmed tracks, most recently seen first.
+  auto cascade_cost = [&](int ti, int di) {
+    const Track& t = tracks_[ti];
+    const Detection2D& d = dets[di];
+    if (t.class_id != d.class_id || t.class_name != d.class_name) return kForbidden;
+    const double iou = BoxIou(predicted[ti], d.box_px);
+    const double maha = t.kf.MahalanobisSq(d.box_px);
+    if (iou < options_.min_iou && maha > options_.mahalanobis_gate) return kForbidden;
+    const double motion = std::min(1.0 - iou, maha / options_.mahalanobis_gate);
+    double cost = motion;
+    if (use_appearance && !t.feature.empty() && !features[di].empty()) {
+      const double app = HistogramDistance(t.feature, features[di]);
+      if (app > options_.max_appearance_distance) return kForbidden;
+      cost = options_.motion_weight * motion + (1.0 - options_.motion_weight) * app;
+    }
+    return cost <= options_.max_cascade_cost ? cost : kForbidden;
+  };
+  std::vector<int> unmatched_dets(dets.size());
+  for (size_t i = 0; i < dets.size(); ++i) unmatched_dets[i] = static_cast<int>(i);
+  std::vector<std::pair<int, int>> matches;
+  std::vector<char> matched_track(tracks_.size(), false);
+  for (int level = 1; level <= options_.max_age && !unmatched_dets.empty(); ++level) {
+    std::vector<int> level_tracks;
+    for (size_t i = 0; i < tracks_.size(); ++i) {
+      if (tracks_[i].state == Track::State::kConfirmed && tracks_[i].time_since_update == level) {
+        level_tracks.push_back(static_cast<int>(i));
+      }
+    }
+    Match(level_tracks, &unmatched_dets, cascade_cost, &matches);
+  }
+  for (const auto& [ti, di] : matches) matched_track[ti] = true;
+
+  // Stage 2: IoU matching for tentative tracks and confirmed tracks missed only this update.
+  std::vector<int> iou_tracks;
+  for (size_t i = 0; i < tracks_.size(); ++i) {
+    if (matched_track[i]) continue;
+    if (tracks_[i].state == Track::State::kTentative || tracks_[i].time_since_update == 1) {
+      iou_tracks.push_back(static_cast<int>(i));
+    }
+  }
+  auto iou_cost = [&](int ti, int di) {
+    const Track& t = tracks_[ti];
+    if (t.class_id != dets[di].class_id || t.class_name != dets[di].class_name) return kForbidden;
+    const double dist = 1.0 - BoxIou(predicted[ti], dets[di].box_px);
+    return dist <= options_.max_iou_distance ? dist : kForbidden;
+  };
+  const size_t first_stage = matches.size();
+  Match(iou_tracks, &unmatched_dets, iou_cost, &matches);
+  for (size_t k = first_stage; k < matches.size(); ++k) matched_track[matches[k].first] = true;
+
+  // Update matched tracks.
+  for (Detection2D& d : dets) d.track_id = 0;
+  for (const auto& [ti, di] : matches) {
+    Track& t = tracks_[ti];
+    t.kf.Update(dets[di].box_px);
+    ++t.hits;
+    t.time_since_update = 0;
+    if (!features[di].empty()) {
+      if (t.feature.empty()) {
+        t.feature = features[di].clone();
+      } else {
+        t.feature = options_.appearance_momentum * t.feature +
+                    (1.0 - options_.appearance_momentum) * features[di];
+      }
+    }
+    if (t.state == Track::State::kTentative && t.hits >= options_.n_init) {
+      t.state = Track::State::kConfirmed;
+      t.id = next_id_++;
+    }
+    if (t.state == Track::State::kConfirmed) dets[di].track_id = t.id;
+  }
+
+  // Delete tentative tracks that missed and confirmed tracks older than max_age.
+  std::vector<Track> kept;
+  kept.reserve(tracks_.size() + unmatched_dets.size());
+  for (size_t i = 0; i < tracks_.size(); ++i) {
+    Track& t = tracks_[i];
+    if (!matched_track[i] &&
+        (t.state == Track::State::kTentative || t.time_since_update > options_.max_age)) {
+      continue;
+    }
+    kept.push_back(std::move(t));
+  }
+  tracks_ = std::move(kept);
+
+  // New tentative tracks from the leftover detections.
+  for (int di : unmatched_dets) {
+    Track t{.kf = KalmanBoxFilter(dets[di].box_px, options_.std_weight_position,
+                                  options_.std_weight_velocity)};
+    t.class_id = dets[di].class_id;
+    t.class_name = dets[di].class_name;
+    t.hits = 1;
+    t.age = 1;
+    t.feature = features[di];
+    t.internal_id = next_internal_id_++;
+    if (options_.n_init <= 1) {
+      t.state = Track::State::kConfirmed;
+      t.id = next_id_++;
+      dets[di].track_id = t.id;
+    }
+    tracks_.push_back(std::move(t));
+  }
+}
+
+}  // namespace loci::detection
