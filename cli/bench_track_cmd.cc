@@ -1,0 +1,143 @@
+// `loci bench track --tum DIR [--threads 1] [--max-frames N] [--config FILE]`: runs the tracking
+// client's visual odometry over a TUM folder and prints per-frame tracking time (median, p95),
+// keyframes/s, encoded bytes per keyframe (JPEG q90 + 16-bit PNG, encoding not timed as
+// tracking) and ATE / RPE when groundtruth.txt exists.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "cli/commands.h"
+#include "client/tracking/tracker.h"
+#include "common/config.h"
+#include "common/image_codec.h"
+#include "common/time.h"
+#include "common/trajectory_eval.h"
+#include "common/tum_io.h"
+
+namespace loci::cli {
+namespace {
+
+struct BenchTrackArgs {
+  std::string tum_dir;
+  int threads = 1;
+  int max_frames = 0;
+  std::string config;
+  std::string trajectory_out;
+  bool no_dynamic = false;
+};
+
+double Percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const size_t i = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5));
+  return v[i];
+}
+
+int RunBenchTrack(const BenchTrackArgs& a) {
+  cv::setNumThreads(a.threads);
+  TrackerOptions opt;
+  const std::string cfg = a.config.empty() ? SourceDir() + "/config/client.yaml" : a.config;
+  if (auto node = LoadYamlFile(cfg); node.ok()) {
+    if (Status s = opt.FromYaml((*node)["tracker"]); !s.ok()) {
+      std::cerr << "error: " << cfg << ": " << s.message() << "\n";
+      return 1;
+    }
+  } else if (!a.config.empty()) {
+    std::cerr << "error: " << node.status().message() << "\n";
+    return 1;
+  }
+  if (auto classes = LoadYamlFile(SourceDir() + "/config/classes.yaml"); classes.ok()) {
+    (void)opt.ClassWeightsFromYaml(*classes);
+  }
+  if (a.no_dynamic) opt.dynamic.enabled = false;
+  auto seq = LoadTumSequence(a.tum_dir);
+  if (!seq.ok()) {
+    std::cerr << "error: " << seq.status().message() << "\n";
+    return 1;
+  }
+  auto tracker = Tracker::Create(opt);
+  if (!tracker.ok()) {
+    std::cerr << "error: " << tracker.status().message() << "\n";
+    return 1;
+  }
+  std::vector<double> ms;
+  Trajectory est;
+  size_t keyframes = 0, kf_bytes = 0, lost = 0, segments = 0;
+  double total_track_s = 0;
+  const size_t n = a.max_frames > 0 ? std::min<size_t>(a.max_frames, seq->frames.size())
+                                    : seq->frames.size();
+  for (size_t i = 0; i < n; ++i) {
+    const TumFrame& f = seq->frames[i];
+    const cv::Mat bgr = cv::imread(f.rgb_path, cv::IMREAD_COLOR);
+    const cv::Mat depth = cv::imread(f.depth_path, cv::IMREAD_UNCHANGED);
+    auto r = (*tracker)->Track(bgr, depth, f.rgb_t_ns);
+    if (!r.ok()) {
+      std::cerr << "error: frame " << i << ": " << r.status().message() << "\n";
+      return 1;
+    }
+    ms.push_back(r->track_ms);
+    total_track_s += r->track_ms * 1e-3;
+    lost += !r->tracked;
+    segments = std::max<size_t>(segments, r->segment);
+    if (r->tracked) est.push_back({f.rgb_t_ns, r->T_odom_cam});
+    if (r->keyframe) {
+      ++keyframes;
+      auto jpg = EncodeJpeg(bgr, 90);
+      auto png = EncodeDepthPng(depth);
+      if (jpg.ok() && png.ok()) kf_bytes += jpg->size() + png->size();
+    }
+  }
+  std::printf("frames            %zu (lost %zu, new segments %zu)\n", n, lost, segments);
+  std::printf("tracking ms/frame median %.2f  p95 %.2f  mean %.2f  (threads %d)\n",
+              Percentile(ms, 0.5), Percentile(ms, 0.95), total_track_s * 1e3 / std::max<size_t>(1, n),
+              a.threads);
+  std::printf("keyframes         %zu  (%.2f keyframes/s of sequence time, %.1f per 100 frames)\n",
+              keyframes,
+              n > 1 ? keyframes / NsToSeconds(seq->frames[n - 1].rgb_t_ns - seq->frames[0].rgb_t_ns)
+                    : 0.0,
+              100.0 * keyframes / std::max<size_t>(1, n));
+  std::printf("bytes/keyframe    %.0f (JPEG q90 + 16-bit PNG depth)\n",
+              keyframes ? static_cast<double>(kf_bytes) / keyframes : 0.0);
+  if (!a.trajectory_out.empty()) (void)WriteTumTrajectory(a.trajectory_out, est);
+  if (!seq->groundtruth.empty()) {
+    auto ate = ComputeAte(seq->groundtruth, est);
+    auto rpe = ComputeRpe(seq->groundtruth, est);
+    if (ate.ok()) {
+      std::printf("ATE RMSE          %.4f m  (median %.4f, max %.4f, %zu pairs)\n",
+                  ate->trans_m.rmse, ate->trans_m.median, ate->trans_m.max, ate->pairs);
+    }
+    if (rpe.ok()) {
+      std::printf("RPE RMSE (1 s)    %.4f m/s  %.3f deg/s\n", rpe->trans_m.rmse,
+                  rpe->rot_rad.rmse * 180.0 / M_PI);
+    }
+  }
+  return 0;
+}
+
+}  // namespace
+
+void RegisterBenchTrackCommand(CLI::App& app) {
+  CLI::App* bench = nullptr;
+  for (CLI::App* s : app.get_subcommands([](CLI::App* s) { return s->get_name() == "bench"; })) {
+    bench = s;
+  }
+  if (!bench) {
+    bench = app.add_subcommand("bench", "benchmarks that print their figures");
+    bench->require_subcommand(1);
+  }
+  auto args = std::make_shared<BenchTrackArgs>();
+  CLI::App* c = bench->add_subcommand("track", "visual odometry speed and accuracy on a TUM folder");
+  c->add_option("--tum", args->tum_dir, "TUM RGB-D folder")->required();
+  c->add_option("--threads", args->threads, "OpenCV threads")->capture_default_str();
+  c->add_option("--max-frames", args->max_frames, "stop after N frames (0 = all)");
+  c->add_option("--config", args->config, "client YAML (default: config/client.yaml)");
+  c->add_option("--trajectory", args->trajectory_out, "write the TUM trajectory here");
+  c->add_flag("--no-dynamic", args->no_dynamic, "disable dynamic-feature suppression");
+  c->callback([args] { ExitCode() = RunBenchTrack(*args); });
+}
+
+}  // namespace loci::cli

@@ -1,0 +1,89 @@
+// loci::Tracker: RGB-D visual odometry for the tracking client, called frame by frame.
+//
+//   auto tracker = loci::Tracker::Create(options);          // StatusOr<unique_ptr<Tracker>>
+//   for each frame: auto r = (*tracker)->Track(bgr, depth_u16, t_ns, &detections_or_null);
+//   r->T_odom_cam is T_odom_cam of the frame (odom = the first frame's camera); r->keyframe says
+//   whether to stream it.
+//
+// Pipeline per frame: grid-distributed ORB -> 3-D points from depth -> projection search of the
+// local map (last N keyframes) around the constant-velocity prediction -> PnP-RANSAC on
+// features outside dynamic boxes -> Gauss-Newton/Huber refinement (reprojection + depth) ->
+// dynamic test (epipolar + depth error, class-weighted threshold) -> second, tighter search ->
+// final refinement on static features -> keyframe decision (effective motion + static
+// co-visibility, papers 004/001) -> local map upkeep. Tracking loss: relocalise against the
+// window keyframes, else start a new odometry segment (FrameResult::segment increments).
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "client/tracking/dynamic_filter.h"
+#include "client/tracking/local_map.h"
+#include "client/tracking/matcher.h"
+#include "client/tracking/orb_frame.h"
+#include "client/tracking/tracker_options.h"
+#include "common/detections_io.h"
+#include "common/se3.h"
+#include "common/status.h"
+
+namespace loci {
+
+enum class TrackState { kInitialised, kTracking, kRelocalised, kLost, kNewSegment };
+const char* TrackStateName(TrackState s);
+
+struct FrameResult {
+  int64_t t_ns = 0;
+  TrackState state = TrackState::kLost;
+  bool tracked = false;          // false: T_odom_cam is only the motion-model prediction
+  SE3d T_odom_cam = SE3d::Identity();
+  bool keyframe = false;         // a new keyframe was created from this frame
+  int segment = 0;               // odometry segment (increments after an unrecoverable loss)
+  int num_features = 0;
+  int num_matches = 0;
+  int num_inliers = 0;
+  int num_dynamic = 0;           // matched features flagged dynamic
+  int num_map_points = 0;
+  double track_ms = 0;           // wall time of Track(), ms
+};
+
+class Tracker {
+ public:
+  static StatusOr<std::unique_ptr<Tracker>> Create(const TrackerOptions& options);
+
+  // image: CV_8UC3 BGR or CV_8UC1 grey; depth_u16: CV_16UC1 in options.depth_scale units per
+  // metre, same size as the camera. detections: boxes of this image (nullptr / empty: none;
+  // the geometric test still runs). InvalidArgument on bad input; never aborts.
+  StatusOr<FrameResult> Track(const cv::Mat& image, const cv::Mat& depth_u16, int64_t t_ns,
+                              const std::vector<Detection2D>* detections = nullptr);
+
+  const TrackerOptions& options() const { return opt_; }
+  int segment() const { return segment_; }
+
+ private:
+  explicit Tracker(const TrackerOptions& options);
+
+  // Tracks `frame` from the initial pose; fills matches (inlier / dynamic flags) and pose.
+  int TrackLocalMap(const OrbFrame& frame, const SE3d& T_cw_init, SE3d* T_cw,
+                    std::vector<PointMatch>* matches);
+  bool Relocalise(const OrbFrame& frame, SE3d* T_cw_init);
+  bool NeedKeyframe(const OrbFrame& frame, const SE3d& T_cw,
+                    const std::vector<PointMatch>& matches, int num_inliers) const;
+  void CreateKeyframe(OrbFrame frame, const SE3d& T_cw, const std::vector<PointMatch>& matches);
+
+  TrackerOptions opt_;
+  OrbExtractor extractor_;
+  DynamicFilter dynamic_;
+  LocalMap map_;
+  int64_t frame_index_ = -1;
+  int64_t last_kf_frame_ = -1;
+  int64_t next_kf_id_ = 1;
+  int segment_ = 0;
+  int lost_count_ = 0;
+  bool have_velocity_ = false;
+  SE3d T_cw_last_ = SE3d::Identity();    // last tracked pose, T_cam_world
+  SE3d velocity_ = SE3d::Identity();     // T_cam_prevcam of the last two tracked frames
+};
+
+}  // namespace loci
