@@ -1,0 +1,98 @@
+// `loci-server`: the loci mapping server (gRPC Mapping + Query services, SQLite persistence).
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+#include <csignal>
+#include <iostream>
+
+#include "common/config.h"
+#include "server/service/grpc_server.h"
+#include "server/service/map_server.h"
+#ifdef LOCI_HAVE_DETECTION
+#include "detection/detector_options.h"
+#endif
+
+namespace {
+
+loci::StatusOr<std::shared_ptr<loci::detection::Detector>> MakeServerDetector(
+    const loci::server::ServerOptions& options) {
+  if (!options.detector_enabled) return std::shared_ptr<loci::detection::Detector>();
+#ifdef LOCI_HAVE_DETECTION
+  LOCI_ASSIGN_OR_RETURN(auto det_options, loci::detection::DetectorOptions::FromYaml(
+                                              options.detector_config, loci::SourceDir()));
+  LOCI_ASSIGN_OR_RETURN(auto detector, loci::detection::MakeDetector(det_options));
+  spdlog::info("server-side detector: {}", detector->Name());
+  return std::shared_ptr<loci::detection::Detector>(std::move(detector));
+#else
+  return absl::FailedPreconditionError(
+      "detector.enabled is set but loci-server was built "
+      "without the detection module");
+#endif
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"loci-server: semantic map server for robot fleets"};
+  std::string config_path, listen, db, http, log_level = "info";
+  app.add_option("--config", config_path, "YAML config (see config/server.yaml)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--listen", listen, "gRPC address HOST:PORT [127.0.0.1:50051]");
+  app.add_option("--db", db, "SQLite database file [./loci.db]");
+  app.add_option("--http", http, "HTTP/JSON API address HOST:PORT or off [off]");
+  app.add_option("--log-level", log_level, "trace|debug|info|warn|error")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  spdlog::set_level(spdlog::level::from_str(log_level));
+
+  loci::server::ServerOptions options;
+  loci::Status st = config_path.empty() ? options.LoadClasses() : options.FromYamlFile(config_path);
+  if (!st.ok()) {
+    std::cerr << "error: " << st.message() << "\n";
+    return 2;
+  }
+  if (!listen.empty()) options.listen = listen;
+  if (!db.empty()) options.db_path = db;
+  if (!http.empty()) options.http = http;
+  if (options.http != "off") {
+    spdlog::warn("--http {}: the HTTP/JSON API is not part of this build yet; serving gRPC only",
+                 options.http);
+  }
+
+  // SIGINT/SIGTERM are handled by sigwait below; block them before any thread starts.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  auto detector = MakeServerDetector(options);
+  if (!detector.ok()) {
+    std::cerr << "error: " << detector.status().message() << "\n";
+    return 2;
+  }
+  auto server = loci::server::MapServer::Open(options, nullptr, *detector);
+  if (!server.ok()) {
+    std::cerr << "error: " << server.status().message() << "\n";
+    return 1;
+  }
+  auto grpc =
+      loci::server::GrpcServer::Start(server->get(), options.listen, options.max_message_mb);
+  if (!grpc.ok()) {
+    std::cerr << "error: " << grpc.status().message() << "\n";
+    return 1;
+  }
+  const std::string host = options.listen.substr(0, options.listen.rfind(':'));
+  // The bound port on stdout lets scripts and tests start the server on port 0.
+  std::cout << "listening on " << host << ":" << (*grpc)->port() << std::endl;
+  spdlog::info("loci-server: db {}, {} keyframes replayed", options.db_path,
+               (*server)->replayed_keyframes());
+
+  int sig = 0;
+  sigwait(&signals, &sig);
+  spdlog::info("signal {}: shutting down", sig);
+  (*grpc)->Shutdown();
+  (*server)->Flush();
+  grpc->reset();
+  server->reset();
+  return 0;
+}

@@ -1,0 +1,135 @@
+#include "server/map/fused_object.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <limits>
+
+namespace loci::server {
+
+void FusedObject::AddPoints(const std::vector<ColoredPoint>& points_m) {
+  for (const ColoredPoint& cp : points_m) {
+    const Eigen::Vector3d p = cp.p_m.cast<double>();
+    Voxel& v = voxels_[KeyOf(p, voxel_m_)];
+    v.sum_m += p;
+    v.rgb_sum += Eigen::Vector3d((cp.rgb >> 16) & 0xff, (cp.rgb >> 8) & 0xff, cp.rgb & 0xff);
+    ++v.count;
+  }
+  RecomputeGeometry();
+}
+
+void FusedObject::Absorb(const FusedObject& other) {
+  for (const auto& [key, ov] : other.voxels_) {
+    Voxel& v = voxels_[key];
+    v.sum_m += ov.sum_m;
+    v.rgb_sum += ov.rgb_sum;
+    v.count += ov.count;
+  }
+  labels_.Merge(other.labels_);
+  first_seen_ns_ = std::min(first_seen_ns_, other.first_seen_ns_);
+  if (other.last_seen_ns_ > last_seen_ns_) {
+    last_seen_ns_ = other.last_seen_ns_;
+    last_robot_ = other.last_robot_;
+  }
+  robots_.insert(other.robots_.begin(), other.robots_.end());
+  for (int64_t kf : other.keyframes_) {
+    if (std::find(keyframes_.begin(), keyframes_.end(), kf) == keyframes_.end()) {
+      keyframes_.push_back(kf);
+    }
+  }
+  std::sort(keyframes_.begin(), keyframes_.end());
+  tracks_.insert(other.tracks_.begin(), other.tracks_.end());
+  confirmed_ = confirmed_ || other.confirmed_;
+  RecomputeGeometry();
+}
+
+void FusedObject::Observe(const std::string& class_name, double score, int64_t session_row,
+                          int64_t track_id, const std::string& robot, int64_t keyframe_id,
+                          int64_t t_ns, int confirm_observations) {
+  labels_.Update(class_name, score);
+  if (keyframes_.empty()) first_seen_ns_ = t_ns;
+  first_seen_ns_ = std::min(first_seen_ns_, t_ns);
+  if (t_ns >= last_seen_ns_) {
+    last_seen_ns_ = t_ns;
+    last_robot_ = robot;
+  }
+  robots_.insert(robot);
+  if (keyframes_.empty() || keyframes_.back() != keyframe_id) keyframes_.push_back(keyframe_id);
+  if (track_id != 0) tracks_.insert({session_row, track_id});
+  if (static_cast<int>(keyframes_.size()) >= confirm_observations) confirmed_ = true;
+}
+
+std::unordered_set<VoxelKey> FusedObject::KeysAt(double voxel_m) const {
+  std::unordered_set<VoxelKey> keys;
+  keys.reserve(voxels_.size());
+  for (const auto& [key, v] : voxels_) keys.insert(KeyOf(v.sum_m / v.count, voxel_m));
+  return keys;
+}
+
+std::vector<ColoredPoint> FusedObject::Cloud() const {
+  std::vector<ColoredPoint> out;
+  out.reserve(voxels_.size());
+  for (const auto& [key, v] : voxels_) {
+    const Eigen::Vector3d rgb = v.rgb_sum / v.count;
+    out.push_back({(v.sum_m / v.count).cast<float>(), (static_cast<uint32_t>(rgb.x()) << 16) |
+                                                          (static_cast<uint32_t>(rgb.y()) << 8) |
+                                                          static_cast<uint32_t>(rgb.z())});
+  }
+  return out;
+}
+
+void FusedObject::RecomputeGeometry() {
+  if (voxels_.empty()) return;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  aabb_min_m_.setConstant(std::numeric_limits<double>::max());
+  aabb_max_m_.setConstant(std::numeric_limits<double>::lowest());
+  std::vector<Eigen::Vector3d> pts;
+  pts.reserve(voxels_.size());
+  for (const auto& [key, v] : voxels_) {
+    pts.push_back(v.sum_m / v.count);
+    sum += pts.back();
+    aabb_min_m_ = aabb_min_m_.cwiseMin(pts.back());
+    aabb_max_m_ = aabb_max_m_.cwiseMax(pts.back());
+  }
+  const Eigen::Vector3d mean = sum / static_cast<double>(pts.size());
+  centroid_m_ = centroid_from_box_ ? Eigen::Vector3d(0.5 * (aabb_min_m_ + aabb_max_m_)) : mean;
+  // Oriented box from the principal axes of the fused points.
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : pts) cov += (p - mean) * (p - mean).transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+  Eigen::Matrix3d R = eig.eigenvectors();
+  if (R.determinant() < 0) R.col(0) *= -1.0;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::max());
+  Eigen::Vector3d hi = -lo;
+  for (const auto& p : pts) {
+    const Eigen::Vector3d q = R.transpose() * (p - mean);
+    lo = lo.cwiseMin(q);
+    hi = hi.cwiseMax(q);
+  }
+  R_map_box_ = R;
+  obb_center_m_ = mean + R * (0.5 * (lo + hi));
+  obb_half_m_ = 0.5 * (hi - lo);
+}
+
+MapObject FusedObject::Snapshot() const {
+  MapObject o;
+  o.id = id_;
+  o.class_name = labels_.Argmax();
+  o.confidence = labels_.Probability(o.class_name);
+  o.labels = labels_.Observed();
+  o.centroid_m = centroid_m_;
+  o.aabb_min_m = aabb_min_m_;
+  o.aabb_max_m = aabb_max_m_;
+  o.obb_center_m = obb_center_m_;
+  o.obb_half_extent_m = obb_half_m_;
+  o.R_map_box = R_map_box_;
+  o.first_seen_ns = first_seen_ns_;
+  o.last_seen_ns = last_seen_ns_;
+  o.robots.assign(robots_.begin(), robots_.end());
+  o.last_robot = last_robot_;
+  o.observation_count = observation_count();
+  o.point_count = static_cast<uint32_t>(voxels_.size());
+  o.confirmed = confirmed_;
+  return o;
+}
+
+}  // namespace loci::server

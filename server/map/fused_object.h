@@ -1,0 +1,87 @@
+// One physical object of the map: its voxelised fused cloud in the map frame, label
+// distribution and bookkeeping (paper 000 3.3: centroid = mean of the object's points, eq. 16).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <set>
+#include <string>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
+#include <vector>
+
+#include "common/map_object.h"
+#include "server/map/label_distribution.h"
+#include "server/map/voxel_key.h"
+
+namespace loci::server {
+
+// One coloured point of the map frame.
+struct ColoredPoint {
+  Eigen::Vector3f p_m = Eigen::Vector3f::Zero();
+  uint32_t rgb = 0;  // 0xRRGGBB
+};
+
+class FusedObject {
+ public:
+  // centroid_from_box: see FusionOptions::centroid_from_box.
+  FusedObject(int64_t id, double voxel_m, bool centroid_from_box, const LabelDistribution& labels)
+      : id_(id), voxel_m_(voxel_m), centroid_from_box_(centroid_from_box), labels_(labels) {}
+
+  // Adds one observation's points (map frame); each voxel keeps the mean of its points.
+  void AddPoints(const std::vector<ColoredPoint>& points_m);
+  // Absorbs another object (duplicate merge): points, labels, bookkeeping.
+  void Absorb(const FusedObject& other);
+  // Records one keyframe's observation of this object.
+  void Observe(const std::string& class_name, double score, int64_t session_row, int64_t track_id,
+               const std::string& robot, int64_t keyframe_id, int64_t t_ns,
+               int confirm_observations);
+
+  // Voxel keys of the fused points at `voxel_m` (overlap measure).
+  std::unordered_set<VoxelKey> KeysAt(double voxel_m) const;
+  bool HasTrack(int64_t session_row, int64_t track_id) const {
+    return track_id != 0 && tracks_.count({session_row, track_id}) > 0;
+  }
+
+  int64_t id() const { return id_; }
+  const Eigen::Vector3d& centroid_m() const { return centroid_m_; }
+  const LabelDistribution& labels() const { return labels_; }
+  uint32_t observation_count() const { return static_cast<uint32_t>(keyframes_.size()); }
+  bool confirmed() const { return confirmed_; }
+  const std::vector<int64_t>& keyframes() const { return keyframes_; }
+  size_t voxel_count() const { return voxels_.size(); }
+
+  // Fused cloud (one point per voxel) in the map frame.
+  std::vector<ColoredPoint> Cloud() const;
+  MapObject Snapshot() const;
+
+ private:
+  struct Voxel {
+    Eigen::Vector3d sum_m = Eigen::Vector3d::Zero();
+    Eigen::Vector3d rgb_sum = Eigen::Vector3d::Zero();
+    uint32_t count = 0;
+  };
+  void RecomputeGeometry();
+
+  int64_t id_;
+  double voxel_m_;
+  bool centroid_from_box_;
+  LabelDistribution labels_;
+  std::unordered_map<VoxelKey, Voxel> voxels_;
+  Eigen::Vector3d centroid_m_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d aabb_min_m_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d aabb_max_m_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d obb_center_m_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d obb_half_m_ = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d R_map_box_ = Eigen::Matrix3d::Identity();
+  int64_t first_seen_ns_ = 0;
+  int64_t last_seen_ns_ = 0;
+  std::set<std::string> robots_;
+  std::string last_robot_;
+  std::vector<int64_t> keyframes_;                // distinct, in observation order
+  std::set<std::pair<int64_t, int64_t>> tracks_;  // (session_row, track_id)
+  bool confirmed_ = false;
+};
+
+}  // namespace loci::server

@@ -1,0 +1,227 @@
+#include "server/map/keyframe_products.h"
+
+#include <pcl/filters/statistical_outlier_removal.h>
+#include <pcl/filters/voxel_grid.h>
+#include <pcl/filters/voxel_grid_label.h>
+
+#include <algorithm>
+#include <numeric>
+#include <opencv2/imgproc.hpp>
+
+namespace loci::server {
+
+cv::Mat DominantDepthCluster(const cv::Mat& depth_m, const cv::Rect& box,
+                             const ObservationOptions& o, double min_depth_m, double max_depth_m) {
+  cv::Mat mask = cv::Mat::zeros(box.size(), CV_8UC1);
+  const int nbins =
+      std::max(1, static_cast<int>(std::ceil((max_depth_m - min_depth_m) / o.depth_bin_m)));
+  std::vector<double> hist(nbins, 0.0);
+  const int sx = static_cast<int>(box.width * o.box_shrink);
+  const int sy = static_cast<int>(box.height * o.box_shrink);
+  for (int v = box.y + sy; v < box.y + box.height - sy; ++v) {
+    const float* row = depth_m.ptr<float>(v);
+    for (int u = box.x + sx; u < box.x + box.width - sx; ++u) {
+      const float d = row[u];
+      if (d < min_depth_m || d > max_depth_m) continue;
+      hist[std::min(nbins - 1, static_cast<int>((d - min_depth_m) / o.depth_bin_m))] += 1;
+    }
+  }
+  // Smoothed peak so a surface split across two bins still wins.
+  std::vector<double> smooth(nbins, 0.0);
+  for (int i = 0; i < nbins; ++i) {
+    smooth[i] = 2 * hist[i] + (i > 0 ? hist[i - 1] : 0) + (i + 1 < nbins ? hist[i + 1] : 0);
+  }
+  const int peak =
+      static_cast<int>(std::max_element(smooth.begin(), smooth.end()) - smooth.begin());
+  if (hist[peak] + (peak > 0 ? hist[peak - 1] : 0) + (peak + 1 < nbins ? hist[peak + 1] : 0) <= 0) {
+    return mask;
+  }
+  const double floor_count = o.cluster_bin_fraction * std::max(hist[peak], smooth[peak] / 4);
+  const int max_half_bins = static_cast<int>(o.cluster_max_half_m / o.depth_bin_m);
+  int lo = peak, hi = peak;
+  while (lo > 0 && peak - (lo - 1) <= max_half_bins && hist[lo - 1] >= floor_count) --lo;
+  while (hi + 1 < nbins && (hi + 1) - peak <= max_half_bins && hist[hi + 1] >= floor_count) ++hi;
+  const double d_lo = min_depth_m + lo * o.depth_bin_m - o.cluster_tolerance_m;
+  const double d_hi = min_depth_m + (hi + 1) * o.depth_bin_m + o.cluster_tolerance_m;
+  for (int v = 0; v < box.height; ++v) {
+    const float* row = depth_m.ptr<float>(box.y + v);
+    uint8_t* out = mask.ptr<uint8_t>(v);
+    for (int u = 0; u < box.width; ++u) {
+      const float d = row[box.x + u];
+      if (d >= min_depth_m && d <= max_depth_m && d >= d_lo && d <= d_hi) out[u] = 255;
+    }
+  }
+  return mask;
+}
+
+cv::Mat LabelPixels(const cv::Mat& depth_m, const std::vector<Detection2D>& detections,
+                    const MapOptions& options) {
+  cv::Mat labels(depth_m.size(), CV_16SC1, cv::Scalar(kBackgroundLabel));
+  std::vector<int> objects, dynamic;
+  for (int i = 0; i < static_cast<int>(detections.size()); ++i) {
+    const Detection2D& d = detections[i];
+    if (options.IsDynamic(d.class_name)) {
+      dynamic.push_back(i);  // dynamic regions are removed whatever their score (paper 004)
+    } else if (d.score >= options.observation.min_score && options.IsMapped(d.class_name)) {
+      objects.push_back(i);
+    }
+  }
+  auto rect_of = [&](int i) { return MaskRect(detections[i].box_px, depth_m.cols, depth_m.rows); };
+  // Larger boxes first so that smaller objects standing on or in front of them keep their pixels.
+  std::stable_sort(objects.begin(), objects.end(),
+                   [&](int a, int b) { return rect_of(a).area() > rect_of(b).area(); });
+  auto paint = [&](int i, int16_t label, bool use_cluster) {
+    const cv::Rect r = rect_of(i);
+    if (r.area() <= 0) return;
+    cv::Mat mask;
+    const Detection2D& d = detections[i];
+    if (!d.mask.empty()) {
+      mask = d.mask;
+      if (mask.size() != r.size()) cv::resize(mask, mask, r.size(), 0, 0, cv::INTER_NEAREST);
+    } else if (use_cluster) {
+      mask = DominantDepthCluster(depth_m, r, options.observation, options.cloud.min_depth_m,
+                                  options.cloud.max_depth_m);
+    } else {
+      mask = cv::Mat(r.size(), CV_8UC1, cv::Scalar(255));  // no mask: drop the whole box
+    }
+    labels(r).setTo(cv::Scalar(label), mask);
+  };
+  for (int i : objects) paint(i, static_cast<int16_t>(i + 1), true);
+  for (int i : dynamic) paint(i, kExcludedLabel, false);
+  return labels;
+}
+
+pcl::PointCloud<pcl::PointXYZRGBL> BackProject(const cv::Mat& bgr, const cv::Mat& depth_m,
+                                               const cv::Mat& labels, const PinholeCamera& cam,
+                                               int stride, double min_depth_m, double max_depth_m) {
+  pcl::PointCloud<pcl::PointXYZRGBL> cloud;
+  cloud.reserve((depth_m.rows / stride + 1) * (depth_m.cols / stride + 1));
+  const float inv_fx = 1.0f / cam.fx, inv_fy = 1.0f / cam.fy;
+  for (int v = 0; v < depth_m.rows; v += stride) {
+    const float* drow = depth_m.ptr<float>(v);
+    const cv::Vec3b* crow = bgr.ptr<cv::Vec3b>(v);
+    const int16_t* lrow = labels.ptr<int16_t>(v);
+    for (int u = 0; u < depth_m.cols; u += stride) {
+      const float d = drow[u];
+      if (!(d >= min_depth_m && d <= max_depth_m) || lrow[u] < 0) continue;
+      pcl::PointXYZRGBL p;
+      p.x = (u - static_cast<float>(cam.cx)) * d * inv_fx;
+      p.y = (v - static_cast<float>(cam.cy)) * d * inv_fy;
+      p.z = d;
+      p.b = crow[u][0];
+      p.g = crow[u][1];
+      p.r = crow[u][2];
+      p.label = static_cast<uint32_t>(lrow[u]);
+      cloud.push_back(p);
+    }
+  }
+  return cloud;
+}
+
+pcl::PointCloud<pcl::PointXYZRGBL> VoxelFilterLabelled(
+    const pcl::PointCloud<pcl::PointXYZRGBL>& cloud, double voxel_m) {
+  pcl::PointCloud<pcl::PointXYZRGBL> out;
+  if (cloud.empty()) return out;
+  pcl::VoxelGridLabel grid;
+  grid.setInputCloud(cloud.makeShared());
+  const float leaf = static_cast<float>(voxel_m);
+  grid.setLeafSize(leaf, leaf, leaf);
+  grid.filter(out);
+  return out;
+}
+
+template <typename PointT>
+pcl::PointCloud<PointT> RemoveOutliers(const pcl::PointCloud<PointT>& cloud, int mean_k,
+                                       double stddev_mul) {
+  if (mean_k <= 0 || static_cast<int>(cloud.size()) <= mean_k) return cloud;
+  pcl::PointCloud<PointT> out;
+  pcl::StatisticalOutlierRemoval<PointT> sor;
+  sor.setInputCloud(cloud.makeShared());
+  sor.setMeanK(mean_k);
+  sor.setStddevMulThresh(stddev_mul);
+  sor.filter(out);
+  return out;
+}
+template pcl::PointCloud<pcl::PointXYZRGBL> RemoveOutliers(
+    const pcl::PointCloud<pcl::PointXYZRGBL>&, int, double);
+template pcl::PointCloud<pcl::PointXYZRGB> RemoveOutliers(const pcl::PointCloud<pcl::PointXYZRGB>&,
+                                                          int, double);
+
+namespace {
+
+pcl::PointCloud<pcl::PointXYZRGB> ObjectCloud(const cv::Mat& bgr, const cv::Mat& depth_m,
+                                              const cv::Mat& labels, int16_t label,
+                                              const cv::Rect& rect, const PinholeCamera& cam,
+                                              const MapOptions& options) {
+  pcl::PointCloud<pcl::PointXYZRGB> raw;
+  for (int v = rect.y; v < rect.y + rect.height; ++v) {
+    const float* drow = depth_m.ptr<float>(v);
+    const int16_t* lrow = labels.ptr<int16_t>(v);
+    const cv::Vec3b* crow = bgr.ptr<cv::Vec3b>(v);
+    for (int u = rect.x; u < rect.x + rect.width; ++u) {
+      const float d = drow[u];
+      if (lrow[u] != label || !(d >= options.cloud.min_depth_m && d <= options.cloud.max_depth_m)) {
+        continue;
+      }
+      const Eigen::Vector3d p = cam.BackProject(u, v, d);
+      pcl::PointXYZRGB q(crow[u][2], crow[u][1], crow[u][0]);
+      q.x = static_cast<float>(p.x());
+      q.y = static_cast<float>(p.y());
+      q.z = static_cast<float>(p.z());
+      raw.push_back(q);
+    }
+  }
+  if (raw.empty()) return raw;
+  pcl::PointCloud<pcl::PointXYZRGB> voxelised;
+  pcl::VoxelGrid<pcl::PointXYZRGB> grid;
+  grid.setInputCloud(raw.makeShared());
+  const float leaf = static_cast<float>(options.observation.voxel_m);
+  grid.setLeafSize(leaf, leaf, leaf);
+  grid.filter(voxelised);
+  return RemoveOutliers(voxelised, options.observation.sor_mean_k,
+                        options.observation.sor_stddev_mul);
+}
+
+}  // namespace
+
+KeyframeProducts BuildKeyframeProducts(const cv::Mat& bgr, const cv::Mat& depth_m,
+                                       const PinholeCamera& camera,
+                                       const std::vector<Detection2D>& detections,
+                                       const MapOptions& options) {
+  KeyframeProducts products;
+  const cv::Mat labels = LabelPixels(depth_m, detections, options);
+  products.excluded_pixels = static_cast<uint64_t>(cv::countNonZero(labels < 0));
+
+  // Object observations; remember which pixel label became which observation.
+  std::vector<uint32_t> label_to_observation(detections.size() + 1, 0);
+  for (int i = 0; i < static_cast<int>(detections.size()); ++i) {
+    const Detection2D& d = detections[i];
+    if (options.IsDynamic(d.class_name) || d.score < options.observation.min_score ||
+        !options.IsMapped(d.class_name)) {
+      continue;
+    }
+    ObjectObservation obs;
+    obs.detection_index = i;
+    obs.class_name = d.class_name;
+    obs.score = d.score;
+    obs.track_id = d.track_id;
+    obs.cloud_kf = ObjectCloud(bgr, depth_m, labels, static_cast<int16_t>(i + 1),
+                               MaskRect(d.box_px, depth_m.cols, depth_m.rows), camera, options);
+    if (static_cast<int>(obs.cloud_kf.size()) < options.observation.min_points) continue;
+    products.observations.push_back(std::move(obs));
+    label_to_observation[i + 1] = static_cast<uint32_t>(products.observations.size());
+  }
+
+  pcl::PointCloud<pcl::PointXYZRGBL> cloud =
+      BackProject(bgr, depth_m, labels, camera, options.cloud.pixel_stride,
+                  options.cloud.min_depth_m, options.cloud.max_depth_m);
+  for (auto& p : cloud) {
+    p.label = p.label < label_to_observation.size() ? label_to_observation[p.label] : 0;
+  }
+  cloud = VoxelFilterLabelled(cloud, options.cloud.voxel_m);
+  products.static_cloud_kf =
+      RemoveOutliers(cloud, options.cloud.sor_mean_k, options.cloud.sor_stddev_mul);
+  return products;
+}
+
+}  // namespace loci::server

@@ -1,0 +1,75 @@
+// Per-keyframe map products, all in the keyframe (camera) frame: the labelled static cloud and
+// the object observations (paper 000 3.2-3.3, paper 002 3.3). World products are derived later
+// with T_map_kf.
+#pragma once
+
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "common/camera.h"
+#include "common/detections_io.h"
+#include "server/map/map_options.h"
+
+namespace loci::server {
+
+// Pixel labels: kBackground, kExcluded (dynamic or invalid), or 1 + detection index.
+constexpr int16_t kBackgroundLabel = 0;
+constexpr int16_t kExcludedLabel = -1;
+
+// One detected object's points in one keyframe.
+struct ObjectObservation {
+  int detection_index = 0;
+  std::string class_name;
+  float score = 0;
+  int64_t track_id = 0;
+  pcl::PointCloud<pcl::PointXYZRGB> cloud_kf;  // voxel + outlier filtered, kf frame, m
+};
+
+struct KeyframeProducts {
+  // Static points (dynamic classes removed), voxel + outlier filtered; label 0 = background,
+  // 1 + i = observations[i].
+  pcl::PointCloud<pcl::PointXYZRGBL> static_cloud_kf;
+  std::vector<ObjectObservation> observations;
+  uint64_t excluded_pixels = 0;  // pixels of dynamic classes left out
+};
+
+// Pixels of a detection that belong to the object, as a CV_8UC1 mask over `box` (whole pixels,
+// inside the image): the dominant depth cluster (histogram mode +- tolerance) of the box shrunk
+// by options.box_shrink. depth_m is CV_32FC1 metres, 0 = invalid.
+cv::Mat DominantDepthCluster(const cv::Mat& depth_m, const cv::Rect& box,
+                             const ObservationOptions& options, double min_depth_m,
+                             double max_depth_m);
+
+// Label image (CV_16SC1) of a keyframe: object pixels from masks or depth clusters, dynamic
+// classes kExcludedLabel. Smaller boxes win over larger ones they overlap (a book on a table).
+cv::Mat LabelPixels(const cv::Mat& depth_m, const std::vector<Detection2D>& detections,
+                    const MapOptions& options);
+
+// Back-projects pixels with valid depth in [min, max] (every `stride`-th pixel) into the cam
+// frame; labels from `labels` (excluded pixels skipped). Colours from bgr (CV_8UC3).
+pcl::PointCloud<pcl::PointXYZRGBL> BackProject(const cv::Mat& bgr, const cv::Mat& depth_m,
+                                               const cv::Mat& labels, const PinholeCamera& camera,
+                                               int stride, double min_depth_m, double max_depth_m);
+
+// Voxel filter keeping the majority label per voxel (pcl::VoxelGridLabel).
+pcl::PointCloud<pcl::PointXYZRGBL> VoxelFilterLabelled(
+    const pcl::PointCloud<pcl::PointXYZRGBL>& cloud, double voxel_m);
+// Statistical outlier removal, eq. 18: drop points whose mean distance to their K nearest
+// neighbours exceeds m + k * s. K = 0 or fewer than K + 1 points: unchanged.
+template <typename PointT>
+pcl::PointCloud<PointT> RemoveOutliers(const pcl::PointCloud<PointT>& cloud, int mean_k,
+                                       double stddev_mul);
+
+// Builds every product of one keyframe.
+KeyframeProducts BuildKeyframeProducts(const cv::Mat& bgr, const cv::Mat& depth_m,
+                                       const PinholeCamera& camera,
+                                       const std::vector<Detection2D>& detections,
+                                       const MapOptions& options);
+
+}  // namespace loci::server

@@ -1,0 +1,101 @@
+#include "server/map/map_options.h"
+
+#include <algorithm>
+
+#include "common/config.h"
+
+namespace loci::server {
+
+Status MapOptions::FromYaml(const YAML::Node& node) {
+  if (!node) return absl::OkStatus();
+  if (const YAML::Node n = node["cloud"]) {
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_depth_m", &cloud.min_depth_m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_depth_m", &cloud.max_depth_m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "pixel_stride", &cloud.pixel_stride));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "voxel_m", &cloud.voxel_m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "sor_mean_k", &cloud.sor_mean_k));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "sor_stddev_mul", &cloud.sor_stddev_mul));
+  }
+  if (const YAML::Node n = node["observation"]) {
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_score", &observation.min_score));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "box_shrink", &observation.box_shrink));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "depth_bin_m", &observation.depth_bin_m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "cluster_tolerance_m", &observation.cluster_tolerance_m));
+    LOCI_RETURN_IF_ERROR(
+        ReadOptional(n, "cluster_bin_fraction", &observation.cluster_bin_fraction));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "cluster_max_half_m", &observation.cluster_max_half_m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "voxel_m", &observation.voxel_m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "sor_mean_k", &observation.sor_mean_k));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "sor_stddev_mul", &observation.sor_stddev_mul));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_points", &observation.min_points));
+  }
+  if (const YAML::Node n = node["fusion"]) {
+    LOCI_RETURN_IF_ERROR(
+        ReadOptional(n, "max_centroid_distance_m", &fusion.max_centroid_distance_m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "centroid_from_box", &fusion.centroid_from_box));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_overlap", &fusion.min_overlap));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "overlap_voxel_m", &fusion.overlap_voxel_m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "weight_track", &fusion.weight_track));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "weight_centroid", &fusion.weight_centroid));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "weight_overlap", &fusion.weight_overlap));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "score_threshold", &fusion.score_threshold));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "track_gate_m", &fusion.track_gate_m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "confirm_observations", &fusion.confirm_observations));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_centroid_m", &fusion.merge_centroid_m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_containment", &fusion.merge_containment));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "label_universe", &fusion.label_universe));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_likelihood", &fusion.min_likelihood));
+  }
+  if (const YAML::Node n = node["octomap"]) {
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "enabled", &octomap.enabled));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "resolution_m", &octomap.resolution_m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_range_m", &octomap.max_range_m));
+  }
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "dynamic_classes", &dynamic_classes));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "mapped_classes", &mapped_classes));
+  return Validate();
+}
+
+Status MapOptions::ClassesFromYaml(const YAML::Node& node) {
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "dynamic_classes", &dynamic_classes));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "mapped", &mapped_classes));
+  if (!mapped_classes.empty()) {
+    fusion.label_universe = std::max<int>(2, static_cast<int>(mapped_classes.size()));
+  }
+  return Validate();
+}
+
+Status MapOptions::Validate() const {
+  auto bad = [](const char* what) {
+    return absl::InvalidArgumentError(absl::StrCat("map options: ", what));
+  };
+  if (!(cloud.min_depth_m >= 0 && cloud.max_depth_m > cloud.min_depth_m)) {
+    return bad("cloud depth range must satisfy 0 <= min_depth_m < max_depth_m");
+  }
+  if (cloud.pixel_stride < 1 || cloud.pixel_stride > 16)
+    return bad("cloud.pixel_stride in [1, 16]");
+  if (!(cloud.voxel_m > 0.001) || !(observation.voxel_m > 0.001) ||
+      !(fusion.overlap_voxel_m > 0.001)) {
+    return bad("voxel sizes must be > 1 mm");
+  }
+  if (cloud.sor_mean_k < 0 || observation.sor_mean_k < 0) return bad("sor_mean_k >= 0 (0 = off)");
+  if (!(fusion.min_likelihood > 0 && fusion.min_likelihood < 0.5)) {
+    return bad("fusion.min_likelihood in (0, 0.5)");
+  }
+  if (fusion.confirm_observations < 1) return bad("fusion.confirm_observations >= 1");
+  if (fusion.label_universe < 2) return bad("fusion.label_universe >= 2");
+  if (octomap.enabled && !(octomap.resolution_m >= 0.005))
+    return bad("octomap.resolution_m >= 0.005");
+  return absl::OkStatus();
+}
+
+bool MapOptions::IsDynamic(const std::string& c) const {
+  return std::find(dynamic_classes.begin(), dynamic_classes.end(), c) != dynamic_classes.end();
+}
+
+bool MapOptions::IsMapped(const std::string& c) const {
+  return mapped_classes.empty() ||
+         std::find(mapped_classes.begin(), mapped_classes.end(), c) != mapped_classes.end();
+}
+
+}  // namespace loci::server

@@ -1,0 +1,90 @@
+// Options of the server's map: dense cloud, object observations, object fusion, OctoMap.
+// Every field documents its unit and default; FromYaml reads only the keys present.
+#pragma once
+
+#include <yaml-cpp/yaml.h>
+
+#include <string>
+#include <vector>
+
+#include "common/status.h"
+
+namespace loci::server {
+
+// Dense semantic cloud of a keyframe (paper 000 3.2-3.3).
+struct CloudOptions {
+  double min_depth_m = 0.1;     // nearer depth readings are ignored (default 0.1)
+  double max_depth_m = 4.0;     // farther readings are ignored: Kinect noise grows with z^2 (4.0)
+  int pixel_stride = 2;         // back-project every n-th pixel in u and v for the dense cloud (2)
+  double voxel_m = 0.03;        // voxel filter edge for the keyframe and global cloud, m (0.03)
+  int sor_mean_k = 16;          // statistical outlier removal: neighbours per point, K (16)
+  double sor_stddev_mul = 1.0;  // eq. 18 threshold t = m + k * s: this is k (1.0)
+};
+
+// Object observations in a keyframe (paper 002 3.3: box + depth segmentation, or the mask).
+struct ObservationOptions {
+  double min_score = 0.3;     // detections below this score are ignored (0.3)
+  double box_shrink = 0.1;    // box pixels within this fraction of the box size of its border
+                              // are skipped when no mask is given (0.1)
+  double depth_bin_m = 0.02;  // histogram bin of the dominant-depth search, m (0.02)
+  // The cluster is the histogram peak grown over neighbouring bins holding at least
+  // cluster_bin_fraction (0.1) of the peak, widened by cluster_tolerance_m (0.04) on each side
+  // and at most cluster_max_half_m (0.5) from the peak.
+  double cluster_tolerance_m = 0.04;
+  double cluster_bin_fraction = 0.1;
+  double cluster_max_half_m = 0.5;
+  double voxel_m = 0.01;        // voxel filter edge of object clouds, m (0.01)
+  int sor_mean_k = 10;          // outlier removal on object clouds, K (10)
+  double sor_stddev_mul = 1.0;  // outlier removal on object clouds, k of eq. 18 (1.0)
+  int min_points = 20;          // observations with fewer filtered points are dropped (20)
+};
+
+// Association of observations with objects and merging (paper 000 3.3).
+struct FusionOptions {
+  double max_centroid_distance_m = 0.1;  // centroid criterion: distance below this, m (0.1)
+  // Object centroid: true (default) = centre of the axis-aligned box of the fused points, false =
+  // mean of the fused points (paper 000 eq. 16). A robot sees the top and the near side of an
+  // object, so the point mean is pulled towards the camera while the box centre is not.
+  bool centroid_from_box = true;
+  double min_overlap = 0.8;       // overlap criterion: M = |A∩B| / |A∪B| above this (0.8)
+  double overlap_voxel_m = 0.03;  // voxel edge used for M, m (0.03)
+  double weight_track = 0.5;      // score weight of "same session and track id" (0.5)
+  double weight_centroid = 0.5;   // score weight of the centroid criterion (0.5)
+  double weight_overlap = 0.5;    // score weight of the overlap criterion (0.5)
+  double score_threshold = 0.5;   // associate when the weighted score reaches this (0.5)
+  double track_gate_m = 0.5;      // a track id match counts only within this distance, m (0.5)
+  int confirm_observations = 3;   // an object is confirmed after this many keyframes (3)
+  // Two objects with the same argmax class merge when their centroids are closer than
+  // merge_centroid_m (0.1) or when |A∩B| / min(|A|, |B|) exceeds merge_containment (0.5).
+  double merge_centroid_m = 0.1;
+  double merge_containment = 0.5;
+  int label_universe = 13;       // K, classes the detector can report (mapped classes) (13)
+  double min_likelihood = 0.05;  // detection scores are clamped to [this, 1 - this] (0.05)
+};
+
+struct OctomapOptions {
+  bool enabled = true;
+  double resolution_m = 0.05;  // leaf size, m (0.05)
+  double max_range_m = 4.0;    // rays are truncated at this range, m; <= 0 = none (4.0)
+};
+
+struct MapOptions {
+  CloudOptions cloud;
+  ObservationOptions observation;
+  FusionOptions fusion;
+  OctomapOptions octomap;
+  // Classes whose pixels never enter the cloud, the OctoMap or the object database (person...).
+  std::vector<std::string> dynamic_classes = {"person", "dog", "cat"};
+  // Classes kept in the object database; empty = every class.
+  std::vector<std::string> mapped_classes;
+
+  // Reads the sections cloud / observation / fusion / octomap and the class lists.
+  Status FromYaml(const YAML::Node& node);
+  // Reads `mapped` and `dynamic_classes` of config/classes.yaml.
+  Status ClassesFromYaml(const YAML::Node& node);
+  Status Validate() const;
+  bool IsDynamic(const std::string& class_name) const;
+  bool IsMapped(const std::string& class_name) const;
+};
+
+}  // namespace loci::server

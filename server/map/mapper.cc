@@ -1,0 +1,198 @@
+#include "server/map/mapper.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "server/map/keyframe_products.h"
+
+namespace loci::server {
+namespace {
+
+double MsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+uint32_t PackRgb(uint8_t r, uint8_t g, uint8_t b) {
+  return (static_cast<uint32_t>(r) << 16) | (static_cast<uint32_t>(g) << 8) | b;
+}
+
+}  // namespace
+
+Mapper::Mapper(const MapOptions& options)
+    : options_(options),
+      objects_(options.fusion, options.observation.voxel_m),
+      cloud_(options.cloud.voxel_m),
+      octomap_(options.octomap.enabled ? std::make_unique<OccupancyMap>(options.octomap)
+                                       : nullptr) {}
+
+void Mapper::SetEventListener(std::function<void(const std::vector<ObjectEventOut>&)> listener) {
+  listener_ = std::move(listener);
+}
+
+StageTimes Mapper::Integrate(const MapperKeyframe& kf) {
+  StageTimes times;
+  auto t0 = std::chrono::steady_clock::now();
+  const KeyframeProducts products =
+      BuildKeyframeProducts(kf.bgr, kf.depth_m, kf.camera, kf.detections, options_);
+  times.products_ms = MsSince(t0);
+
+  // World products derived from the keyframe-frame products with T_map_kf.
+  const Eigen::Isometry3f T_map_kf = kf.T_map_kf.cast<float>();
+  std::vector<MapObservation> observations;
+  observations.reserve(products.observations.size());
+  for (const ObjectObservation& o : products.observations) {
+    MapObservation m;
+    m.session_row = kf.session_row;
+    m.robot = kf.robot;
+    m.keyframe_id = kf.keyframe_id;
+    m.t_ns = kf.t_ns;
+    m.track_id = o.track_id;
+    m.class_name = o.class_name;
+    m.score = o.score;
+    m.points_m.reserve(o.cloud_kf.size());
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    Eigen::Vector3f lo = Eigen::Vector3f::Constant(1e30f), hi = -lo;
+    for (const auto& p : o.cloud_kf) {
+      const Eigen::Vector3f q = T_map_kf * p.getVector3fMap();
+      m.points_m.push_back({q, PackRgb(p.r, p.g, p.b)});
+      sum += q.cast<double>();
+      lo = lo.cwiseMin(q);
+      hi = hi.cwiseMax(q);
+    }
+    // The same centroid definition as the fused objects (FusionOptions::centroid_from_box).
+    m.centroid_m = options_.fusion.centroid_from_box
+                       ? Eigen::Vector3d((0.5f * (lo + hi)).cast<double>())
+                       : Eigen::Vector3d(sum / static_cast<double>(o.cloud_kf.size()));
+    observations.push_back(std::move(m));
+  }
+  std::vector<Eigen::Vector3f> static_points_m;
+  static_points_m.reserve(products.static_cloud_kf.size());
+  for (const auto& p : products.static_cloud_kf) {
+    static_points_m.push_back(T_map_kf * p.getVector3fMap());
+  }
+
+  std::vector<ObjectEventOut> events;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    t0 = std::chrono::steady_clock::now();
+    std::vector<ObjectChange> changes;
+    const std::vector<int64_t> ids = objects_.Integrate(observations, &changes);
+    for (const ObjectChange& c : changes) {
+      ObjectEventOut e;
+      e.kind = c.kind;
+      e.merged_from_id = c.merged_from_id;
+      const FusedObject* obj = objects_.Find(objects_.Resolve(c.object_id));
+      if (obj != nullptr) e.object = obj->Snapshot();
+      e.object.id = objects_.Resolve(c.object_id);
+      events.push_back(std::move(e));
+    }
+    times.fusion_ms = MsSince(t0);
+
+    t0 = std::chrono::steady_clock::now();
+    std::vector<SemanticPoint> points;
+    points.reserve(static_points_m.size());
+    for (size_t i = 0; i < static_points_m.size(); ++i) {
+      const auto& p = products.static_cloud_kf[i];
+      const int64_t object_id = p.label > 0 && p.label <= ids.size() ? ids[p.label - 1] : 0;
+      points.push_back({static_points_m[i], PackRgb(p.r, p.g, p.b), object_id});
+    }
+    cloud_.Add(points);
+    times.cloud_ms = MsSince(t0);
+
+    if (kf.has_gravity && kf.gravity_cam.allFinite() && kf.gravity_cam.norm() > 0.5) {
+      gravity_sum_map_ += kf.T_map_kf.linear() * kf.gravity_cam.normalized();
+      ++gravity_count_;
+    }
+    RobotPose& pose = latest_poses_[kf.robot];
+    if (kf.t_ns >= pose.t_ns) pose = {kf.t_ns, kf.T_map_kf};
+    ++stats_.keyframes;
+  }
+
+  if (octomap_) {
+    t0 = std::chrono::steady_clock::now();
+    std::lock_guard<std::mutex> lock(octo_mu_);
+    octomap_->Insert(static_points_m, kf.T_map_kf.translation());
+    times.octomap_ms = MsSince(t0);
+  }
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    stats_.total.products_ms += times.products_ms;
+    stats_.total.fusion_ms += times.fusion_ms;
+    stats_.total.cloud_ms += times.cloud_ms;
+    stats_.total.octomap_ms += times.octomap_ms;
+  }
+  if (listener_ && !events.empty()) listener_(events);
+  return times;
+}
+
+std::vector<MapObject> Mapper::Snapshot(bool confirmed_only) const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return objects_.Snapshot(confirmed_only);
+}
+
+std::optional<MapObject> Mapper::GetObject(int64_t id, std::vector<ColoredPoint>* cloud_m,
+                                           std::vector<int64_t>* keyframe_ids) const {
+  std::lock_guard<std::mutex> lock(mu_);
+  const FusedObject* obj = objects_.Find(objects_.Resolve(id));
+  if (obj == nullptr) return std::nullopt;
+  if (cloud_m) *cloud_m = obj->Cloud();
+  if (keyframe_ids) *keyframe_ids = obj->keyframes();
+  return obj->Snapshot();
+}
+
+std::vector<SemanticPoint> Mapper::Cloud(double voxel_m,
+                                         const std::vector<std::string>& classes) const {
+  std::lock_guard<std::mutex> lock(mu_);
+  auto resolve = [this](int64_t id) { return objects_.Resolve(id); };
+  auto keep = [&](int64_t id) {
+    if (classes.empty()) return true;
+    std::string cls = "background";
+    if (id != 0) {
+      const FusedObject* obj = objects_.Find(id);
+      cls = obj ? obj->labels().Argmax() : "background";
+    }
+    return std::find(classes.begin(), classes.end(), cls) != classes.end();
+  };
+  return cloud_.Points(voxel_m <= 0 ? cloud_.voxel_m() : voxel_m, resolve, keep);
+}
+
+std::string Mapper::OctomapBt() const {
+  if (!octomap_) return {};
+  std::lock_guard<std::mutex> lock(octo_mu_);
+  return octomap_->SerializeBt();
+}
+
+std::vector<Eigen::Vector3d> Mapper::OccupiedCenters() const {
+  if (!octomap_) return {};
+  std::lock_guard<std::mutex> lock(octo_mu_);
+  return octomap_->OccupiedCenters();
+}
+
+std::optional<Vec3d> Mapper::UpDirection() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  if (gravity_count_ == 0 || gravity_sum_map_.norm() < 1e-9) return std::nullopt;
+  return Vec3d(-gravity_sum_map_.normalized());
+}
+
+std::map<std::string, RobotPose> Mapper::LatestPoses() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return latest_poses_;
+}
+
+MapperStats Mapper::Stats() const {
+  MapperStats s;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    s = stats_;
+    s.objects = objects_.size();
+    s.confirmed_objects = objects_.confirmed_count();
+    s.cloud_points = cloud_.size();
+  }
+  if (octomap_) {
+    std::lock_guard<std::mutex> lock(octo_mu_);
+    s.octomap_nodes = octomap_->node_count();
+  }
+  return s;
+}
+
+}  // namespace loci::server

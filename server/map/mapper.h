@@ -1,0 +1,112 @@
+// The map of the server: turns keyframes into objects, a semantic cloud and an OctoMap, and
+// answers thread-safe snapshots for the services, exports and the query engine.
+//
+// Integrate() is called by one mapping thread; every other method may be called concurrently.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <opencv2/core.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/camera.h"
+#include "common/detections_io.h"
+#include "common/map_object.h"
+#include "common/se3.h"
+#include "server/map/map_options.h"
+#include "server/map/object_map.h"
+#include "server/map/occupancy_map.h"
+#include "server/map/semantic_cloud.h"
+
+namespace loci::server {
+
+// A decoded keyframe ready for mapping.
+struct MapperKeyframe {
+  int64_t keyframe_id = 0;
+  int64_t session_row = 0;
+  std::string robot;
+  int64_t t_ns = 0;
+  SE3d T_map_kf = SE3d::Identity();  // = T_map_odom(session) * T_odom_cam
+  PinholeCamera camera;
+  cv::Mat bgr;      // CV_8UC3
+  cv::Mat depth_m;  // CV_32FC1, metres, 0 = invalid
+  std::vector<Detection2D> detections;
+  bool has_gravity = false;
+  Vec3d gravity_cam = Vec3d::Zero();  // unit, pointing down
+};
+
+// Milliseconds spent per stage of one keyframe.
+struct StageTimes {
+  double products_ms = 0;  // labels, back-projection, voxel + outlier filters
+  double fusion_ms = 0;    // association, object update, merges
+  double cloud_ms = 0;     // global semantic cloud
+  double octomap_ms = 0;   // ray casting into the OctoMap
+};
+
+struct RobotPose {
+  int64_t t_ns = 0;
+  SE3d T_map_cam = SE3d::Identity();
+};
+
+struct MapperStats {
+  uint64_t keyframes = 0;
+  uint64_t objects = 0;
+  uint64_t confirmed_objects = 0;
+  uint64_t cloud_points = 0;
+  uint64_t octomap_nodes = 0;
+  StageTimes total;  // sums over all keyframes
+};
+
+// A change of the object database with the object's state after it.
+struct ObjectEventOut {
+  ObjectChange::Kind kind = ObjectChange::Kind::kUpdated;
+  MapObject object;
+  int64_t merged_from_id = 0;
+};
+
+class Mapper {
+ public:
+  explicit Mapper(const MapOptions& options);
+
+  StageTimes Integrate(const MapperKeyframe& keyframe);
+
+  // Called (on the mapping thread, outside the map's locks) for every object change.
+  void SetEventListener(std::function<void(const std::vector<ObjectEventOut>&)> listener);
+
+  std::vector<MapObject> Snapshot(bool confirmed_only = false) const;
+  std::optional<MapObject> GetObject(int64_t id, std::vector<ColoredPoint>* cloud_m,
+                                     std::vector<int64_t>* keyframe_ids) const;
+  // Semantic cloud at voxel_m (0 = the map's voxel); `classes` empty = all, "background" selects
+  // unlabelled points.
+  std::vector<SemanticPoint> Cloud(double voxel_m, const std::vector<std::string>& classes) const;
+  std::string OctomapBt() const;
+  double OctomapResolution() const { return options_.octomap.resolution_m; }
+  std::vector<Eigen::Vector3d> OccupiedCenters() const;
+  // Unit "up" of the map frame (minus the mean gravity of the keyframes), if any had gravity.
+  std::optional<Vec3d> UpDirection() const;
+  std::map<std::string, RobotPose> LatestPoses() const;
+  MapperStats Stats() const;
+  const MapOptions& options() const { return options_; }
+
+ private:
+  MapOptions options_;
+  std::function<void(const std::vector<ObjectEventOut>&)> listener_;
+
+  mutable std::mutex mu_;  // objects, cloud, poses, gravity, stats
+  ObjectMap objects_;
+  SemanticCloud cloud_;
+  Vec3d gravity_sum_map_ = Vec3d::Zero();
+  uint64_t gravity_count_ = 0;
+  std::map<std::string, RobotPose> latest_poses_;
+  MapperStats stats_;
+
+  mutable std::mutex octo_mu_;  // the OctoMap alone, so ray casting does not block queries
+  std::unique_ptr<OccupancyMap> octomap_;
+};
+
+}  // namespace loci::server

@@ -1,0 +1,143 @@
+#include "server/map/object_map.h"
+
+#include <algorithm>
+
+namespace loci::server {
+
+double VoxelOverlap(const std::unordered_set<VoxelKey>& a, const std::unordered_set<VoxelKey>& b) {
+  if (a.empty() && b.empty()) return 0.0;
+  const auto& small = a.size() < b.size() ? a : b;
+  const auto& large = a.size() < b.size() ? b : a;
+  size_t inter = 0;
+  for (VoxelKey k : small) inter += large.count(k);
+  return static_cast<double>(inter) / static_cast<double>(a.size() + b.size() - inter);
+}
+
+double VoxelContainment(const std::unordered_set<VoxelKey>& a,
+                        const std::unordered_set<VoxelKey>& b) {
+  if (a.empty() || b.empty()) return 0.0;
+  const auto& small = a.size() < b.size() ? a : b;
+  const auto& large = a.size() < b.size() ? b : a;
+  size_t inter = 0;
+  for (VoxelKey k : small) inter += large.count(k);
+  return static_cast<double>(inter) / static_cast<double>(small.size());
+}
+
+ObjectMap::ObjectMap(const FusionOptions& options, double voxel_m)
+    : options_(options), voxel_m_(voxel_m) {}
+
+double ObjectMap::AssociationScore(const FusedObject& object, const MapObservation& obs,
+                                   const std::unordered_set<VoxelKey>& obs_keys) const {
+  const double d = (object.centroid_m() - obs.centroid_m).norm();
+  double score = 0;
+  if (d < options_.track_gate_m && object.HasTrack(obs.session_row, obs.track_id)) {
+    score += options_.weight_track;
+  }
+  if (d < options_.max_centroid_distance_m) score += options_.weight_centroid;
+  // The overlap is only worth computing for objects that can be near.
+  if (options_.weight_overlap > 0 && d < options_.track_gate_m &&
+      VoxelOverlap(object.KeysAt(options_.overlap_voxel_m), obs_keys) > options_.min_overlap) {
+    score += options_.weight_overlap;
+  }
+  return score;
+}
+
+std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& observations,
+                                          std::vector<ObjectChange>* changes) {
+  std::vector<int64_t> ids;
+  ids.reserve(observations.size());
+  for (const MapObservation& obs : observations) {
+    std::unordered_set<VoxelKey> keys;
+    for (const ColoredPoint& p : obs.points_m) {
+      keys.insert(KeyOf(p.p_m.cast<double>(), options_.overlap_voxel_m));
+    }
+    int64_t best_id = 0;
+    double best_score = 0, best_d = 0;
+    for (const auto& [id, object] : objects_) {
+      const double s = AssociationScore(object, obs, keys);
+      const double d = (object.centroid_m() - obs.centroid_m).norm();
+      if (s >= options_.score_threshold && (s > best_score || (s == best_score && d < best_d))) {
+        best_id = id;
+        best_score = s;
+        best_d = d;
+      }
+    }
+    ObjectChange::Kind kind = ObjectChange::Kind::kUpdated;
+    if (best_id == 0) {
+      best_id = next_id_++;
+      objects_.emplace(best_id, FusedObject(best_id, voxel_m_, options_.centroid_from_box,
+                                            LabelDistribution(options_.label_universe,
+                                                              options_.min_likelihood)));
+      kind = ObjectChange::Kind::kCreated;
+    }
+    FusedObject& object = objects_.at(best_id);
+    object.AddPoints(obs.points_m);
+    object.Observe(obs.class_name, obs.score, obs.session_row, obs.track_id, obs.robot,
+                   obs.keyframe_id, obs.t_ns, options_.confirm_observations);
+    changes->push_back({kind, best_id, 0});
+    ids.push_back(MergeDuplicates(best_id, changes));
+  }
+  for (int64_t& id : ids) id = Resolve(id);
+  return ids;
+}
+
+int64_t ObjectMap::MergeDuplicates(int64_t id, std::vector<ObjectChange>* changes) {
+  bool merged = true;
+  while (merged) {
+    merged = false;
+    const FusedObject& self = objects_.at(id);
+    const std::string cls = self.labels().Argmax();
+    std::unordered_set<VoxelKey> self_keys;
+    for (const auto& [other_id, other] : objects_) {
+      if (other_id == id || other.labels().Argmax() != cls) continue;
+      const double d = (other.centroid_m() - self.centroid_m()).norm();
+      bool duplicate = d < options_.merge_centroid_m;
+      if (!duplicate && d < options_.track_gate_m + 1.0) {
+        if (self_keys.empty()) self_keys = self.KeysAt(options_.overlap_voxel_m);
+        duplicate = VoxelContainment(self_keys, other.KeysAt(options_.overlap_voxel_m)) >
+                    options_.merge_containment;
+      }
+      if (!duplicate) continue;
+      // The older object survives, so ids handed out earlier stay valid where possible.
+      const int64_t keep = std::min(id, other_id), drop = std::max(id, other_id);
+      objects_.at(keep).Absorb(objects_.at(drop));
+      objects_.erase(drop);
+      merged_into_[drop] = keep;
+      changes->push_back({ObjectChange::Kind::kMerged, keep, drop});
+      id = keep;
+      merged = true;
+      break;
+    }
+  }
+  return id;
+}
+
+int64_t ObjectMap::Resolve(int64_t id) const {
+  auto it = merged_into_.find(id);
+  while (it != merged_into_.end()) {
+    id = it->second;
+    it = merged_into_.find(id);
+  }
+  return id;
+}
+
+const FusedObject* ObjectMap::Find(int64_t id) const {
+  auto it = objects_.find(id);
+  return it == objects_.end() ? nullptr : &it->second;
+}
+
+std::vector<MapObject> ObjectMap::Snapshot(bool confirmed_only) const {
+  std::vector<MapObject> out;
+  for (const auto& [id, object] : objects_) {
+    if (confirmed_only && !object.confirmed()) continue;
+    out.push_back(object.Snapshot());
+  }
+  return out;
+}
+
+size_t ObjectMap::confirmed_count() const {
+  return std::count_if(objects_.begin(), objects_.end(),
+                       [](const auto& kv) { return kv.second.confirmed(); });
+}
+
+}  // namespace loci::server

@@ -1,0 +1,78 @@
+// Object database of the map: associates each keyframe's object observations with fused objects
+// (same session + track id, centroid distance, voxel overlap M; paper 000 3.3), creates
+// candidates, confirms them after enough keyframes and merges duplicates.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <unordered_set>
+#include <vector>
+
+#include "common/map_object.h"
+#include "server/map/fused_object.h"
+#include "server/map/map_options.h"
+
+namespace loci::server {
+
+// One object observation moved into the map frame.
+struct MapObservation {
+  int64_t session_row = 0;
+  std::string robot;
+  int64_t keyframe_id = 0;
+  int64_t t_ns = 0;
+  int64_t track_id = 0;  // 0 = untracked
+  std::string class_name;
+  double score = 0;
+  std::vector<ColoredPoint> points_m;  // map frame
+  Eigen::Vector3d centroid_m = Eigen::Vector3d::Zero();
+};
+
+struct ObjectChange {
+  enum class Kind { kCreated, kUpdated, kMerged, kRemoved };
+  Kind kind = Kind::kUpdated;
+  int64_t object_id = 0;
+  int64_t merged_from_id = 0;  // kMerged: the absorbed object
+};
+
+// M = |A∩B| / (|A| + |B| - |A∩B|) of two voxel sets (0 when both are empty).
+double VoxelOverlap(const std::unordered_set<VoxelKey>& a, const std::unordered_set<VoxelKey>& b);
+// |A∩B| / min(|A|, |B|).
+double VoxelContainment(const std::unordered_set<VoxelKey>& a,
+                        const std::unordered_set<VoxelKey>& b);
+
+class ObjectMap {
+ public:
+  // voxel_m: edge of the fused object clouds (ObservationOptions::voxel_m).
+  ObjectMap(const FusionOptions& options, double voxel_m);
+
+  // Weighted association score of an observation with an object (see FusionOptions).
+  double AssociationScore(const FusedObject& object, const MapObservation& obs,
+                          const std::unordered_set<VoxelKey>& obs_keys) const;
+
+  // Integrates one keyframe's observations; returns the object id of each (after merges) and
+  // appends the changes.
+  std::vector<int64_t> Integrate(const std::vector<MapObservation>& observations,
+                                 std::vector<ObjectChange>* changes);
+
+  // Follows merges: the id an object id lives on as (0 stays 0).
+  int64_t Resolve(int64_t id) const;
+  const FusedObject* Find(int64_t id) const;
+  std::vector<MapObject> Snapshot(bool confirmed_only) const;
+  size_t size() const { return objects_.size(); }
+  size_t confirmed_count() const;
+
+ private:
+  // Merges duplicates of `id` into the older object; returns the surviving id.
+  int64_t MergeDuplicates(int64_t id, std::vector<ObjectChange>* changes);
+
+  FusionOptions options_;
+  double voxel_m_;
+  int64_t next_id_ = 1;
+  std::map<int64_t, FusedObject> objects_;
+  std::unordered_map<int64_t, int64_t> merged_into_;
+};
+
+}  // namespace loci::server

@@ -1,0 +1,47 @@
+// The global dense semantic cloud in the map frame: one point per voxel (mean position and
+// colour) with the majority object id of the points that fell into it (0 = background).
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <functional>
+#include <unordered_map>
+#include <vector>
+
+#include "server/map/fused_object.h"
+#include "server/map/voxel_key.h"
+
+namespace loci::server {
+
+struct SemanticPoint {
+  Eigen::Vector3f p_m = Eigen::Vector3f::Zero();
+  uint32_t rgb = 0;       // 0xRRGGBB
+  int64_t object_id = 0;  // 0 = background
+};
+
+class SemanticCloud {
+ public:
+  explicit SemanticCloud(double voxel_m) : voxel_m_(voxel_m) {}
+
+  // Adds points already in the map frame.
+  void Add(const std::vector<SemanticPoint>& points_m);
+  // Points downsampled to voxel_m (<= the cloud's voxel: every voxel as is); object ids mapped
+  // through `resolve` (merged objects); `keep` filters by resolved object id.
+  std::vector<SemanticPoint> Points(double voxel_m, const std::function<int64_t(int64_t)>& resolve,
+                                    const std::function<bool(int64_t)>& keep) const;
+  size_t size() const { return voxels_.size(); }
+  double voxel_m() const { return voxel_m_; }
+
+ private:
+  struct Voxel {
+    Eigen::Vector3f sum_m = Eigen::Vector3f::Zero();
+    Eigen::Vector3f rgb_sum = Eigen::Vector3f::Zero();
+    uint32_t count = 0;
+    int64_t object_id = 0;  // Boyer-Moore majority candidate over the points' ids
+    int32_t votes = 0;
+  };
+  double voxel_m_;
+  std::unordered_map<VoxelKey, Voxel> voxels_;
+};
+
+}  // namespace loci::server

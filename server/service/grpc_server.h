@@ -1,0 +1,37 @@
+// Runs the Mapping and Query services on one gRPC server with the health service and
+// reflection enabled and an explicit maximum message size.
+#pragma once
+
+#include <grpcpp/server.h>
+
+#include <memory>
+#include <string>
+
+#include "common/status.h"
+#include "server/service/services.h"
+
+namespace loci::server {
+
+class GrpcServer {
+ public:
+  // Binds `listen` (HOST:PORT, port 0 = any free port) and starts serving `server`.
+  static StatusOr<std::unique_ptr<GrpcServer>> Start(MapServer* server, const std::string& listen,
+                                                     int max_message_mb);
+  ~GrpcServer();
+
+  int port() const { return port_; }
+  QueryService& query_service() { return *query_; }
+  // Stops accepting calls and ends the running ones (deadline 2 s).
+  void Shutdown();
+  void Wait() { server_->Wait(); }
+
+ private:
+  GrpcServer() = default;
+  std::unique_ptr<MappingService> mapping_;
+  std::unique_ptr<QueryService> query_;
+  std::unique_ptr<grpc::Server> server_;
+  int port_ = 0;
+  bool shut_down_ = false;
+};
+
+}  // namespace loci::server

@@ -1,0 +1,231 @@
+#include "server/service/map_server.h"
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <regex>
+
+#include "common/time.h"
+#include "server/service/keyframe_decoder.h"
+#include "server/service/proto_convert.h"
+#include "server/service/replay.h"
+#include "server/storage/sqlite_store.h"
+
+namespace loci::server {
+namespace {
+
+constexpr char kServerVersion[] = "loci-server 0.1.0";
+
+loci::v1::KeyframeAck MakeAck(int64_t seq, const Status& status) {
+  loci::v1::KeyframeAck ack;
+  ack.set_seq(seq);
+  ToProto(status, ack.mutable_status());
+  return ack;
+}
+
+}  // namespace
+
+MapServer::MapServer(const ServerOptions& options, std::shared_ptr<MapStore> store,
+                     std::shared_ptr<detection::Detector> detector)
+    : options_(options),
+      store_(std::move(store)),
+      detector_(std::move(detector)),
+      mapper_(std::make_unique<Mapper>(options.map)),
+      queue_(static_cast<size_t>(options.queue_capacity)) {}
+
+StatusOr<std::unique_ptr<MapServer>> MapServer::Open(
+    const ServerOptions& options, std::shared_ptr<MapStore> store,
+    std::shared_ptr<detection::Detector> detector) {
+  LOCI_RETURN_IF_ERROR(options.map.Validate());
+  if (!store) {
+    LOCI_ASSIGN_OR_RETURN(std::unique_ptr<SqliteStore> sqlite, SqliteStore::Open(options.db_path));
+    store = std::move(sqlite);
+  }
+  std::unique_ptr<MapServer> server(new MapServer(options, std::move(store), std::move(detector)));
+  const auto t0 = std::chrono::steady_clock::now();
+  LOCI_RETURN_IF_ERROR(
+      ReplayStore(*server->store_, *server->mapper_, server->detector_.get(), 0, &server->replayed_)
+          .status());
+  if (server->replayed_ > 0) {
+    spdlog::info("rebuilt the map from {} stored keyframes in {:.1f} s", server->replayed_,
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+  server->mapper_->SetEventListener(
+      [s = server.get()](const std::vector<ObjectEventOut>& events) { s->Publish(events); });
+  server->worker_ = std::thread([s = server.get()] { s->WorkerLoop(); });
+  return server;
+}
+
+MapServer::~MapServer() {
+  queue_.Close();
+  if (worker_.joinable()) worker_.join();
+  std::lock_guard<std::mutex> lock(watchers_mu_);
+  for (auto& w : watchers_) w->Close();
+}
+
+StatusOr<loci::v1::OpenSessionResponse> MapServer::OpenSession(
+    const loci::v1::OpenSessionRequest& req) {
+  static const std::regex kRobotName("[A-Za-z0-9_.-]{1,64}");
+  if (!std::regex_match(req.robot_name(), kRobotName)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("robot_name '", req.robot_name(), "' must match [A-Za-z0-9_.-]{1,64}"));
+  }
+  loci::v1::OpenSessionResponse resp;
+  resp.set_server_version(kServerVersion);
+  if (req.resume()) {
+    LOCI_ASSIGN_OR_RETURN(std::optional<SessionRecord> s,
+                          store_->LatestOpenSession(req.robot_name()));
+    if (s) {
+      LOCI_ASSIGN_OR_RETURN(int64_t last, store_->LastStoredSeq(s->row_id));
+      resp.set_session_id(s->session_id);
+      resp.set_last_stored_seq(last);
+      std::lock_guard<std::mutex> lock(sessions_mu_);
+      sessions_[s->session_id] = *s;
+      return resp;
+    }
+  }
+  SessionRecord s;
+  s.robot_name = req.robot_name();
+  s.client_version = req.client_version();
+  const auto& k = req.intrinsics();
+  s.camera = {k.fx(),
+              k.fy(),
+              k.cx(),
+              k.cy(),
+              static_cast<int>(k.width_px()),
+              static_cast<int>(k.height_px())};
+  if (Status st = s.camera.Validate(); !st.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("intrinsics: ", st.message()));
+  }
+  s.depth_scale = req.depth_scale();
+  if (!std::isfinite(s.depth_scale) || s.depth_scale <= 0 || s.depth_scale > 1e6) {
+    return absl::InvalidArgumentError("depth_scale must be in (0, 1e6]");
+  }
+  if (auto it = options_.T_map_odom.find(s.robot_name); it != options_.T_map_odom.end()) {
+    s.T_map_odom = it->second;
+  }
+  s.opened_ns = NowNs();
+  LOCI_ASSIGN_OR_RETURN(s, store_->CreateSession(s));
+  resp.set_session_id(s.session_id);
+  resp.set_last_stored_seq(-1);
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  sessions_[s.session_id] = s;
+  spdlog::info("session {} opened for robot {}", s.session_id, s.robot_name);
+  return resp;
+}
+
+StatusOr<SessionRecord> MapServer::FindSession(const std::string& session_id) {
+  {
+    std::lock_guard<std::mutex> lock(sessions_mu_);
+    auto it = sessions_.find(session_id);
+    if (it != sessions_.end()) return it->second;
+  }
+  LOCI_ASSIGN_OR_RETURN(std::optional<SessionRecord> s, store_->FindSession(session_id));
+  if (!s) {
+    return absl::NotFoundError(
+        absl::StrCat("unknown session '", session_id, "' (call OpenSession first)"));
+  }
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  sessions_[session_id] = *s;
+  return *s;
+}
+
+loci::v1::KeyframeAck MapServer::Ingest(const loci::v1::Keyframe& kf) {
+  auto session = FindSession(kf.session_id());
+  if (!session.ok()) return MakeAck(kf.seq(), session.status());
+  if (!session->open) {
+    return MakeAck(kf.seq(), absl::FailedPreconditionError(
+                                 absl::StrCat("session ", kf.session_id(), " is closed")));
+  }
+  MapperKeyframe decoded;
+  ValidationLimits limits{options_.max_detections, options_.max_image_px};
+  auto record = ValidateKeyframe(kf, *session, limits, &decoded);
+  if (!record.ok()) {
+    spdlog::warn("keyframe {} of {} rejected: {}", kf.seq(), kf.session_id(),
+                 record.status().ToString());
+    return MakeAck(kf.seq(), record.status());
+  }
+  auto inserted = store_->InsertKeyframe(*record);
+  if (!inserted.ok()) {
+    spdlog::error("keyframe {} of {} not stored: {}", kf.seq(), kf.session_id(),
+                  inserted.status().ToString());
+    return MakeAck(kf.seq(), absl::UnavailableError(
+                                 absl::StrCat("storage failed: ", inserted.status().message())));
+  }
+  loci::v1::KeyframeAck ack = MakeAck(kf.seq(), absl::OkStatus());
+  ack.set_keyframe_id(inserted->keyframe_id);
+  ack.set_duplicate(inserted->duplicate);
+  if (!inserted->duplicate) {
+    decoded.keyframe_id = inserted->keyframe_id;
+    {
+      std::lock_guard<std::mutex> lock(progress_mu_);
+      ++enqueued_;
+    }
+    // Blocks while the mapping worker is behind: back-pressure on this client's stream.
+    if (!queue_.Push(std::move(decoded))) {
+      std::lock_guard<std::mutex> lock(progress_mu_);
+      --enqueued_;  // shutting down; the keyframe is stored and will be mapped on restart
+    }
+  }
+  return ack;
+}
+
+StatusOr<loci::v1::CloseSessionResponse> MapServer::CloseSession(
+    const loci::v1::CloseSessionRequest& req) {
+  LOCI_ASSIGN_OR_RETURN(SessionRecord s, FindSession(req.session_id()));
+  LOCI_RETURN_IF_ERROR(store_->CloseSession(s.row_id, NowNs()));
+  {
+    std::lock_guard<std::mutex> lock(sessions_mu_);
+    sessions_[s.session_id].open = false;
+  }
+  LOCI_ASSIGN_OR_RETURN(uint64_t n, store_->CountKeyframes(s.row_id));
+  loci::v1::CloseSessionResponse resp;
+  resp.set_keyframes_stored(n);
+  return resp;
+}
+
+void MapServer::WorkerLoop() {
+  while (std::optional<MapperKeyframe> kf = queue_.Pop()) {
+    const auto t0 = std::chrono::steady_clock::now();
+    if (Status s = DetectIfNeeded(detector_.get(), &*kf); !s.ok()) {
+      spdlog::warn("detector failed on keyframe {}: {}", kf->keyframe_id, s.ToString());
+    }
+    mapper_->Integrate(*kf);
+    mapping_ms_total_ =
+        mapping_ms_total_ +
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    ++mapping_count_;
+    std::lock_guard<std::mutex> lock(progress_mu_);
+    ++mapped_;
+    progress_cv_.notify_all();
+  }
+}
+
+void MapServer::Flush() {
+  std::unique_lock<std::mutex> lock(progress_mu_);
+  progress_cv_.wait(lock, [&] { return mapped_ >= enqueued_; });
+}
+
+double MapServer::ingest_ms_mean() const {
+  const uint64_t n = mapping_count_;
+  return n == 0 ? 0.0 : mapping_ms_total_ / static_cast<double>(n);
+}
+
+void MapServer::Subscribe(std::shared_ptr<ObjectEventQueue> queue) {
+  std::lock_guard<std::mutex> lock(watchers_mu_);
+  watchers_.push_back(std::move(queue));
+}
+
+void MapServer::Unsubscribe(const std::shared_ptr<ObjectEventQueue>& queue) {
+  std::lock_guard<std::mutex> lock(watchers_mu_);
+  std::erase(watchers_, queue);
+}
+
+void MapServer::Publish(const std::vector<ObjectEventOut>& events) {
+  std::lock_guard<std::mutex> lock(watchers_mu_);
+  for (auto& w : watchers_) {
+    for (const auto& e : events) w->TryPush(e);  // a slow watcher loses events, never blocks
+  }
+}
+
+}  // namespace loci::server

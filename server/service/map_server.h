@@ -1,0 +1,87 @@
+// The server core, independent of the transport: sessions, keyframe ingest (validate, store in
+// one transaction, acknowledge), the bounded queue to the mapping worker thread, and object
+// event fan-out. The gRPC services are thin wrappers around it.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "common/status.h"
+#include "detection/detector.h"
+#include "loci/v1/mapping.pb.h"
+#include "server/map/mapper.h"
+#include "server/service/bounded_queue.h"
+#include "server/service/server_options.h"
+#include "server/storage/map_store.h"
+
+namespace loci::server {
+
+using ObjectEventQueue = BoundedQueue<ObjectEventOut>;
+
+class MapServer {
+ public:
+  // Opens the store (SQLite at options.db_path unless `store` is given), rebuilds the map from
+  // the stored keyframes, then starts the mapping worker. `detector` may be null.
+  static StatusOr<std::unique_ptr<MapServer>> Open(
+      const ServerOptions& options, std::shared_ptr<MapStore> store = nullptr,
+      std::shared_ptr<detection::Detector> detector = nullptr);
+  ~MapServer();  // drains the queue, stops the worker
+  MapServer(const MapServer&) = delete;
+  MapServer& operator=(const MapServer&) = delete;
+
+  StatusOr<loci::v1::OpenSessionResponse> OpenSession(const loci::v1::OpenSessionRequest& req);
+  // Never fails the call: problems are reported in the ack's status.
+  loci::v1::KeyframeAck Ingest(const loci::v1::Keyframe& keyframe);
+  StatusOr<loci::v1::CloseSessionResponse> CloseSession(const loci::v1::CloseSessionRequest& req);
+
+  // Blocks until every keyframe queued so far has been mapped.
+  void Flush();
+
+  // Object events are copied into every subscribed queue (dropped when a queue is full).
+  void Subscribe(std::shared_ptr<ObjectEventQueue> queue);
+  void Unsubscribe(const std::shared_ptr<ObjectEventQueue>& queue);
+
+  const Mapper& mapper() const { return *mapper_; }
+  MapStore& store() { return *store_; }
+  const ServerOptions& options() const { return options_; }
+  size_t queue_depth() const { return queue_.size(); }
+  uint64_t replayed_keyframes() const { return replayed_; }
+  // Mean mapping time per keyframe mapped by the worker since start (replay excluded), ms.
+  double ingest_ms_mean() const;
+
+ private:
+  MapServer(const ServerOptions& options, std::shared_ptr<MapStore> store,
+            std::shared_ptr<detection::Detector> detector);
+  void WorkerLoop();
+  StatusOr<SessionRecord> FindSession(const std::string& session_id);
+  void Publish(const std::vector<ObjectEventOut>& events);
+
+  ServerOptions options_;
+  std::shared_ptr<MapStore> store_;
+  std::shared_ptr<detection::Detector> detector_;
+  std::unique_ptr<Mapper> mapper_;
+  uint64_t replayed_ = 0;
+
+  std::mutex sessions_mu_;
+  std::map<std::string, SessionRecord> sessions_;  // cache by session_id
+
+  BoundedQueue<MapperKeyframe> queue_;
+  std::thread worker_;
+  std::mutex progress_mu_;
+  std::condition_variable progress_cv_;
+  uint64_t enqueued_ = 0;  // guarded by progress_mu_
+  uint64_t mapped_ = 0;    // guarded by progress_mu_
+  std::atomic<double> mapping_ms_total_{0};
+  std::atomic<uint64_t> mapping_count_{0};
+
+  std::mutex watchers_mu_;
+  std::vector<std::shared_ptr<ObjectEventQueue>> watchers_;
+};
+
+}  // namespace loci::server

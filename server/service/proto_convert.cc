@@ -1,0 +1,98 @@
+#include "server/service/proto_convert.h"
+
+#include "common/se3.h"
+
+namespace loci::server {
+namespace {
+
+void SetVec(const Eigen::Vector3d& v, loci::v1::Vec3* out) {
+  out->set_x(v.x());
+  out->set_y(v.y());
+  out->set_z(v.z());
+}
+Eigen::Vector3d GetVec(const loci::v1::Vec3& v) { return {v.x(), v.y(), v.z()}; }
+
+}  // namespace
+
+void ToProto(const SE3d& in, loci::v1::Pose* out) {
+  SetVec(in.translation(), out->mutable_t_m());
+  const Quatd q = QuatOf(in);
+  out->set_qw(q.w());
+  out->set_qx(q.x());
+  out->set_qy(q.y());
+  out->set_qz(q.z());
+}
+
+void ToProto(const MapObject& in, loci::v1::Object* out) {
+  out->set_id(in.id);
+  out->set_class_name(in.class_name);
+  out->set_confidence(in.confidence);
+  for (const auto& [name, p] : in.labels) {
+    auto* l = out->add_labels();
+    l->set_class_name(name);
+    l->set_probability(p);
+  }
+  SetVec(in.centroid_m, out->mutable_centroid_m());
+  SetVec(in.aabb_min_m, out->mutable_aabb()->mutable_min_m());
+  SetVec(in.aabb_max_m, out->mutable_aabb()->mutable_max_m());
+  SetVec(in.obb_center_m, out->mutable_obb()->mutable_center_m());
+  SetVec(in.obb_half_extent_m, out->mutable_obb()->mutable_half_extent_m());
+  SE3d R = SE3d::Identity();
+  R.linear() = in.R_map_box;
+  ToProto(R, out->mutable_obb()->mutable_r_map_box());
+  out->set_first_seen_ns(in.first_seen_ns);
+  out->set_last_seen_ns(in.last_seen_ns);
+  for (const auto& r : in.robots) out->add_robots(r);
+  out->set_observation_count(in.observation_count);
+  out->set_confirmed(in.confirmed);
+  out->set_point_count(in.point_count);
+  out->set_last_robot(in.last_robot);
+}
+
+MapObject FromProto(const loci::v1::Object& in) {
+  MapObject o;
+  o.id = in.id();
+  o.class_name = in.class_name();
+  o.confidence = in.confidence();
+  for (const auto& l : in.labels()) o.labels.emplace_back(l.class_name(), l.probability());
+  o.centroid_m = GetVec(in.centroid_m());
+  o.aabb_min_m = GetVec(in.aabb().min_m());
+  o.aabb_max_m = GetVec(in.aabb().max_m());
+  o.obb_center_m = GetVec(in.obb().center_m());
+  o.obb_half_extent_m = GetVec(in.obb().half_extent_m());
+  const auto& q = in.obb().r_map_box();
+  if (q.qw() != 0 || q.qx() != 0 || q.qy() != 0 || q.qz() != 0) {
+    o.R_map_box = Quatd(q.qw(), q.qx(), q.qy(), q.qz()).normalized().toRotationMatrix();
+  }
+  o.first_seen_ns = in.first_seen_ns();
+  o.last_seen_ns = in.last_seen_ns();
+  o.robots.assign(in.robots().begin(), in.robots().end());
+  o.last_robot = in.last_robot();
+  o.observation_count = in.observation_count();
+  o.point_count = in.point_count();
+  o.confirmed = in.confirmed();
+  return o;
+}
+
+void ToProto(const SemanticPoint& in, loci::v1::CloudPoint* out) {
+  out->set_x_m(in.p_m.x());
+  out->set_y_m(in.p_m.y());
+  out->set_z_m(in.p_m.z());
+  out->set_rgb(in.rgb);
+  out->set_object_id(in.object_id);
+}
+
+void ToProto(const ColoredPoint& in, int64_t object_id, loci::v1::CloudPoint* out) {
+  out->set_x_m(in.p_m.x());
+  out->set_y_m(in.p_m.y());
+  out->set_z_m(in.p_m.z());
+  out->set_rgb(in.rgb);
+  out->set_object_id(object_id);
+}
+
+void ToProto(const Status& in, loci::v1::Status* out) {
+  out->set_code(static_cast<int>(in.code()));
+  out->set_message(std::string(in.message()));
+}
+
+}  // namespace loci::server

@@ -1,0 +1,65 @@
+#include "server/service/server_options.h"
+
+#include <filesystem>
+#include <vector>
+
+#include "common/config.h"
+
+namespace loci::server {
+
+Status ServerOptions::FromYamlFile(const std::string& path) {
+  LOCI_ASSIGN_OR_RETURN(YAML::Node root, LoadYamlFile(path));
+  if (const YAML::Node s = root["server"]) {
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "listen", &listen));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "db", &db_path));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "http", &http));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "max_message_mb", &max_message_mb));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "queue_capacity", &queue_capacity));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "max_detections", &max_detections));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "max_image_px", &max_image_px));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "classes_file", &classes_file));
+    if (!classes_file.empty() && std::filesystem::path(classes_file).is_relative() &&
+        !std::filesystem::exists(classes_file)) {
+      classes_file = (std::filesystem::path(path).parent_path() / classes_file).string();
+    }
+  }
+  config_dir = std::filesystem::path(path).parent_path().string();
+  if (const YAML::Node d = root["detector"]) {
+    LOCI_RETURN_IF_ERROR(ReadOptional(d, "enabled", &detector_enabled));
+    detector_config = d;
+  }
+  LOCI_RETURN_IF_ERROR(LoadClasses());
+  LOCI_RETURN_IF_ERROR(map.FromYaml(root["map"]));
+  if (const YAML::Node sessions = root["sessions"]) {
+    for (const auto& kv : sessions) {
+      const std::string robot = kv.first.as<std::string>();
+      std::vector<double> t{0, 0, 0}, q{1, 0, 0, 0};
+      LOCI_RETURN_IF_ERROR(ReadOptional(kv.second, "t_map_odom_m", &t));
+      LOCI_RETURN_IF_ERROR(ReadOptional(kv.second, "q_map_odom_wxyz", &q));
+      if (t.size() != 3 || q.size() != 4) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(path, ": sessions.", robot,
+                         " needs t_map_odom_m [x,y,z] and q_map_odom_wxyz [w,x,y,z]"));
+      }
+      LOCI_RETURN_IF_ERROR(ValidatePose(Vec3d(t[0], t[1], t[2]), q[0], q[1], q[2], q[3]));
+      T_map_odom[robot] = MakeSE3(Vec3d(t[0], t[1], t[2]), Quatd(q[0], q[1], q[2], q[3]));
+    }
+  }
+  if (max_message_mb < 1 || max_message_mb > 1024) {
+    return absl::InvalidArgumentError("server.max_message_mb must be in [1, 1024]");
+  }
+  if (queue_capacity < 1) return absl::InvalidArgumentError("server.queue_capacity must be >= 1");
+  return absl::OkStatus();
+}
+
+Status ServerOptions::LoadClasses() {
+  std::string file = classes_file.empty() ? SourceDir() + "/config/classes.yaml" : classes_file;
+  if (!std::filesystem::exists(file)) {
+    if (classes_file.empty()) return absl::OkStatus();  // installed without sources: defaults
+    return absl::NotFoundError(absl::StrCat("classes file not found: ", file));
+  }
+  LOCI_ASSIGN_OR_RETURN(YAML::Node node, LoadYamlFile(file));
+  return map.ClassesFromYaml(node);
+}
+
+}  // namespace loci::server

@@ -1,0 +1,39 @@
+// Options of `loci-server` (config/server.yaml documents every key).
+#pragma once
+
+#include <yaml-cpp/yaml.h>
+
+#include <map>
+#include <string>
+
+#include "common/se3.h"
+#include "common/status.h"
+#include "server/map/map_options.h"
+
+namespace loci::server {
+
+struct ServerOptions {
+  std::string listen = "127.0.0.1:50051";  // gRPC address, HOST:PORT (port 0 = any free port)
+  std::string db_path = "loci.db";         // SQLite database file
+  std::string http = "off";                // HTTP/JSON API address or "off" (query issue)
+  int max_message_mb = 64;                 // largest gRPC message accepted, MiB (64)
+  int queue_capacity = 32;                 // keyframes waiting for the mapping worker (32)
+  int max_detections = 512;                // detections per keyframe accepted (512)
+  int max_image_px = 4096;                 // largest accepted image width or height, px (4096)
+  // Server-side detector for keyframes that arrive without detections (section `detector`:
+  // `enabled` (default false) plus the keys of detection::DetectorOptions).
+  bool detector_enabled = false;
+  YAML::Node detector_config;
+  std::string config_dir;    // directory of the config file (relative paths)
+  std::string classes_file;  // class lists; "" = <source>/config/classes.yaml
+  // T_map_odom per robot name (identity when absent).
+  std::map<std::string, SE3d> T_map_odom;
+  MapOptions map;
+
+  // Reads config/server.yaml (sections server, map, sessions); then the classes file.
+  Status FromYamlFile(const std::string& path);
+  // Loads classes_file into map (called by FromYamlFile and by users without a config).
+  Status LoadClasses();
+};
+
+}  // namespace loci::server

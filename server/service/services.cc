@@ -1,0 +1,175 @@
+#include "server/service/services.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "common/time.h"
+#include "server/service/proto_convert.h"
+
+namespace loci::server {
+namespace {
+
+bool Inside(const Eigen::Vector3d& p, const loci::v1::Aabb& box) {
+  return p.x() >= box.min_m().x() && p.y() >= box.min_m().y() && p.z() >= box.min_m().z() &&
+         p.x() <= box.max_m().x() && p.y() <= box.max_m().y() && p.z() <= box.max_m().z();
+}
+
+}  // namespace
+
+grpc::Status ToGrpc(const Status& s) {
+  if (s.ok()) return grpc::Status::OK;
+  return grpc::Status(static_cast<grpc::StatusCode>(s.code()), std::string(s.message()));
+}
+
+grpc::Status MappingService::OpenSession(grpc::ServerContext*,
+                                         const loci::v1::OpenSessionRequest* req,
+                                         loci::v1::OpenSessionResponse* resp) {
+  auto r = server_->OpenSession(*req);
+  if (!r.ok()) return ToGrpc(r.status());
+  *resp = std::move(*r);
+  return grpc::Status::OK;
+}
+
+grpc::Status MappingService::StreamKeyframes(
+    grpc::ServerContext* ctx,
+    grpc::ServerReaderWriter<loci::v1::KeyframeAck, loci::v1::Keyframe>* stream) {
+  loci::v1::Keyframe kf;
+  while (!ctx->IsCancelled() && stream->Read(&kf)) {
+    const loci::v1::KeyframeAck ack = server_->Ingest(kf);
+    if (!stream->Write(ack)) break;
+  }
+  return grpc::Status::OK;
+}
+
+grpc::Status MappingService::CloseSession(grpc::ServerContext*,
+                                          const loci::v1::CloseSessionRequest* req,
+                                          loci::v1::CloseSessionResponse* resp) {
+  auto r = server_->CloseSession(*req);
+  if (!r.ok()) return ToGrpc(r.status());
+  *resp = std::move(*r);
+  return grpc::Status::OK;
+}
+
+grpc::Status QueryService::Ask(grpc::ServerContext*, const loci::v1::AskRequest* req,
+                               loci::v1::AskResponse* resp) {
+  if (engine_) {
+    *resp = engine_->Ask(*req, *server_);
+    return grpc::Status::OK;
+  }
+  ToProto(absl::FailedPreconditionError(
+              "natural-language queries arrive with the query engine; use FindObjects"),
+          resp->mutable_status());
+  return grpc::Status::OK;
+}
+
+grpc::Status QueryService::FindObjects(grpc::ServerContext*,
+                                       const loci::v1::FindObjectsRequest* req,
+                                       loci::v1::FindObjectsResponse* resp) {
+  if (!std::isfinite(req->min_confidence()) || !std::isfinite(req->radius_m()) ||
+      req->radius_m() < 0) {
+    return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                        "min_confidence and radius_m must be finite, radius_m >= 0");
+  }
+  const Eigen::Vector3d center(req->near_center_m().x(), req->near_center_m().y(),
+                               req->near_center_m().z());
+  for (const MapObject& o : server_->mapper().Snapshot(req->confirmed_only())) {
+    if (!req->classes().empty() && std::find(req->classes().begin(), req->classes().end(),
+                                             o.class_name) == req->classes().end()) {
+      continue;
+    }
+    if (o.confidence < req->min_confidence()) continue;
+    if (req->has_within_box() && !Inside(o.centroid_m, req->within_box())) continue;
+    if (req->radius_m() > 0 && (o.centroid_m - center).norm() > req->radius_m()) continue;
+    ToProto(o, resp->add_objects());
+    if (req->limit() > 0 && resp->objects_size() >= static_cast<int>(req->limit())) break;
+  }
+  return grpc::Status::OK;
+}
+
+grpc::Status QueryService::GetObject(grpc::ServerContext*, const loci::v1::GetObjectRequest* req,
+                                     loci::v1::GetObjectResponse* resp) {
+  std::vector<ColoredPoint> cloud;
+  std::vector<int64_t> keyframes;
+  auto o = server_->mapper().GetObject(req->id(), req->with_cloud() ? &cloud : nullptr, &keyframes);
+  if (!o) {
+    return grpc::Status(grpc::StatusCode::NOT_FOUND, absl::StrCat("no object ", req->id()));
+  }
+  ToProto(*o, resp->mutable_object());
+  for (const auto& p : cloud) ToProto(p, o->id, resp->add_cloud());
+  for (int64_t k : keyframes) resp->add_keyframe_ids(k);
+  return grpc::Status::OK;
+}
+
+grpc::Status QueryService::GetCloud(grpc::ServerContext*, const loci::v1::GetCloudRequest* req,
+                                    loci::v1::GetCloudResponse* resp) {
+  if (!std::isfinite(req->voxel_m()) || req->voxel_m() < 0) {
+    return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "voxel_m must be finite and >= 0");
+  }
+  const std::vector<std::string> classes(req->classes().begin(), req->classes().end());
+  for (const SemanticPoint& p : server_->mapper().Cloud(req->voxel_m(), classes)) {
+    ToProto(p, resp->add_points());
+  }
+  return grpc::Status::OK;
+}
+
+grpc::Status QueryService::GetOctomap(grpc::ServerContext*, const loci::v1::GetOctomapRequest*,
+                                      loci::v1::GetOctomapResponse* resp) {
+  resp->set_octomap_bt(server_->mapper().OctomapBt());
+  resp->set_resolution_m(server_->mapper().OctomapResolution());
+  resp->set_node_count(server_->mapper().Stats().octomap_nodes);
+  return grpc::Status::OK;
+}
+
+grpc::Status QueryService::WatchObjects(grpc::ServerContext* ctx,
+                                        const loci::v1::WatchObjectsRequest*,
+                                        grpc::ServerWriter<loci::v1::ObjectEvent>* writer) {
+  auto queue = std::make_shared<ObjectEventQueue>(1024);
+  server_->Subscribe(queue);
+  while (!ctx->IsCancelled()) {
+    std::optional<ObjectEventOut> e = queue->PopFor(std::chrono::milliseconds(200));
+    if (!e) continue;
+    loci::v1::ObjectEvent msg;
+    switch (e->kind) {
+      case ObjectChange::Kind::kCreated:
+        msg.set_kind(loci::v1::ObjectEvent::CREATED);
+        break;
+      case ObjectChange::Kind::kUpdated:
+        msg.set_kind(loci::v1::ObjectEvent::UPDATED);
+        break;
+      case ObjectChange::Kind::kMerged:
+        msg.set_kind(loci::v1::ObjectEvent::MERGED);
+        break;
+      case ObjectChange::Kind::kRemoved:
+        msg.set_kind(loci::v1::ObjectEvent::REMOVED);
+        break;
+    }
+    ToProto(e->object, msg.mutable_object());
+    msg.set_merged_from_id(e->merged_from_id);
+    msg.set_t_ns(NowNs());
+    if (!writer->Write(msg)) break;
+  }
+  server_->Unsubscribe(queue);
+  return grpc::Status::OK;
+}
+
+grpc::Status QueryService::GetStats(grpc::ServerContext*, const loci::v1::GetStatsRequest*,
+                                    loci::v1::GetStatsResponse* resp) {
+  auto sessions = server_->store().ListSessions();
+  auto keyframes = server_->store().CountKeyframes(std::nullopt);
+  if (!sessions.ok()) return ToGrpc(sessions.status());
+  if (!keyframes.ok()) return ToGrpc(keyframes.status());
+  const MapperStats s = server_->mapper().Stats();
+  resp->set_sessions(sessions->size());
+  resp->set_keyframes(*keyframes);
+  resp->set_objects(s.objects);
+  resp->set_confirmed_objects(s.confirmed_objects);
+  resp->set_cloud_points(s.cloud_points);
+  resp->set_octomap_nodes(s.octomap_nodes);
+  resp->set_db_bytes(server_->store().DbBytes());
+  resp->set_queue_depth(server_->queue_depth());
+  resp->set_ingest_ms_mean(server_->ingest_ms_mean());
+  return grpc::Status::OK;
+}
+
+}  // namespace loci::server

@@ -1,0 +1,381 @@
+#include "server/storage/sqlite_store.h"
+
+#include <sqlite3.h>
+
+#include <filesystem>
+#include <iterator>
+#include <utility>
+
+#include "common/time.h"
+#include "server/storage/schema_sql.h"
+
+namespace loci::server {
+namespace {
+
+Status SqlError(sqlite3* db, const std::string& what) {
+  return absl::InternalError(absl::StrCat("sqlite: ", what, ": ", sqlite3_errmsg(db)));
+}
+
+// A prepared statement, finalised on destruction.
+class Stmt {
+ public:
+  Stmt(sqlite3* db, const char* sql) : db_(db) {
+    rc_ = sqlite3_prepare_v2(db, sql, -1, &stmt_, nullptr);
+  }
+  ~Stmt() { sqlite3_finalize(stmt_); }
+  Status status() const { return rc_ == SQLITE_OK ? absl::OkStatus() : SqlError(db_, "prepare"); }
+  Stmt& Bind(int i, int64_t v) {
+    sqlite3_bind_int64(stmt_, i, v);
+    return *this;
+  }
+  Stmt& Bind(int i, double v) {
+    sqlite3_bind_double(stmt_, i, v);
+    return *this;
+  }
+  Stmt& BindText(int i, const std::string& v) {
+    sqlite3_bind_text(stmt_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT);
+    return *this;
+  }
+  Stmt& BindBlob(int i, const std::string& v) {
+    sqlite3_bind_blob(stmt_, i, v.data(), static_cast<int>(v.size()), SQLITE_STATIC);
+    return *this;
+  }
+  int Step() { return sqlite3_step(stmt_); }
+  int64_t Int(int c) const { return sqlite3_column_int64(stmt_, c); }
+  double Real(int c) const { return sqlite3_column_double(stmt_, c); }
+  bool IsNull(int c) const { return sqlite3_column_type(stmt_, c) == SQLITE_NULL; }
+  std::string Text(int c) const {
+    const void* p = sqlite3_column_blob(stmt_, c);
+    return p ? std::string(static_cast<const char*>(p), sqlite3_column_bytes(stmt_, c))
+             : std::string();
+  }
+
+ private:
+  sqlite3* db_;
+  sqlite3_stmt* stmt_ = nullptr;
+  int rc_;
+};
+
+Status Exec(sqlite3* db, const std::string& sql) {
+  char* err = nullptr;
+  if (sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
+    std::string msg = err ? err : "unknown";
+    sqlite3_free(err);
+    return absl::InternalError(absl::StrCat("sqlite: ", msg));
+  }
+  return absl::OkStatus();
+}
+
+SE3d PoseFrom(const Stmt& s, int c) {
+  return MakeSE3(Vec3d(s.Real(c), s.Real(c + 1), s.Real(c + 2)),
+                 Quatd(s.Real(c + 3), s.Real(c + 4), s.Real(c + 5), s.Real(c + 6)));
+}
+
+void BindPose(Stmt& s, int i, const SE3d& T) {
+  const Quatd q = QuatOf(T);
+  s.Bind(i, T.translation().x()).Bind(i + 1, T.translation().y()).Bind(i + 2, T.translation().z());
+  s.Bind(i + 3, q.w()).Bind(i + 4, q.x()).Bind(i + 5, q.y()).Bind(i + 6, q.z());
+}
+
+PinholeCamera CameraFrom(const Stmt& s, int c) {
+  return {s.Real(c),
+          s.Real(c + 1),
+          s.Real(c + 2),
+          s.Real(c + 3),
+          static_cast<int>(s.Int(c + 4)),
+          static_cast<int>(s.Int(c + 5))};
+}
+
+void BindCamera(Stmt& s, int i, const PinholeCamera& c) {
+  s.Bind(i, c.fx).Bind(i + 1, c.fy).Bind(i + 2, c.cx).Bind(i + 3, c.cy);
+  s.Bind(i + 4, static_cast<int64_t>(c.width_px)).Bind(i + 5, static_cast<int64_t>(c.height_px));
+}
+
+constexpr char kSessionColumns[] =
+    "id, session_id, robot_name, client_version, fx, fy, cx, cy, width_px, height_px, "
+    "depth_scale, map_tx, map_ty, map_tz, map_qw, map_qx, map_qy, map_qz, opened_ns, closed_ns";
+
+}  // namespace
+
+SqliteStore::SqliteStore(std::string path, SqliteStoreOptions options)
+    : path_(std::move(path)), options_(options) {}
+
+SqliteStore::~SqliteStore() {
+  for (auto& [tid, db] : connections_) sqlite3_close_v2(db);
+}
+
+int SqliteStore::LatestSchemaVersion() { return static_cast<int>(std::size(kSchemaMigrations)); }
+
+StatusOr<std::unique_ptr<SqliteStore>> SqliteStore::Open(const std::string& path,
+                                                         SqliteStoreOptions options) {
+  if (options.read_only && !std::filesystem::exists(path)) {
+    return absl::NotFoundError(absl::StrCat("database not found: ", path));
+  }
+  std::unique_ptr<SqliteStore> store(new SqliteStore(path, options));
+  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, store->Connection());
+  if (!options.read_only) LOCI_RETURN_IF_ERROR(store->Migrate(db));
+  LOCI_ASSIGN_OR_RETURN(int version, store->SchemaVersion());
+  if (version > LatestSchemaVersion()) {
+    return absl::FailedPreconditionError(absl::StrCat(path, ": schema version ", version,
+                                                      " is newer than this build (",
+                                                      LatestSchemaVersion(), ")"));
+  }
+  return store;
+}
+
+StatusOr<sqlite3*> SqliteStore::OpenConnection() const {
+  sqlite3* db = nullptr;
+  const int flags =
+      options_.read_only ? SQLITE_OPEN_READONLY : (SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE);
+  if (sqlite3_open_v2(path_.c_str(), &db, flags | SQLITE_OPEN_NOMUTEX, nullptr) != SQLITE_OK) {
+    Status s = absl::UnavailableError(
+        absl::StrCat("cannot open database ", path_, ": ", db ? sqlite3_errmsg(db) : "no memory"));
+    sqlite3_close_v2(db);
+    return s;
+  }
+  sqlite3_busy_timeout(db, options_.busy_timeout_ms);
+  Status s = options_.read_only ? absl::OkStatus()
+                                : Exec(db, "PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL;");
+  if (s.ok()) s = Exec(db, "PRAGMA foreign_keys=ON;");
+  if (!s.ok()) {
+    sqlite3_close_v2(db);
+    return s;
+  }
+  return db;
+}
+
+StatusOr<sqlite3*> SqliteStore::Connection() {
+  std::lock_guard<std::mutex> lock(mu_);
+  auto it = connections_.find(std::this_thread::get_id());
+  if (it != connections_.end()) return it->second;
+  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, OpenConnection());
+  connections_[std::this_thread::get_id()] = db;
+  return db;
+}
+
+Status SqliteStore::Migrate(sqlite3* db) {
+  LOCI_RETURN_IF_ERROR(Exec(db, "BEGIN IMMEDIATE;"));
+  Status s =
+      Exec(db, "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);");
+  int version = 0;
+  if (s.ok()) {
+    Stmt q(db, "SELECT value FROM meta WHERE key = 'schema_version'");
+    if (q.Step() == SQLITE_ROW) version = std::stoi(q.Text(0));
+  }
+  for (int v = version; s.ok() && v < LatestSchemaVersion(); ++v) {
+    s = Exec(db, kSchemaMigrations[v]);
+    if (s.ok()) {
+      s = Exec(db,
+               absl::StrCat("INSERT OR REPLACE INTO meta(key, value) VALUES('schema_version', '",
+                            v + 1, "');"));
+    }
+  }
+  if (!s.ok()) {
+    Exec(db, "ROLLBACK;").IgnoreError();
+    return s;
+  }
+  return Exec(db, "COMMIT;");
+}
+
+StatusOr<int> SqliteStore::SchemaVersion() {
+  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Connection());
+  Stmt q(db, "SELECT value FROM meta WHERE key = 'schema_version'");
+  if (!q.status().ok()) return 0;  // no meta table: an empty database
+  if (q.Step() != SQLITE_ROW) return 0;
+  return std::stoi(q.Text(0));
+}
+
+StatusOr<SessionRecord> SqliteStore::CreateSession(SessionRecord session) {
+  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Connection());
+  LOCI_RETURN_IF_ERROR(Exec(db, "BEGIN IMMEDIATE;"));
+  // The public id carries the row id, which is only known after the insert.
+  Stmt ins(db,
+           "INSERT INTO sessions(session_id, robot_name, client_version, fx, fy, cx, cy, width_px,"
+           " height_px, depth_scale, map_tx, map_ty, map_tz, map_qw, map_qx, map_qy, map_qz,"
+           " opened_ns) VALUES(lower(hex(randomblob(8))), ?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
+  LOCI_RETURN_IF_ERROR(ins.status());
+  ins.BindText(1, session.robot_name).BindText(2, session.client_version);
+  BindCamera(ins, 3, session.camera);
+  ins.Bind(9, session.depth_scale);
+  BindPose(ins, 10, session.T_map_odom);
+  ins.Bind(17, session.opened_ns);
+  if (ins.Step() != SQLITE_DONE) {
+    Status s = SqlError(db, "insert session");
+    Exec(db, "ROLLBACK;").IgnoreError();
+    return s;
+  }
+  session.row_id = sqlite3_last_insert_rowid(db);
+  session.session_id = absl::StrCat(session.robot_name, "-", session.row_id);
+  Stmt upd(db, "UPDATE sessions SET session_id = ? WHERE id = ?");
+  upd.BindText(1, session.session_id).Bind(2, session.row_id);
+  if (upd.Step() != SQLITE_DONE) {
+    Status s = SqlError(db, "update session");
+    Exec(db, "ROLLBACK;").IgnoreError();
+    return s;
+  }
+  LOCI_RETURN_IF_ERROR(Exec(db, "COMMIT;"));
+  session.open = true;
+  return session;
+}
+
+StatusOr<std::vector<SessionRecord>> SqliteStore::QuerySessions(const std::string& where_sql,
+                                                                const std::string& arg) {
+  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Connection());
+  const std::string sql = absl::StrCat("SELECT ", kSessionColumns, " FROM sessions ", where_sql);
+  Stmt q(db, sql.c_str());
+  LOCI_RETURN_IF_ERROR(q.status());
+  if (!arg.empty()) q.BindText(1, arg);
+  std::vector<SessionRecord> out;
+  int rc;
+  while ((rc = q.Step()) == SQLITE_ROW) {
+    SessionRecord s;
+    s.row_id = q.Int(0);
+    s.session_id = q.Text(1);
+    s.robot_name = q.Text(2);
+    s.client_version = q.Text(3);
+    s.camera = CameraFrom(q, 4);
+    s.depth_scale = q.Real(10);
+    s.T_map_odom = PoseFrom(q, 11);
+    s.opened_ns = q.Int(18);
+    s.open = q.IsNull(19);
+    out.push_back(std::move(s));
+  }
+  if (rc != SQLITE_DONE) return SqlError(db, "query sessions");
+  return out;
+}
+
+StatusOr<std::optional<SessionRecord>> SqliteStore::LatestOpenSession(
+    const std::string& robot_name) {
+  LOCI_ASSIGN_OR_RETURN(
+      auto rows,
+      QuerySessions("WHERE robot_name = ? AND closed_ns IS NULL ORDER BY id DESC LIMIT 1",
+                    robot_name));
+  if (rows.empty()) return std::optional<SessionRecord>();
+  return std::optional<SessionRecord>(std::move(rows[0]));
+}
+
+StatusOr<std::optional<SessionRecord>> SqliteStore::FindSession(const std::string& session_id) {
+  if (session_id.empty()) return std::optional<SessionRecord>();
+  LOCI_ASSIGN_OR_RETURN(auto rows, QuerySessions("WHERE session_id = ?", session_id));
+  if (rows.empty()) return std::optional<SessionRecord>();
+  return std::optional<SessionRecord>(std::move(rows[0]));
+}
+
+StatusOr<std::vector<SessionRecord>> SqliteStore::ListSessions() {
+  return QuerySessions("ORDER BY id", "");
+}
+
+Status SqliteStore::CloseSession(int64_t session_row, int64_t closed_ns) {
+  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Connection());
+  Stmt q(db, "UPDATE sessions SET closed_ns = ? WHERE id = ?");
+  LOCI_RETURN_IF_ERROR(q.status());
+  q.Bind(1, closed_ns).Bind(2, session_row);
+  if (q.Step() != SQLITE_DONE) return SqlError(db, "close session");
+  return absl::OkStatus();
+}
+
+StatusOr<InsertResult> SqliteStore::InsertKeyframe(const KeyframeRecord& kf) {
+  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Connection());
+  FrameDetections frame;
+  frame.t_ns = kf.t_ns;
+  frame.detections = kf.detections;
+  const std::string detections_json = DetectionsToJsonLine(frame);
+  LOCI_RETURN_IF_ERROR(Exec(db, "BEGIN IMMEDIATE;"));
+  auto fail = [db](const std::string& what) {
+    Status s = SqlError(db, what);
+    Exec(db, "ROLLBACK;").IgnoreError();
+    return s;
+  };
+  InsertResult result;
+  {
+    Stmt ins(db,
+             "INSERT OR IGNORE INTO keyframes(session, seq, t_ns, tx, ty, tz, qw, qx, qy, qz, fx,"
+             " fy, cx, cy, width_px, height_px, depth_scale, has_gravity, gx, gy, gz, segment,"
+             " rgb_jpeg, depth_png, detections, stored_ns)"
+             " VALUES(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
+    if (!ins.status().ok()) return fail("prepare insert keyframe");
+    ins.Bind(1, kf.session_row).Bind(2, kf.seq).Bind(3, kf.t_ns);
+    BindPose(ins, 4, kf.T_odom_cam);
+    BindCamera(ins, 11, kf.camera);
+    ins.Bind(17, kf.depth_scale).Bind(18, static_cast<int64_t>(kf.has_gravity));
+    ins.Bind(19, kf.gravity_cam.x()).Bind(20, kf.gravity_cam.y()).Bind(21, kf.gravity_cam.z());
+    ins.Bind(22, static_cast<int64_t>(kf.segment));
+    ins.BindBlob(23, kf.rgb_jpeg).BindBlob(24, kf.depth_png).BindText(25, detections_json);
+    ins.Bind(26, NowNs());
+    if (ins.Step() != SQLITE_DONE) return fail("insert keyframe");
+  }
+  if (sqlite3_changes(db) == 1) {
+    result.keyframe_id = sqlite3_last_insert_rowid(db);
+  } else {
+    result.duplicate = true;
+    Stmt q(db, "SELECT id FROM keyframes WHERE session = ? AND seq = ?");
+    q.Bind(1, kf.session_row).Bind(2, kf.seq);
+    if (q.Step() != SQLITE_ROW) return fail("find duplicate keyframe");
+    result.keyframe_id = q.Int(0);
+  }
+  LOCI_RETURN_IF_ERROR(Exec(db, "COMMIT;"));
+  return result;
+}
+
+StatusOr<int64_t> SqliteStore::LastStoredSeq(int64_t session_row) {
+  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Connection());
+  Stmt q(db, "SELECT MAX(seq) FROM keyframes WHERE session = ?");
+  LOCI_RETURN_IF_ERROR(q.status());
+  q.Bind(1, session_row);
+  if (q.Step() != SQLITE_ROW) return SqlError(db, "last seq");
+  return q.IsNull(0) ? int64_t{-1} : q.Int(0);
+}
+
+StatusOr<uint64_t> SqliteStore::CountKeyframes(std::optional<int64_t> session_row) {
+  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Connection());
+  Stmt q(db, session_row ? "SELECT COUNT(*) FROM keyframes WHERE session = ?"
+                         : "SELECT COUNT(*) FROM keyframes");
+  LOCI_RETURN_IF_ERROR(q.status());
+  if (session_row) q.Bind(1, *session_row);
+  if (q.Step() != SQLITE_ROW) return SqlError(db, "count keyframes");
+  return static_cast<uint64_t>(q.Int(0));
+}
+
+Status SqliteStore::ForEachKeyframe(int64_t after_id,
+                                    const std::function<Status(KeyframeRecord)>& fn) {
+  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Connection());
+  Stmt q(db,
+         "SELECT id, session, seq, t_ns, tx, ty, tz, qw, qx, qy, qz, fx, fy, cx, cy, width_px,"
+         " height_px, depth_scale, has_gravity, gx, gy, gz, segment, rgb_jpeg, depth_png,"
+         " detections FROM keyframes WHERE id > ? ORDER BY id");
+  LOCI_RETURN_IF_ERROR(q.status());
+  q.Bind(1, after_id);
+  int rc;
+  while ((rc = q.Step()) == SQLITE_ROW) {
+    KeyframeRecord kf;
+    kf.id = q.Int(0);
+    kf.session_row = q.Int(1);
+    kf.seq = q.Int(2);
+    kf.t_ns = q.Int(3);
+    kf.T_odom_cam = PoseFrom(q, 4);
+    kf.camera = CameraFrom(q, 11);
+    kf.depth_scale = q.Real(17);
+    kf.has_gravity = q.Int(18) != 0;
+    kf.gravity_cam = Vec3d(q.Real(19), q.Real(20), q.Real(21));
+    kf.segment = static_cast<int>(q.Int(22));
+    kf.rgb_jpeg = q.Text(23);
+    kf.depth_png = q.Text(24);
+    LOCI_ASSIGN_OR_RETURN(FrameDetections dets, DetectionsFromJsonLine(q.Text(25)));
+    kf.detections = std::move(dets.detections);
+    LOCI_RETURN_IF_ERROR(fn(std::move(kf)));
+  }
+  if (rc != SQLITE_DONE) return SqlError(db, "read keyframes");
+  return absl::OkStatus();
+}
+
+uint64_t SqliteStore::DbBytes() {
+  uint64_t bytes = 0;
+  for (const char* suffix : {"", "-wal"}) {
+    std::error_code ec;
+    const auto n = std::filesystem::file_size(path_ + suffix, ec);
+    if (!ec) bytes += n;
+  }
+  return bytes;
+}
+
+}  // namespace loci::server

@@ -1,0 +1,65 @@
+// MapStore on SQLite: WAL journal, one connection per thread (opened lazily), schema migrated
+// from the checked-in server/storage/schema/NNN_*.sql files on open.
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <unordered_map>
+
+#include "server/storage/map_store.h"
+
+struct sqlite3;
+
+namespace loci::server {
+
+struct SqliteStoreOptions {
+  // Milliseconds a writer waits for a lock held by another connection before failing (default
+  // 5000).
+  int busy_timeout_ms = 5000;
+  // Open read-only (exports, offline evaluation): no schema migration, no writes (default false).
+  bool read_only = false;
+};
+
+class SqliteStore final : public MapStore {
+ public:
+  // Opens (creating when needed) the database and migrates its schema to the latest version.
+  static StatusOr<std::unique_ptr<SqliteStore>> Open(const std::string& path,
+                                                     SqliteStoreOptions options = {});
+  ~SqliteStore() override;
+  SqliteStore(const SqliteStore&) = delete;
+  SqliteStore& operator=(const SqliteStore&) = delete;
+
+  // Latest schema version this build knows.
+  static int LatestSchemaVersion();
+
+  StatusOr<int> SchemaVersion() override;
+  StatusOr<SessionRecord> CreateSession(SessionRecord session) override;
+  StatusOr<std::optional<SessionRecord>> LatestOpenSession(const std::string& robot_name) override;
+  StatusOr<std::optional<SessionRecord>> FindSession(const std::string& session_id) override;
+  StatusOr<std::vector<SessionRecord>> ListSessions() override;
+  Status CloseSession(int64_t session_row, int64_t closed_ns) override;
+  StatusOr<InsertResult> InsertKeyframe(const KeyframeRecord& keyframe) override;
+  StatusOr<int64_t> LastStoredSeq(int64_t session_row) override;
+  StatusOr<uint64_t> CountKeyframes(std::optional<int64_t> session_row) override;
+  Status ForEachKeyframe(int64_t after_id,
+                         const std::function<Status(KeyframeRecord)>& fn) override;
+  uint64_t DbBytes() override;
+
+ private:
+  SqliteStore(std::string path, SqliteStoreOptions options);
+  // The calling thread's connection (opened on first use).
+  StatusOr<sqlite3*> Connection();
+  StatusOr<sqlite3*> OpenConnection() const;
+  Status Migrate(sqlite3* db);
+  StatusOr<std::vector<SessionRecord>> QuerySessions(const std::string& where_sql,
+                                                     const std::string& arg);
+
+  std::string path_;
+  SqliteStoreOptions options_;
+  std::mutex mu_;
+  std::unordered_map<std::thread::id, sqlite3*> connections_;  // guarded by mu_
+};
+
+}  // namespace loci::server

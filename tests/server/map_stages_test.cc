@@ -1,0 +1,203 @@
+// Unit tests of the map stages: back-projection, depth clustering, filters, overlap,
+// label fusion, association and merging.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "server/map/keyframe_products.h"
+#include "server/map/label_distribution.h"
+#include "server/map/object_map.h"
+
+namespace loci::server {
+namespace {
+
+TEST(BackProject, PlaneAtKnownDepthLandsOnThePlane) {
+  const PinholeCamera cam = PinholeCamera::TumFr1();
+  cv::Mat depth(cam.height_px, cam.width_px, CV_32FC1, cv::Scalar(2.0f));
+  depth(cv::Rect(0, 0, 10, 10)).setTo(0.0f);   // no reading
+  depth(cv::Rect(20, 0, 10, 10)).setTo(5.0f);  // beyond max range
+  cv::Mat bgr(depth.size(), CV_8UC3, cv::Scalar(10, 20, 30));
+  cv::Mat labels(depth.size(), CV_16SC1, cv::Scalar(0));
+  labels(cv::Rect(100, 100, 20, 20)).setTo(3);
+  labels(cv::Rect(300, 300, 10, 10)).setTo(kExcludedLabel);
+  const auto cloud = BackProject(bgr, depth, labels, cam, 1, 0.1, 4.0);
+  EXPECT_EQ(cloud.size(), 640u * 480u - 200u - 100u);
+  int labelled = 0;
+  for (const auto& p : cloud) {
+    ASSERT_FLOAT_EQ(p.z, 2.0f);
+    labelled += p.label == 3;
+  }
+  EXPECT_EQ(labelled, 400);
+  // Pixel (u, v) = (cx + fx, cy) at depth 2 is 2 m to the right.
+  const Eigen::Vector3d p = cam.BackProject(cam.cx + cam.fx, cam.cy, 2.0);
+  EXPECT_NEAR(p.x(), 2.0, 1e-12);
+  EXPECT_EQ(cloud[0].r, 30);  // BGR in, RGB out
+  EXPECT_EQ(BackProject(bgr, depth, labels, cam, 2, 0.1, 4.0).size(), 320u * 240u - 50u - 25u);
+}
+
+TEST(DominantDepthCluster, KeepsTheObjectNotTheWallBehind) {
+  cv::Mat depth(100, 100, CV_32FC1, cv::Scalar(3.0f));  // wall
+  depth(cv::Rect(30, 30, 40, 40)).setTo(1.5f);          // object filling most of the box
+  const cv::Rect box(20, 20, 60, 60);
+  const cv::Mat mask = DominantDepthCluster(depth, box, ObservationOptions{}, 0.1, 4.0);
+  EXPECT_EQ(cv::countNonZero(mask), 40 * 40);
+  EXPECT_EQ(mask.at<uint8_t>(15, 15), 255);  // (35, 35) in the image
+  EXPECT_EQ(mask.at<uint8_t>(2, 2), 0);
+}
+
+TEST(DominantDepthCluster, FollowsASlantedSurface) {
+  cv::Mat depth(100, 100, CV_32FC1);
+  for (int v = 0; v < 100; ++v) depth.row(v).setTo(1.0f + 0.004f * v);  // 1.0 .. 1.4 m ramp
+  const cv::Mat mask =
+      DominantDepthCluster(depth, cv::Rect(0, 0, 100, 100), ObservationOptions{}, 0.1, 4.0);
+  EXPECT_EQ(cv::countNonZero(mask), 100 * 100);
+}
+
+TEST(Filters, VoxelFilterKeepsMajorityLabelAndOutlierRemovalDropsStrayPoints) {
+  pcl::PointCloud<pcl::PointXYZRGBL> cloud;
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<float> u(0.f, 0.2f);
+  for (int i = 0; i < 4000; ++i) {
+    pcl::PointXYZRGBL p;
+    p.x = u(rng);
+    p.y = u(rng);
+    p.z = 1.0f;
+    p.label = 2;
+    cloud.push_back(p);
+  }
+  const auto voxelised = VoxelFilterLabelled(cloud, 0.02);
+  EXPECT_NEAR(static_cast<double>(voxelised.size()), 100.0, 5.0);  // 10 x 10 voxels
+  for (const auto& p : voxelised) EXPECT_EQ(p.label, 2u);
+
+  auto with_outliers = voxelised;
+  pcl::PointXYZRGBL far;
+  far.x = 1.0f;
+  far.y = 1.0f;
+  far.z = 2.0f;
+  with_outliers.push_back(far);
+  far.x = -1.0f;
+  with_outliers.push_back(far);
+  const auto filtered = RemoveOutliers(with_outliers, 8, 1.0);
+  for (const auto& p : filtered) EXPECT_LT(p.x, 0.5f);
+  EXPECT_GE(filtered.size(), voxelised.size() * 8 / 10);  // the plane itself survives
+}
+
+std::unordered_set<VoxelKey> CubeKeys(double x0, int n) {
+  std::unordered_set<VoxelKey> keys;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j)
+      keys.insert(KeyOf(Eigen::Vector3d(x0 + 0.01 * i + 0.005, 0.01 * j + 0.005, 0), 0.01));
+  return keys;
+}
+
+TEST(Overlap, IntersectionOverUnionAndContainment) {
+  const auto a = CubeKeys(0.0, 10);   // 100 voxels
+  const auto b = CubeKeys(0.05, 10);  // shifted by half: 50 shared
+  EXPECT_NEAR(VoxelOverlap(a, a), 1.0, 1e-12);
+  EXPECT_NEAR(VoxelOverlap(a, b), 50.0 / 150.0, 1e-12);
+  EXPECT_NEAR(VoxelContainment(a, CubeKeys(0.0, 5)), 1.0, 1e-12);
+  EXPECT_EQ(VoxelOverlap(a, CubeKeys(1.0, 10)), 0.0);
+  EXPECT_EQ(VoxelOverlap({}, {}), 0.0);
+}
+
+TEST(LabelDistribution, BayesUpdateFavoursRepeatedEvidence) {
+  LabelDistribution d(13, 0.05);
+  d.Update("teddy bear", 0.8);
+  EXPECT_EQ(d.Argmax(), "teddy bear");
+  EXPECT_NEAR(d.Probability("teddy bear"), 0.8, 1e-9);  // uniform prior, one measurement
+  d.Update("person", 0.6);                              // the misdetection of paper 000
+  d.Update("teddy bear", 0.7);
+  EXPECT_EQ(d.Argmax(), "teddy bear");
+  const double p_teddy = d.Probability("teddy bear"), p_person = d.Probability("person");
+  EXPECT_GT(p_teddy, 0.8);
+  EXPECT_GT(p_person, d.Probability("cup"));  // seen once beats never seen
+  const auto observed = d.Observed();
+  ASSERT_EQ(observed.size(), 2u);
+  EXPECT_EQ(observed[0].first, "teddy bear");
+  EXPECT_NEAR(observed[0].second + observed[1].second, 1.0, 1e-12);
+  // Independent evidence of a duplicate sharpens the posterior.
+  LabelDistribution e(13, 0.05);
+  e.Update("teddy bear", 0.7);
+  d.Merge(e);
+  EXPECT_GT(d.Probability("teddy bear"), p_teddy);
+}
+
+MapObservation Obs(int64_t track, const Eigen::Vector3d& center, double half, int64_t kf,
+                   const std::string& cls = "cup") {
+  MapObservation o;
+  o.session_row = 1;
+  o.robot = "r";
+  o.keyframe_id = kf;
+  o.t_ns = kf * 1000;
+  o.track_id = track;
+  o.class_name = cls;
+  o.score = 0.9;
+  for (double x = -half; x <= half + 1e-9; x += 0.01)
+    for (double y = -half; y <= half + 1e-9; y += 0.01)
+      o.points_m.push_back({(center + Eigen::Vector3d(x, y, 0)).cast<float>(), 0});
+  o.centroid_m = center;
+  return o;
+}
+
+TEST(ObjectMap, AssociatesByTrackOrCentroidElseCreatesAndConfirmsAfterThree) {
+  FusionOptions opt;
+  ObjectMap map(opt, 0.01);
+  std::vector<ObjectChange> changes;
+  const auto a = map.Integrate({Obs(1, {0, 0, 1}, 0.05, 1)}, &changes);
+  ASSERT_EQ(changes.size(), 1u);
+  EXPECT_EQ(changes[0].kind, ObjectChange::Kind::kCreated);
+  EXPECT_FALSE(map.Find(a[0])->confirmed());
+  // Same track, 0.2 m away (beyond the centroid criterion, inside the track gate).
+  const auto b = map.Integrate({Obs(1, {0.2, 0, 1}, 0.05, 2)}, &changes);
+  EXPECT_EQ(b[0], a[0]);
+  // No track, 3 cm from the fused centroid: the centroid criterion.
+  const auto c = map.Integrate({Obs(0, {0.13, 0, 1}, 0.05, 3)}, &changes);
+  EXPECT_EQ(c[0], a[0]);
+  EXPECT_TRUE(map.Find(a[0])->confirmed());
+  EXPECT_EQ(map.Find(a[0])->observation_count(), 3u);
+  // Far away, other track: a new candidate.
+  const auto d = map.Integrate({Obs(2, {2, 0, 1}, 0.05, 4)}, &changes);
+  EXPECT_NE(d[0], a[0]);
+  EXPECT_EQ(map.size(), 2u);
+  EXPECT_EQ(map.confirmed_count(), 1u);
+  // Track match beyond the gate does not associate.
+  EXPECT_EQ(map.AssociationScore(*map.Find(a[0]), Obs(1, {5, 0, 1}, 0.05, 5), {}), 0.0);
+}
+
+TEST(ObjectMap, WeightedScoreRespectsThreshold) {
+  FusionOptions opt;
+  opt.score_threshold = 0.9;  // now one criterion alone is not enough
+  opt.merge_centroid_m = 0;   // isolate association from duplicate merging
+  opt.merge_containment = 2;
+  ObjectMap map(opt, 0.01);
+  std::vector<ObjectChange> changes;
+  const auto a = map.Integrate({Obs(1, {0, 0, 1}, 0.05, 1)}, &changes);
+  const auto b = map.Integrate({Obs(0, {0.03, 0, 1}, 0.05, 2)}, &changes);  // centroid only
+  EXPECT_NE(a[0], b[0]);
+  // Same track + close centroid: 1.0 >= 0.9. It also merges the duplicate b into a.
+  const auto c = map.Integrate({Obs(1, {0.01, 0, 1}, 0.05, 3)}, &changes);
+  EXPECT_EQ(c[0], a[0]);
+}
+
+TEST(ObjectMap, MergesDuplicatesThatEndUpOverlapping) {
+  FusionOptions opt;
+  opt.weight_centroid = 0;  // association by track only, so two tracks make two objects
+  opt.weight_overlap = 0;
+  ObjectMap map(opt, 0.01);
+  std::vector<ObjectChange> changes;
+  const auto a = map.Integrate({Obs(1, {0, 0, 1}, 0.10, 1)}, &changes);
+  // Another track id on a 4 cm-shifted view of the same object: the box centres are 4 cm apart,
+  // closer than merge_centroid_m, so the newer object is absorbed into the older one.
+  const auto b = map.Integrate({Obs(2, {0.04, 0, 1}, 0.10, 2)}, &changes);
+  EXPECT_EQ(b[0], a[0]);
+  EXPECT_EQ(map.size(), 1u);
+  ASSERT_FALSE(changes.empty());
+  EXPECT_EQ(changes.back().kind, ObjectChange::Kind::kMerged);
+  EXPECT_EQ(map.Resolve(changes.back().merged_from_id), a[0]);
+  // A different class at the same place is not merged.
+  map.Integrate({Obs(3, {0.0, 0, 1}, 0.10, 3, "book")}, &changes);
+  EXPECT_EQ(map.size(), 2u);
+}
+
+}  // namespace
+}  // namespace loci::server

@@ -1,0 +1,169 @@
+#include <gtest/gtest.h>
+#include <sqlite3.h>
+
+#include <filesystem>
+#include <thread>
+
+#include "common/image_codec.h"
+#include "server/storage/sqlite_store.h"
+
+namespace loci::server {
+namespace {
+
+std::string FreshDb(const std::string& name) {
+  const std::string path = ::testing::TempDir() + "/" + name + ".db";
+  for (const char* s : {"", "-wal", "-shm"}) std::filesystem::remove(path + s);
+  return path;
+}
+
+KeyframeRecord MakeKeyframe(int64_t session_row, int64_t seq) {
+  KeyframeRecord kf;
+  kf.session_row = session_row;
+  kf.seq = seq;
+  kf.t_ns = 1'700'000'000'000'000'000 + seq * 33'000'000;
+  kf.T_odom_cam =
+      MakeSE3(Vec3d(0.1 * seq, -0.2, 1.5), Quatd(Eigen::AngleAxisd(0.3, Vec3d::UnitY())));
+  kf.camera = PinholeCamera::TumFr1();
+  kf.depth_scale = 5000;
+  kf.has_gravity = true;
+  kf.gravity_cam = Vec3d(0, 1, 0);
+  kf.segment = 2;
+  kf.rgb_jpeg = std::string("\xff\xd8 jpeg bytes \0 with a zero", 26);
+  kf.depth_png = "png bytes";
+  Detection2D d;
+  d.class_id = 41;
+  d.class_name = "cup";
+  d.score = 0.8f;
+  d.box_px = cv::Rect2f(10, 20, 30, 40);
+  d.track_id = 5;
+  d.mask = cv::Mat(40, 30, CV_8UC1, cv::Scalar(255));
+  kf.detections.push_back(d);
+  return kf;
+}
+
+TEST(SqliteStore, FreshDatabaseHasLatestSchemaAndWal) {
+  const std::string path = FreshDb("schema");
+  auto store = SqliteStore::Open(path);
+  ASSERT_TRUE(store.ok()) << store.status();
+  EXPECT_GE(SqliteStore::LatestSchemaVersion(), 1);
+  EXPECT_EQ(*(*store)->SchemaVersion(), SqliteStore::LatestSchemaVersion());
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  sqlite3_stmt* st = nullptr;
+  sqlite3_prepare_v2(db, "PRAGMA journal_mode", -1, &st, nullptr);
+  ASSERT_EQ(sqlite3_step(st), SQLITE_ROW);
+  EXPECT_STREQ(reinterpret_cast<const char*>(sqlite3_column_text(st, 0)), "wal");
+  sqlite3_finalize(st);
+  sqlite3_close(db);
+}
+
+TEST(SqliteStore, RefusesNewerSchema) {
+  const std::string path = FreshDb("newer");
+  { ASSERT_TRUE(SqliteStore::Open(path).ok()); }
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(db, "UPDATE meta SET value = '999' WHERE key = 'schema_version'", nullptr,
+                         nullptr, nullptr),
+            SQLITE_OK);
+  sqlite3_close(db);
+  auto store = SqliteStore::Open(path);
+  ASSERT_FALSE(store.ok());
+  EXPECT_NE(store.status().message().find("newer"), std::string::npos);
+}
+
+TEST(SqliteStore, KeyframeRoundTripAndDuplicates) {
+  const std::string path = FreshDb("roundtrip");
+  auto store = SqliteStore::Open(path);
+  ASSERT_TRUE(store.ok()) << store.status();
+  SessionRecord s;
+  s.robot_name = "robot1";
+  s.camera = PinholeCamera::TumFr1();
+  s.T_map_odom = MakeSE3(Vec3d(1, 2, 3), Quatd(Eigen::AngleAxisd(0.5, Vec3d::UnitZ())));
+  auto created = (*store)->CreateSession(s);
+  ASSERT_TRUE(created.ok()) << created.status();
+  EXPECT_EQ(created->session_id, "robot1-1");
+  EXPECT_EQ(*(*store)->LastStoredSeq(created->row_id), -1);
+
+  const KeyframeRecord kf = MakeKeyframe(created->row_id, 7);
+  auto first = (*store)->InsertKeyframe(kf);
+  ASSERT_TRUE(first.ok()) << first.status();
+  EXPECT_FALSE(first->duplicate);
+  auto again = (*store)->InsertKeyframe(kf);
+  ASSERT_TRUE(again.ok());
+  EXPECT_TRUE(again->duplicate);
+  EXPECT_EQ(again->keyframe_id, first->keyframe_id);
+  EXPECT_EQ(*(*store)->CountKeyframes(std::nullopt), 1u);
+  EXPECT_EQ(*(*store)->LastStoredSeq(created->row_id), 7);
+
+  // A second connection (another thread) reads what the first wrote.
+  std::vector<KeyframeRecord> read;
+  std::thread reader([&] {
+    ASSERT_TRUE((*store)
+                    ->ForEachKeyframe(0,
+                                      [&](KeyframeRecord r) {
+                                        read.push_back(std::move(r));
+                                        return absl::OkStatus();
+                                      })
+                    .ok());
+  });
+  reader.join();
+  ASSERT_EQ(read.size(), 1u);
+  const KeyframeRecord& r = read[0];
+  EXPECT_EQ(r.id, first->keyframe_id);
+  EXPECT_EQ(r.seq, 7);
+  EXPECT_EQ(r.t_ns, kf.t_ns);
+  EXPECT_TRUE(r.T_odom_cam.isApprox(kf.T_odom_cam, 1e-12));
+  EXPECT_EQ(r.camera.width_px, 640);
+  EXPECT_DOUBLE_EQ(r.camera.fx, 517.3);
+  EXPECT_TRUE(r.has_gravity);
+  EXPECT_EQ(r.segment, 2);
+  EXPECT_EQ(r.rgb_jpeg, kf.rgb_jpeg);  // binary-safe, embedded zero kept
+  EXPECT_EQ(r.depth_png, kf.depth_png);
+  ASSERT_EQ(r.detections.size(), 1u);
+  EXPECT_EQ(r.detections[0].class_name, "cup");
+  EXPECT_EQ(r.detections[0].track_id, 5);
+  EXPECT_EQ(r.detections[0].mask.size(), cv::Size(30, 40));
+
+  auto found = (*store)->FindSession("robot1-1");
+  ASSERT_TRUE(found.ok() && found->has_value());
+  EXPECT_TRUE((*found)->T_map_odom.isApprox(s.T_map_odom, 1e-12));
+  EXPECT_FALSE((*(*store)->FindSession("nope")).has_value());
+}
+
+TEST(SqliteStore, ResumeFindsLatestOpenSessionAndSurvivesReopen) {
+  const std::string path = FreshDb("resume");
+  int64_t row = 0;
+  {
+    auto store = SqliteStore::Open(path);
+    ASSERT_TRUE(store.ok());
+    SessionRecord s;
+    s.robot_name = "r";
+    s.camera = PinholeCamera::TumFr1();
+    auto a = (*store)->CreateSession(s);
+    auto b = (*store)->CreateSession(s);
+    ASSERT_TRUE(a.ok() && b.ok());
+    ASSERT_TRUE((*store)->CloseSession(b->row_id, 5).ok());
+    row = a->row_id;
+    for (int seq = 0; seq < 3; ++seq)
+      ASSERT_TRUE((*store)->InsertKeyframe(MakeKeyframe(row, seq)).ok());
+  }
+  auto store = SqliteStore::Open(path);
+  ASSERT_TRUE(store.ok());
+  auto latest = (*store)->LatestOpenSession("r");
+  ASSERT_TRUE(latest.ok() && latest->has_value());
+  EXPECT_EQ((*latest)->row_id, row);  // b is closed
+  EXPECT_EQ(*(*store)->LastStoredSeq(row), 2);
+  EXPECT_EQ((*(*store)->ListSessions()).size(), 2u);
+  EXPECT_GT((*store)->DbBytes(), 0u);
+}
+
+TEST(SqliteStore, ReadOnlyOpenOfMissingFileFails) {
+  SqliteStoreOptions o;
+  o.read_only = true;
+  auto store = SqliteStore::Open(FreshDb("missing"), o);
+  ASSERT_FALSE(store.ok());
+  EXPECT_EQ(store.status().code(), absl::StatusCode::kNotFound);
+}
+
+}  // namespace
+}  // namespace loci::server
