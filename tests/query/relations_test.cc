@@ -1,0 +1,171 @@
+// Relations in the gravity frame on hand-built scenes, positive and negative.
+#include "query/relations.h"
+
+#include <gtest/gtest.h>
+
+#include "query/geometry.h"
+#include "test_scene.h"
+
+namespace loci::query {
+namespace {
+
+using testing::Box;
+using testing::Office;
+
+class RelationsTest : public ::testing::Test {
+ protected:
+  RelationsTest() : frame_(Vec3d::UnitZ()), eval_(RelationOptions{}) {
+    for (const MapObject& o : Office()) geoms_[o.id] = frame_.Geom(o);
+    view_ = *frame_.View(Viewpoint{"robot-a", testing::OfficeViewpoint(), 0});
+  }
+  RelationResult Eval(RelationKind kind, int64_t s, int64_t a) {
+    return eval_.Evaluate(kind, geoms_.at(s), geoms_.at(a), &view_);
+  }
+  GravityFrame frame_;
+  RelationEvaluator eval_;
+  std::map<int64_t, ObjectGeom> geoms_;
+  ViewpointG view_;
+};
+
+TEST_F(RelationsTest, BookOnTable) {
+  const RelationResult r = Eval(RelationKind::kOn, 2, 1);
+  EXPECT_TRUE(r.holds);
+  EXPECT_GT(r.confidence, 0.9);
+  EXPECT_NE(r.evidence.find("footprint overlap 1.00"), std::string::npos) << r.evidence;
+  EXPECT_EQ(RelationName(r.kind), "on");
+  // Not the other way round, not on the shelf, not on the chair it is above.
+  EXPECT_FALSE(Eval(RelationKind::kOn, 1, 2).holds);
+  EXPECT_FALSE(Eval(RelationKind::kOn, 2, 7).holds);
+  EXPECT_TRUE(Eval(RelationKind::kOn, 8, 7).holds);
+  EXPECT_FALSE(Eval(RelationKind::kOn, 5, 1).holds);
+}
+
+TEST_F(RelationsTest, OnToleratesSmallGapsButNotHovering) {
+  ObjectGeom book = geoms_.at(2);
+  book.box.min.z() += 0.02;
+  book.box.max.z() += 0.02;
+  EXPECT_TRUE(eval_.Evaluate(RelationKind::kOn, book, geoms_.at(1)).holds);
+  book.box.min.z() += 0.2;  // 22 cm above the table top: above, not on
+  book.box.max.z() += 0.2;
+  book.centroid_g.z() += 0.22;
+  EXPECT_FALSE(eval_.Evaluate(RelationKind::kOn, book, geoms_.at(1)).holds);
+  EXPECT_TRUE(eval_.Evaluate(RelationKind::kAbove, book, geoms_.at(1)).holds);
+  // Half off the edge: footprint overlap below on_min_overlap.
+  ObjectGeom edge = geoms_.at(2);
+  edge.box.min.x() = 1.5;
+  edge.box.max.x() = 1.9;
+  edge.centroid_g.x() = 1.7;
+  const RelationResult r = eval_.Evaluate(RelationKind::kOn, edge, geoms_.at(1));
+  EXPECT_FALSE(r.holds) << r.evidence;
+}
+
+TEST_F(RelationsTest, ChairUnderTable) {
+  EXPECT_TRUE(Eval(RelationKind::kUnder, 5, 1).holds);
+  EXPECT_FALSE(Eval(RelationKind::kUnder, 6, 1).holds);  // standing away
+  EXPECT_FALSE(Eval(RelationKind::kUnder, 2, 1).holds);  // the book is on it
+  EXPECT_FALSE(Eval(RelationKind::kUnder, 1, 5).holds);
+}
+
+TEST_F(RelationsTest, CupNearKeyboardNotNearMonitor) {
+  const RelationResult r = Eval(RelationKind::kNear, 3, 4);
+  EXPECT_TRUE(r.holds) << r.evidence;
+  EXPECT_NEAR(r.distance_m, 0.26, 1e-9);
+  EXPECT_FALSE(Eval(RelationKind::kNear, 3, 9).holds);
+  EXPECT_FALSE(Eval(RelationKind::kNear, 3, 7).holds);
+}
+
+TEST_F(RelationsTest, NextTo) {
+  EXPECT_TRUE(Eval(RelationKind::kNextTo, 11, 13).holds);  // mouse beside keyboard
+  EXPECT_FALSE(Eval(RelationKind::kNextTo, 2, 1).holds);   // stacked, not side by side
+  EXPECT_FALSE(Eval(RelationKind::kNextTo, 3, 7).holds);   // 2 m away
+}
+
+TEST_F(RelationsTest, Inside) {
+  const MapObject drawer = Box(50, "shelf", {0, 0, 0}, {1, 1, 1});
+  const MapObject bottle = Box(51, "bottle", {0.4, 0.4, 0.2}, {0.5, 0.5, 0.5});
+  const ObjectGeom d = frame_.Geom(drawer);
+  const ObjectGeom b = frame_.Geom(bottle);
+  EXPECT_TRUE(eval_.Evaluate(RelationKind::kInside, b, d).holds);
+  EXPECT_FALSE(eval_.Evaluate(RelationKind::kInside, d, b).holds);
+  EXPECT_FALSE(Eval(RelationKind::kInside, 2, 1).holds);  // on top is not inside
+}
+
+TEST_F(RelationsTest, Between) {
+  // The keyboard lies between the book and the cup on the table; the shelf does not.
+  EXPECT_TRUE(eval_.Between(geoms_.at(4), geoms_.at(2), geoms_.at(3)).holds);
+  EXPECT_FALSE(eval_.Between(geoms_.at(7), geoms_.at(2), geoms_.at(3)).holds);
+  EXPECT_FALSE(eval_.Between(geoms_.at(2), geoms_.at(2), geoms_.at(3)).holds);
+}
+
+TEST_F(RelationsTest, LeftRightFrontBehindFromTheViewpoint) {
+  EXPECT_TRUE(Eval(RelationKind::kLeftOf, 12, 9).holds);  // plant left of the monitor
+  EXPECT_FALSE(Eval(RelationKind::kRightOf, 12, 9).holds);
+  EXPECT_TRUE(Eval(RelationKind::kRightOf, 11, 9).holds);  // mouse right of it
+  EXPECT_FALSE(Eval(RelationKind::kLeftOf, 11, 9).holds);
+  EXPECT_TRUE(Eval(RelationKind::kInFrontOf, 13, 9).holds);  // keyboard in front of it
+  EXPECT_FALSE(Eval(RelationKind::kBehind, 13, 9).holds);
+  EXPECT_TRUE(Eval(RelationKind::kBehind, 9, 13).holds);
+  // Seen from the other side of the desk, left and right swap.
+  SE3d T = testing::OfficeViewpoint();
+  T.linear() = T.linear() * Eigen::AngleAxisd(M_PI, Vec3d::UnitY()).toRotationMatrix();
+  T.translation() = Vec3d(0.6, 5.5, 1.2);
+  const ViewpointG back = *frame_.View(Viewpoint{"robot-b", T, 0});
+  EXPECT_TRUE(eval_.Evaluate(RelationKind::kRightOf, geoms_.at(12), geoms_.at(9), &back).holds);
+  const RelationResult none =
+      eval_.Evaluate(RelationKind::kLeftOf, geoms_.at(12), geoms_.at(9), nullptr);
+  EXPECT_FALSE(none.holds);
+  EXPECT_NE(none.evidence.find("viewpoint"), std::string::npos);
+}
+
+TEST_F(RelationsTest, GravityAlignedFrameFollowsUp) {
+  // Rotate the whole office so the map's up is +x; with up given, relations are unchanged.
+  const Mat3d R = Eigen::AngleAxisd(-M_PI / 2, Vec3d::UnitY()).toRotationMatrix();
+  ASSERT_TRUE((R * Vec3d::UnitZ() - Vec3d(-1, 0, 0)).norm() < 1e-9);
+  const std::vector<MapObject> rotated = testing::Rotated(Office(), R);
+  const GravityFrame aligned(R * Vec3d::UnitZ());
+  const GravityFrame naive(Vec3d::UnitZ());
+  auto geom = [&](const GravityFrame& f, int64_t id) { return f.Geom(rotated[id - 1]); };
+  EXPECT_TRUE(eval_.Evaluate(RelationKind::kOn, geom(aligned, 2), geom(aligned, 1)).holds);
+  EXPECT_TRUE(eval_.Evaluate(RelationKind::kUnder, geom(aligned, 5), geom(aligned, 1)).holds);
+  EXPECT_FALSE(eval_.Evaluate(RelationKind::kOn, geom(naive, 2), geom(naive, 1)).holds);
+  // A tilted up (30 deg) still recovers the table top within the box bound.
+  const Mat3d tilt = Eigen::AngleAxisd(0.5, Vec3d(1, 1, 0).normalized()).toRotationMatrix();
+  const std::vector<MapObject> tilted = testing::Rotated(Office(), tilt);
+  const GravityFrame g(tilt * Vec3d::UnitZ());
+  const RelationResult r = eval_.Evaluate(RelationKind::kOn, g.Geom(tilted[1]), g.Geom(tilted[0]));
+  EXPECT_TRUE(r.holds) << r.evidence;
+}
+
+TEST(GeometryTest, UpFromViewpoints) {
+  std::vector<Viewpoint> views = {{"a", testing::OfficeViewpoint(), 1}};
+  auto up = EstimateUpFromViewpoints(views);
+  ASSERT_TRUE(up);
+  EXPECT_LT((*up - Vec3d::UnitZ()).norm(), 1e-9);
+  EXPECT_FALSE(EstimateUpFromViewpoints({}));
+  SE3d upside_down = testing::OfficeViewpoint();
+  upside_down.linear() = upside_down.linear() * Eigen::AngleAxisd(M_PI, Vec3d::UnitZ());
+  views.push_back({"b", upside_down, 2});
+  EXPECT_FALSE(EstimateUpFromViewpoints(views));  // they disagree
+}
+
+TEST(GeometryTest, BoxDistances) {
+  BoxG a{{0, 0, 0}, {1, 1, 1}};
+  BoxG b{{2, 0, 0}, {3, 1, 1}};
+  BoxG c{{2, 2, 2}, {3, 3, 3}};
+  EXPECT_DOUBLE_EQ(BoxGap(a, b), 1.0);
+  EXPECT_DOUBLE_EQ(BoxGap(a, c), std::sqrt(3.0));
+  EXPECT_DOUBLE_EQ(HorizontalGap(a, c), std::sqrt(2.0));
+  EXPECT_DOUBLE_EQ(FootprintOverlapArea(a, BoxG{{0.5, 0.5, 5}, {2, 2, 6}}), 0.25);
+  EXPECT_DOUBLE_EQ(IntersectionVolume(a, BoxG{{0.5, 0.5, 0.5}, {2, 2, 2}}), 0.125);
+}
+
+TEST(RelationNamesTest, RoundTrip) {
+  for (RelationKind k : {RelationKind::kOn, RelationKind::kNextTo, RelationKind::kLeftOf,
+                         RelationKind::kInFrontOf, RelationKind::kBetween}) {
+    EXPECT_EQ(RelationFromName(RelationName(k)), k);
+  }
+  EXPECT_FALSE(RelationFromName("onto"));
+}
+
+}  // namespace
+}  // namespace loci::query
