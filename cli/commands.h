@@ -10,5 +10,7 @@ namespace loci::cli {
 int& ExitCode();
 
 void RegisterEvalCommands(CLI::App& app);
+// `loci synth` (synth/): synthetic RGB-D sequences with ground truth.
+void RegisterSynthCommands(CLI::App& app);
 
 }  // namespace loci::cli

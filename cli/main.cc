@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   app.parse_complete_callback([&] { spdlog::set_level(spdlog::level::from_str(log_level)); });
 
   loci::cli::RegisterEvalCommands(app);
+  loci::cli::RegisterSynthCommands(app);
 
   CLI11_PARSE(app, argc, argv);
   return loci::cli::ExitCode();

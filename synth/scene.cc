@@ -1,0 +1,310 @@
+#include "synth/scene.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/time.h"
+#include "synth/object_catalog.h"
+
+namespace loci::synth {
+namespace {
+
+// Room: 6 x 5 x 2.7 m, centred on the origin, floor at z = 0.
+const Vec3d kRoomMin(-3.0, -2.5, 0.0);
+const Vec3d kRoomMax(3.0, 2.5, 2.7);
+// Band of the floor kept free for the walking person (world y, m), between table and shelf.
+constexpr double kWalkY = 1.42, kWalkBandLo = 1.0, kWalkBandHi = 1.85;
+
+struct Rect2 {
+  double x0, y0, x1, y1;
+  bool Overlaps(const Rect2& o) const { return x0 < o.x1 && o.x0 < x1 && y0 < o.y1 && o.y0 < y1; }
+  Rect2 Grown(double m) const { return {x0 - m, y0 - m, x1 + m, y1 + m}; }
+};
+
+Rect2 Footprint(const SceneObject& o) {
+  Vec3d lo, hi;
+  ObjectAabb(o, o.T_world_obj, &lo, &hi);
+  return {lo.x(), lo.y(), hi.x(), hi.y()};
+}
+
+SE3d PoseXYYaw(double x, double y, double z, double yaw) {
+  SE3d T = SE3d::Identity();
+  T.linear() = Eigen::AngleAxisd(yaw, Vec3d::UnitZ()).toRotationMatrix();
+  T.translation() = Vec3d(x, y, z);
+  return T;
+}
+
+// Shifts the parts so the lowest point is at z = 0 (objects stand exactly on their support).
+void RestOnGround(std::vector<Primitive>* parts) {
+  Vec3d lo, hi;
+  PartsAabb(*parts, SE3d::Identity(), &lo, &hi);
+  for (Primitive& p : *parts) p.T_obj_prim.translation().z() -= lo.z();
+}
+
+// One texture per object; each part starts elsewhere in it so parts do not look alike.
+void Texturize(Scene* scene, SceneObject* o, TextureStyle style, const cv::Vec3b& base, Rng& rng) {
+  Vec3d lo, hi;
+  PartsAabb(o->parts, SE3d::Identity(), &lo, &hi);
+  const int size_px = style == TextureStyle::kWood ? 512 : 256;
+  const double side_m = std::max(0.25, 1.2 * (hi - lo).maxCoeff());
+  scene->textures.push_back(MakeTexture(style, base, size_px, size_px, side_m / size_px, rng));
+  for (size_t i = 0; i < o->parts.size(); ++i) {
+    o->parts[i].texture = static_cast<int>(scene->textures.size()) - 1;
+    o->parts[i].uv_offset_m = Eigen::Vector2d(0.29 * i, 0.41 * i) * side_m;
+  }
+}
+
+// A place (x, y, yaw) for `o` inside `area` that overlaps none of `taken` nor `forbidden`.
+bool Place(SceneObject* o, const Rect2& area, double z_m, bool face_front,
+           const std::vector<Rect2>& forbidden, std::vector<Rect2>* taken, Rng& rng) {
+  for (int attempt = 0; attempt < 300; ++attempt) {
+    // Mostly square to the support's edges, as people leave things; fronts face the camera.
+    const double yaw =
+        (face_front ? 0.0 : M_PI / 2 * rng.UniformInt(0, 3)) + rng.Uniform(-0.35, 0.35);
+    Vec3d lo, hi;
+    PartsAabb(o->parts, PoseXYYaw(0, 0, 0, yaw), &lo, &hi);
+    const double xa = area.x0 - lo.x(), xb = area.x1 - hi.x();
+    const double ya = area.y0 - lo.y(), yb = area.y1 - hi.y();
+    if (xa > xb || ya > yb) continue;  // does not fit with this yaw
+    o->T_world_obj = PoseXYYaw(rng.Uniform(xa, xb), rng.Uniform(ya, yb), z_m, yaw);
+    const Rect2 fp = Footprint(*o).Grown(0.02);
+    bool free = true;
+    for (const auto* list : {&forbidden, static_cast<const std::vector<Rect2>*>(taken)}) {
+      for (const Rect2& r : *list) free = free && !fp.Overlaps(r);
+    }
+    if (free) {
+      taken->push_back(fp);
+      return true;
+    }
+  }
+  return false;
+}
+
+cv::Vec3b ObjectColor(int index, double hue0, Rng& rng) {
+  return HueColor(std::fmod(hue0 + 137.508 * index, 360.0), rng.Uniform(0.5, 0.9),
+                  rng.Uniform(0.55, 0.95));
+}
+
+void AddRoom(Scene* s, Rng& rng) {
+  s->room_min_m = kRoomMin;
+  s->room_max_m = kRoomMax;
+  const Vec3d size = kRoomMax - kRoomMin;
+  auto add = [&](TextureStyle style, const cv::Vec3b& base, double w_m, double h_m,
+                 double texel_m) {
+    s->textures.push_back(MakeTexture(style, base, static_cast<int>(w_m / texel_m),
+                                      static_cast<int>(h_m / texel_m), texel_m, rng));
+    return static_cast<int>(s->textures.size()) - 1;
+  };
+  s->room_texture[0] =
+      add(TextureStyle::kFloor, HueColor(rng.Uniform(20, 40), 0.5, 0.6), size.x(), size.y(), 0.005);
+  s->room_texture[1] = add(TextureStyle::kCeiling, HueColor(0, 0, 0.85), size.x(), size.y(), 0.01);
+  for (int w = 0; w < 4; ++w) {
+    const double len = w < 2 ? size.y() : size.x();
+    const cv::Vec3b paint =
+        HueColor(rng.Uniform(0, 360), rng.Uniform(0.1, 0.35), rng.Uniform(0.7, 0.9));
+    s->room_texture[2 + w] = add(TextureStyle::kWall, paint, len, size.z(), 0.005);
+  }
+  s->light_world_m = Vec3d(0.0, 0.0, kRoomMax.z() - 0.15);
+}
+
+}  // namespace
+
+Status SceneOptions::Validate() const {
+  if (num_frames < 1) return absl::InvalidArgumentError("frames must be >= 1");
+  if (num_objects < 0 || num_objects > 40) {
+    return absl::InvalidArgumentError("objects must be in [0, 40]");
+  }
+  if (width_px < 16 || height_px < 16 || width_px > 4096 || height_px > 4096) {
+    return absl::InvalidArgumentError("image size must be in [16, 4096] pixels");
+  }
+  if (!(fps_hz > 0 && fps_hz <= 1000) || !(accel_rate_hz > 0 && accel_rate_hz <= 10000)) {
+    return absl::InvalidArgumentError("fps and accelerometer rate must be positive");
+  }
+  if (!(depth_scale > 0) || !(min_depth_m >= 0) || !(max_depth_m > min_depth_m) ||
+      max_depth_m * depth_scale > 65535) {
+    return absl::InvalidArgumentError("depth range and scale must fit a 16-bit PNG");
+  }
+  if (jpeg_quality < 1 || jpeg_quality > 100) {
+    return absl::InvalidArgumentError("jpeg quality must be in [1, 100]");
+  }
+  if (start_t_ns < 0 || num_threads < 0 || min_visible_px < 1) {
+    return absl::InvalidArgumentError("start stamp, threads and min visible pixels must be >= 0");
+  }
+  return absl::OkStatus();
+}
+
+StatusOr<Scene> MakeScene(const SceneOptions& options) {
+  LOCI_RETURN_IF_ERROR(options.Validate());
+  Scene s;
+  s.options = options;
+  const PinholeCamera fr1 = PinholeCamera::TumFr1();
+  const double kx = options.width_px / 640.0, ky = options.height_px / 480.0;
+  s.camera = {
+      fr1.fx * kx,      fr1.fy * ky,      (fr1.cx + 0.5) * kx - 0.5, (fr1.cy + 0.5) * ky - 0.5,
+      options.width_px, options.height_px};
+  Rng rng(Rng::Mix(options.seed, 0x5CE7E));
+  AddRoom(&s, rng);
+  const double hue0 = rng.Uniform(0, 360);
+
+  SceneObject table;
+  table.id = 1;
+  table.class_name = "dining table";
+  table.coco_class_id = CocoClassId(table.class_name);
+  const Vec3d table_size(rng.Uniform(1.4, 1.8), rng.Uniform(0.8, 0.95), rng.Uniform(0.72, 0.78));
+  table.parts = BuildTable(table_size);
+  table.T_world_obj = PoseXYYaw(rng.Uniform(-0.3, 0.3), rng.Uniform(0.1, 0.3), 0, 0);
+  Texturize(&s, &table, TextureStyle::kWood, HueColor(rng.Uniform(15, 40), 0.6, 0.55), rng);
+  s.objects.push_back(table);
+
+  SceneObject shelf;
+  shelf.id = 2;
+  shelf.class_name = "shelf";
+  const Vec3d shelf_size(rng.Uniform(1.0, 1.3), rng.Uniform(0.35, 0.42), rng.Uniform(0.85, 1.0));
+  shelf.parts = BuildShelf(shelf_size);
+  shelf.T_world_obj =
+      PoseXYYaw(rng.Uniform(-1.2, 1.2), kRoomMax.y() - shelf_size.y() / 2 - 0.02, 0, 0);
+  Texturize(&s, &shelf, TextureStyle::kWood, HueColor(rng.Uniform(0, 360), 0.4, 0.7), rng);
+  s.objects.push_back(shelf);
+
+  Vec3d table_lo, table_hi, shelf_lo, shelf_hi;
+  ObjectAabb(table, table.T_world_obj, &table_lo, &table_hi);
+  ObjectAabb(shelf, shelf.T_world_obj, &shelf_lo, &shelf_hi);
+  const Rect2 table_area{table_lo.x() + 0.03, table_lo.y() + 0.03, table_hi.x() - 0.03,
+                         table_hi.y() - 0.03};
+  const Rect2 shelf_area{shelf_lo.x() + 0.03, shelf_lo.y() + 0.03, shelf_hi.x() - 0.03,
+                         shelf_hi.y() - 0.03};
+  const Rect2 floor_area{kRoomMin.x() + 0.4, -0.9, kRoomMax.x() - 0.4, kRoomMax.y() - 0.1};
+  const std::vector<Rect2> floor_forbidden = {
+      Rect2{table_lo.x(), table_lo.y(), table_hi.x(), table_hi.y()}.Grown(0.12),
+      Rect2{shelf_lo.x(), shelf_lo.y(), shelf_hi.x(), shelf_hi.y()}.Grown(0.08),
+      Rect2{-100, kWalkBandLo, 100, kWalkBandHi}};
+  std::vector<Rect2> taken_table, taken_shelf, taken_floor;
+
+  // Core classes first (shuffled), then the extra ones, cycling when more objects are asked.
+  std::vector<ClassSpec> order[2] = {CoreClasses(), ExtraClasses()};
+  for (auto& list : order) {
+    for (size_t i = list.size(); i > 1; --i) std::swap(list[i - 1], list[rng.UniformInt(0, i - 1)]);
+  }
+  std::vector<ClassSpec> classes = order[0];
+  classes.insert(classes.end(), order[1].begin(), order[1].end());
+
+  for (int k = 0; k < options.num_objects; ++k) {
+    const ClassSpec& spec = classes[k % classes.size()];
+    SceneObject o;
+    o.id = 3 + k;
+    o.class_name = spec.name;
+    o.coco_class_id = spec.coco_id;
+    o.parts = BuildClassParts(spec.name, rng);
+    RestOnGround(&o.parts);
+    const bool face_front = spec.name == "tv" || spec.name == "laptop" || spec.name == "keyboard" ||
+                            spec.name == "clock";
+    // Preferred support: the allowed one furthest behind its share (table 55%, shelf 20%,
+    // floor 25%), so every scene has objects on all three; the others are fallbacks.
+    std::vector<std::pair<double, int>> choices;
+    const double n_placed = k + 1.0;
+    auto deficit = [&](double share, size_t have) {
+      return share * n_placed - static_cast<double>(have) + rng.Uniform(0, 0.1);
+    };
+    if (spec.supports & kOnTable) choices.push_back({deficit(0.55, taken_table.size()), kOnTable});
+    if (spec.supports & kOnShelf) choices.push_back({deficit(0.20, taken_shelf.size()), kOnShelf});
+    if (spec.supports & kOnFloor) choices.push_back({deficit(0.25, taken_floor.size()), kOnFloor});
+    std::sort(choices.rbegin(), choices.rend());
+    if (!(spec.supports & kOnFloor)) choices.push_back({-1.0, kOnFloor});  // last resort
+    bool placed = false;
+    for (const auto& [weight, where] : choices) {
+      if (where == kOnTable) {
+        placed = Place(&o, table_area, table_hi.z(), face_front, {}, &taken_table, rng);
+        o.on_id = table.id;
+      } else if (where == kOnShelf) {
+        placed = Place(&o, shelf_area, shelf_hi.z(), face_front, {}, &taken_shelf, rng);
+        o.on_id = shelf.id;
+      } else {
+        placed = Place(&o, floor_area, 0.0, false, floor_forbidden, &taken_floor, rng);
+        o.on_id = 0;
+      }
+      if (placed) break;
+    }
+    if (!placed) {
+      return absl::FailedPreconditionError(absl::StrCat("no free place for object ", k + 1, " (",
+                                                        spec.name, "); use fewer objects"));
+    }
+    Texturize(&s, &o, TextureStyle::kPrint, ObjectColor(k, hue0, rng), rng);
+    s.objects.push_back(std::move(o));
+  }
+
+  if (options.dynamic) {
+    // Own random stream: the rest of the scene is the same with and without the person.
+    Rng prng(Rng::Mix(options.seed, 0x9E750));
+    SceneObject person;
+    person.id = 3 + options.num_objects;
+    person.class_name = "person";
+    person.coco_class_id = 0;
+    person.dynamic = true;
+    person.parts = BuildPerson(prng.Uniform(1.65, 1.85));
+    const bool left_to_right = prng.Bernoulli(0.5);
+    const double x_end = kRoomMax.x() - 0.5;
+    person.walk_start_m =
+        Vec3d(left_to_right ? prng.Uniform(-x_end, -0.5) : prng.Uniform(0.5, x_end), kWalkY, 0.0);
+    person.walk_end_m = Vec3d(left_to_right ? x_end : -x_end, kWalkY, 0.0);
+    person.walk_speed_mps = prng.Uniform(0.9, 1.3);
+    Texturize(&s, &person, TextureStyle::kPrint, ObjectColor(options.num_objects, hue0, prng),
+              prng);
+    s.objects.push_back(std::move(person));
+    s.objects.back().T_world_obj = ObjectPoseAt(s, s.objects.back(), options.start_t_ns);
+  }
+
+  const SceneObject& t = s.objects.front();
+  const Vec3d target(t.T_world_obj.translation().x(), t.T_world_obj.translation().y(),
+                     table_hi.z());
+  Rng path_rng(Rng::Mix(options.seed, 0xCA3E7A));
+  s.camera_path = CameraPath::Random(target, path_rng);
+  return s;
+}
+
+int64_t FrameStampNs(const SceneOptions& options, int i) {
+  // Whole microseconds, so the stamps survive the 6-decimal TUM text files exactly.
+  return options.start_t_ns + std::llround(i * 1e6 / options.fps_hz) * 1000;
+}
+
+SE3d CameraPoseAt(const Scene& scene, int64_t t_ns) {
+  return scene.camera_path.PoseAt(NsToSeconds(t_ns - scene.options.start_t_ns));
+}
+
+SE3d ObjectPoseAt(const Scene& scene, const SceneObject& object, int64_t t_ns) {
+  if (!object.dynamic) return object.T_world_obj;
+  const Vec3d path = object.walk_end_m - object.walk_start_m;
+  const double len = path.norm();
+  if (len < 1e-9) return object.T_world_obj;
+  const Vec3d dir = path / len;
+  const double s =
+      std::fmod(std::max(0.0, NsToSeconds(t_ns - scene.options.start_t_ns)) * object.walk_speed_mps,
+                2.0 * len);
+  const bool outbound = s < len;
+  const Vec3d p =
+      outbound ? Vec3d(object.walk_start_m + dir * s) : Vec3d(object.walk_end_m - dir * (s - len));
+  const Vec3d heading = outbound ? dir : -dir;
+  // The object's front (-y) faces the walking direction.
+  return PoseXYYaw(p.x(), p.y(), p.z(), std::atan2(heading.y(), heading.x()) + M_PI / 2);
+}
+
+void ObjectAabb(const SceneObject& object, const SE3d& T_world_obj, Vec3d* min_m, Vec3d* max_m) {
+  PartsAabb(object.parts, T_world_obj, min_m, max_m);
+}
+
+GroundTruthScene ToGroundTruth(const Scene& scene) {
+  GroundTruthScene gt;
+  for (const SceneObject& o : scene.objects) {
+    GroundTruthObject g;
+    g.id = o.id;
+    g.class_name = o.class_name;
+    ObjectAabb(o, o.T_world_obj, &g.aabb_min_m, &g.aabb_max_m);
+    g.centroid_m = (g.aabb_min_m + g.aabb_max_m) / 2;
+    g.extent_m = g.aabb_max_m - g.aabb_min_m;
+    g.on_id = o.on_id;
+    g.dynamic = o.dynamic;
+    gt.objects.push_back(std::move(g));
+  }
+  return gt;
+}
+
+}  // namespace loci::synth
