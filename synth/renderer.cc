@@ -296,6 +296,7 @@ RenderedFrame Render(const Scene& scene, const SE3d& T_world_cam, const PinholeC
   RenderedFrame f;
   f.t_ns = t_ns;
   f.T_world_cam = T_world_cam;
+  if (!camera.Validate().ok()) return f;  // empty images
   const cv::Size size(camera.width_px, camera.height_px);
   f.bgr = cv::Mat(size, CV_8UC3, cv::Scalar(0, 0, 0));
   f.depth_m = cv::Mat(size, CV_32FC1, cv::Scalar(0));

@@ -24,7 +24,8 @@ struct RenderedFrame {
 
 // Renders the scene seen from T_world_cam at absolute stamp t_ns (dynamic objects move with
 // t_ns). Depth noise follows scene.options.depth_noise, seeded by (seed, t_ns), so a frame is
-// reproducible. num_threads 0 = scene.options.num_threads (0 there = all cores).
+// reproducible, and the result does not depend on the thread count. num_threads 0 =
+// scene.options.num_threads (0 there = all cores). An invalid camera gives empty images.
 RenderedFrame Render(const Scene& scene, const SE3d& T_world_cam, const PinholeCamera& camera,
                      int64_t t_ns, int num_threads = 0);
 

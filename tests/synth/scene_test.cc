@@ -245,5 +245,33 @@ TEST(SynthScene, DetectionsAreTheVisiblePixels) {
   EXPECT_TRUE(table_seen);
 }
 
+TEST(SynthScene, RenderIndependentOfThreadCount) {
+  SceneOptions o = Small(4);
+  o.depth_noise = true;
+  auto scene = MakeScene(o);
+  ASSERT_TRUE(scene.ok());
+  const int64_t t = FrameStampNs(o, 12);
+  const SE3d T = CameraPoseAt(*scene, t);
+  const RenderedFrame a = Render(*scene, T, scene->camera, t, 1);
+  const RenderedFrame b = Render(*scene, T, scene->camera, t, 3);
+  EXPECT_EQ(cv::norm(a.bgr, b.bgr, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(a.depth_u16, b.depth_u16, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(a.instance_id, b.instance_id, cv::NORM_INF), 0.0);
+  // Rendering at half size scales the intrinsics: same view, same objects.
+  PinholeCamera half = scene->camera;
+  half.fx /= 2, half.fy /= 2, half.cx = (half.cx + 0.5) / 2 - 0.5,
+                              half.cy = (half.cy + 0.5) / 2 - 0.5;
+  half.width_px /= 2, half.height_px /= 2;
+  const RenderedFrame c = Render(*scene, T, half, t);
+  ASSERT_EQ(c.bgr.cols, 320);
+  cv::Mat small_ids;
+  cv::resize(a.instance_id, small_ids, c.instance_id.size(), 0, 0, cv::INTER_NEAREST);
+  EXPECT_GT(cv::countNonZero(small_ids == c.instance_id), 320 * 240 * 9 / 10);
+  // An invalid camera is no crash, just nothing.
+  PinholeCamera bad = scene->camera;
+  bad.width_px = -5;
+  EXPECT_TRUE(Render(*scene, T, bad, t).bgr.empty());
+}
+
 }  // namespace
 }  // namespace loci::synth

@@ -99,7 +99,8 @@ TEST_F(SynthSequence, SameSeedSameBytesOtherSeedOtherScene) {
 }
 
 // Back-projects every detected object's masked pixels with the ground-truth pose: the points
-// must fall inside the object's world AABB (exact depth, 0.2 mm PNG steps, 1e-6 pose digits).
+// must fall inside the object's world AABB (exact depth, 0.2 mm PNG steps, 1e-6 pose digits;
+// a half-pixel error in the projection model already shows as 2-3 mm).
 TEST_F(SynthSequence, DepthAgreesWithObjectBoxes) {
   auto seq = LoadTumSequence(*dir_);
   auto gt = ReadObjectsJson(*dir_ + "/objects.json");
@@ -131,7 +132,7 @@ TEST_F(SynthSequence, DepthAgreesWithObjectBoxes) {
           ++checked;
         }
       }
-      EXPECT_LT(worst_m, 0.002) << d.class_name << " frame " << i;
+      EXPECT_LT(worst_m, 0.001) << d.class_name << " frame " << i;
     }
   }
   EXPECT_GT(checked, 50000);
