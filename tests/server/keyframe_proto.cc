@@ -1,0 +1,72 @@
+#include "tests/server/keyframe_proto.h"
+
+#include "common/image_codec.h"
+
+namespace loci::server::testing {
+
+loci::v1::OpenSessionRequest OpenRequest(const std::string& robot, const PinholeCamera& c,
+                                         bool resume) {
+  loci::v1::OpenSessionRequest req;
+  req.set_robot_name(robot);
+  auto* k = req.mutable_intrinsics();
+  k->set_fx(c.fx);
+  k->set_fy(c.fy);
+  k->set_cx(c.cx);
+  k->set_cy(c.cy);
+  k->set_width_px(c.width_px);
+  k->set_height_px(c.height_px);
+  req.set_depth_scale(5000.0);
+  req.set_client_version("server tests");
+  req.set_resume(resume);
+  return req;
+}
+
+loci::v1::Keyframe MakeKeyframeFromBytes(const std::string& session_id, int64_t seq, int64_t t_ns,
+                                         const SE3d& T, std::string rgb_jpeg, std::string depth_png,
+                                         const std::vector<Detection2D>& detections,
+                                         std::optional<Eigen::Vector3d> gravity_cam) {
+  loci::v1::Keyframe kf;
+  kf.set_session_id(session_id);
+  kf.set_seq(seq);
+  kf.set_t_ns(t_ns);
+  auto* p = kf.mutable_t_odom_cam();
+  p->mutable_t_m()->set_x(T.translation().x());
+  p->mutable_t_m()->set_y(T.translation().y());
+  p->mutable_t_m()->set_z(T.translation().z());
+  const Quatd q = QuatOf(T);
+  p->set_qw(q.w());
+  p->set_qx(q.x());
+  p->set_qy(q.y());
+  p->set_qz(q.z());
+  kf.set_rgb_jpeg(std::move(rgb_jpeg));
+  kf.set_depth_png(std::move(depth_png));
+  if (gravity_cam) {
+    kf.set_has_gravity(true);
+    kf.mutable_gravity_cam()->set_x(gravity_cam->x());
+    kf.mutable_gravity_cam()->set_y(gravity_cam->y());
+    kf.mutable_gravity_cam()->set_z(gravity_cam->z());
+  }
+  for (const Detection2D& d : detections) {
+    auto* o = kf.add_detections();
+    o->set_class_id(d.class_id);
+    o->set_class_name(d.class_name);
+    o->set_score(d.score);
+    o->mutable_box()->set_x(d.box_px.x);
+    o->mutable_box()->set_y(d.box_px.y);
+    o->mutable_box()->set_width(d.box_px.width);
+    o->mutable_box()->set_height(d.box_px.height);
+    o->set_track_id(d.track_id);
+    if (!d.mask.empty()) o->set_mask_png(*EncodeMaskPng(d.mask));
+  }
+  return kf;
+}
+
+loci::v1::Keyframe MakeKeyframe(const std::string& session_id, int64_t seq, int64_t t_ns,
+                                const SE3d& T, const cv::Mat& bgr, const cv::Mat& depth_u16,
+                                const std::vector<Detection2D>& detections,
+                                std::optional<Eigen::Vector3d> gravity_cam) {
+  return MakeKeyframeFromBytes(session_id, seq, t_ns, T, *EncodeJpeg(bgr, 95),
+                               *EncodeDepthPng(depth_u16), detections, gravity_cam);
+}
+
+}  // namespace loci::server::testing

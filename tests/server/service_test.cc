@@ -1,0 +1,309 @@
+// The gRPC services in process on 127.0.0.1 (port 0): ingest, acknowledgements, duplicates,
+// malformed keyframes, the message size limit, resume, queries and object events.
+#include <grpcpp/create_channel.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <thread>
+
+#include "common/image_codec.h"
+#include "loci/v1/mapping.grpc.pb.h"
+#include "loci/v1/query.grpc.pb.h"
+#include "server/service/grpc_server.h"
+#include "server/service/map_server.h"
+#include "tests/server/box_world.h"
+#include "tests/server/keyframe_proto.h"
+
+namespace loci::server {
+namespace {
+
+using loci::v1::Keyframe;
+using loci::v1::KeyframeAck;
+
+class ServiceTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    db_ = ::testing::TempDir() + "/service_" +
+          ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".db";
+    for (const char* s : {"", "-wal", "-shm"}) std::filesystem::remove(db_ + s);
+    Start();
+    const auto boxes = testing::DefaultBoxes(false);
+    for (int i = 0; i < 6; ++i) {
+      const double az = (-120.0 + 12.0 * i) * M_PI / 180.0;
+      const Eigen::Vector3d target(0.1, 0.05, 0.05);
+      poses_.push_back(testing::LookAt(
+          target + Eigen::Vector3d(1.4 * std::cos(az), 1.4 * std::sin(az), 0.9), target));
+      views_.push_back(testing::Render(boxes, camera_, poses_.back(), true));
+    }
+  }
+  void TearDown() override { Stop(); }
+
+  void Start() {
+    ServerOptions o;
+    o.db_path = db_;
+    o.map.mapped_classes = {"book", "cup", "laptop"};
+    auto s = MapServer::Open(o);
+    ASSERT_TRUE(s.ok()) << s.status();
+    server_ = std::move(*s);
+    auto g = GrpcServer::Start(server_.get(), "127.0.0.1:0", o.max_message_mb);
+    ASSERT_TRUE(g.ok()) << g.status();
+    grpc_ = std::move(*g);
+    grpc::ChannelArguments args;
+    args.SetMaxReceiveMessageSize(-1);
+    args.SetMaxSendMessageSize(-1);
+    auto channel = grpc::CreateCustomChannel(absl::StrCat("127.0.0.1:", grpc_->port()),
+                                             grpc::InsecureChannelCredentials(), args);
+    mapping_ = loci::v1::Mapping::NewStub(channel);
+    query_ = loci::v1::Query::NewStub(channel);
+  }
+  void Stop() {
+    grpc_.reset();
+    server_.reset();
+  }
+
+  std::string Open(bool resume = false, int64_t* last_seq = nullptr) {
+    grpc::ClientContext ctx;
+    loci::v1::OpenSessionResponse resp;
+    const grpc::Status s =
+        mapping_->OpenSession(&ctx, testing::OpenRequest("robot1", camera_, resume), &resp);
+    EXPECT_TRUE(s.ok()) << s.error_message();
+    if (last_seq) *last_seq = resp.last_stored_seq();
+    return resp.session_id();
+  }
+
+  Keyframe Frame(const std::string& session, int i) {
+    return testing::MakeKeyframe(session, i, 1'000'000'000LL * (i + 1), poses_[i % 6],
+                                 views_[i % 6].bgr, views_[i % 6].depth_u16,
+                                 views_[i % 6].detections,
+                                 poses_[i % 6].rotation().transpose() * Eigen::Vector3d(0, 0, -1));
+  }
+
+  // Sends every keyframe on one stream; returns the acks.
+  std::vector<KeyframeAck> Send(const std::vector<Keyframe>& frames, grpc::Status* final_status) {
+    grpc::ClientContext ctx;
+    auto stream = mapping_->StreamKeyframes(&ctx);
+    std::vector<KeyframeAck> acks;
+    for (const Keyframe& kf : frames) {
+      if (!stream->Write(kf)) break;
+      KeyframeAck ack;
+      if (!stream->Read(&ack)) break;
+      acks.push_back(ack);
+    }
+    stream->WritesDone();
+    *final_status = stream->Finish();
+    return acks;
+  }
+
+  uint64_t StoredKeyframes() { return *server_->store().CountKeyframes(std::nullopt); }
+
+  PinholeCamera camera_ = PinholeCamera::TumFr1();
+  std::string db_;
+  std::vector<SE3d> poses_;
+  std::vector<testing::RenderedView> views_;
+  std::unique_ptr<MapServer> server_;
+  std::unique_ptr<GrpcServer> grpc_;
+  std::unique_ptr<loci::v1::Mapping::Stub> mapping_;
+  std::unique_ptr<loci::v1::Query::Stub> query_;
+};
+
+TEST_F(ServiceTest, IngestAcksDeduplicatesAndAnswersQueries) {
+  const std::string session = Open();
+  std::vector<Keyframe> frames;
+  for (int i = 0; i < 6; ++i) frames.push_back(Frame(session, i));
+  frames.push_back(Frame(session, 2));  // a resend after a reconnect
+  grpc::Status st;
+  const auto acks = Send(frames, &st);
+  ASSERT_TRUE(st.ok()) << st.error_message();
+  ASSERT_EQ(acks.size(), 7u);
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_EQ(acks[i].status().code(), 0) << acks[i].status().message();
+    EXPECT_EQ(acks[i].seq(), i);
+    EXPECT_FALSE(acks[i].duplicate());
+  }
+  EXPECT_TRUE(acks[6].duplicate());
+  EXPECT_EQ(acks[6].keyframe_id(), acks[2].keyframe_id());
+  EXPECT_EQ(StoredKeyframes(), 6u);
+  server_->Flush();
+
+  grpc::ClientContext c1;
+  loci::v1::FindObjectsRequest find;
+  find.set_confirmed_only(true);
+  loci::v1::FindObjectsResponse found;
+  ASSERT_TRUE(query_->FindObjects(&c1, find, &found).ok());
+  ASSERT_EQ(found.objects_size(), 3);
+  int64_t cup_id = 0;
+  for (const auto& o : found.objects()) {
+    if (o.class_name() == "cup") {
+      cup_id = o.id();
+      EXPECT_NEAR(o.centroid_m().x(), 0.04, 0.02);
+      EXPECT_NEAR(o.centroid_m().z(), 0.06, 0.02);
+      EXPECT_EQ(o.robots(0), "robot1");
+    }
+  }
+  ASSERT_NE(cup_id, 0);
+  // Radius filter around the book, class filter.
+  grpc::ClientContext c2;
+  find.mutable_near_center_m()->set_x(-0.35);
+  find.mutable_near_center_m()->set_y(0.075);
+  find.set_radius_m(0.1);
+  found.Clear();
+  ASSERT_TRUE(query_->FindObjects(&c2, find, &found).ok());
+  ASSERT_EQ(found.objects_size(), 1);
+  EXPECT_EQ(found.objects(0).class_name(), "book");
+
+  grpc::ClientContext c3;
+  loci::v1::GetObjectRequest get;
+  get.set_id(cup_id);
+  get.set_with_cloud(true);
+  loci::v1::GetObjectResponse obj;
+  ASSERT_TRUE(query_->GetObject(&c3, get, &obj).ok());
+  EXPECT_GT(obj.cloud_size(), 20);
+  EXPECT_EQ(obj.keyframe_ids_size(), 6);
+  grpc::ClientContext c4;
+  get.set_id(12345);
+  EXPECT_EQ(query_->GetObject(&c4, get, &obj).error_code(), grpc::StatusCode::NOT_FOUND);
+
+  grpc::ClientContext c5;
+  loci::v1::GetCloudRequest cloud_req;
+  cloud_req.add_classes("background");
+  loci::v1::GetCloudResponse cloud;
+  ASSERT_TRUE(query_->GetCloud(&c5, cloud_req, &cloud).ok());
+  ASSERT_GT(cloud.points_size(), 1000);
+  for (const auto& p : cloud.points()) ASSERT_EQ(p.object_id(), 0);
+
+  grpc::ClientContext c6;
+  loci::v1::GetOctomapResponse octo;
+  ASSERT_TRUE(query_->GetOctomap(&c6, {}, &octo).ok());
+  EXPECT_GT(octo.octomap_bt().size(), 100u);
+  EXPECT_DOUBLE_EQ(octo.resolution_m(), 0.05);
+
+  grpc::ClientContext c7;
+  loci::v1::GetStatsResponse stats;
+  ASSERT_TRUE(query_->GetStats(&c7, {}, &stats).ok());
+  EXPECT_EQ(stats.keyframes(), 6u);
+  EXPECT_EQ(stats.sessions(), 1u);
+  EXPECT_EQ(stats.confirmed_objects(), 3u);
+  EXPECT_GT(stats.db_bytes(), 0u);
+
+  grpc::ClientContext c8;
+  loci::v1::AskRequest ask;
+  ask.set_text("where is the cup");
+  loci::v1::AskResponse answer;
+  ASSERT_TRUE(query_->Ask(&c8, ask, &answer).ok());
+  EXPECT_EQ(answer.status().code(), static_cast<int>(absl::StatusCode::kFailedPrecondition));
+  EXPECT_NE(answer.status().message().find("query engine"), std::string::npos);
+}
+
+TEST_F(ServiceTest, MalformedKeyframesAreRejectedAndChangeNothing) {
+  const std::string session = Open();
+  std::vector<Keyframe> frames;
+  frames.push_back(Frame(session, 0));
+  Keyframe corrupt = Frame(session, 1);
+  corrupt.set_rgb_jpeg(corrupt.rgb_jpeg().substr(0, 200));
+  frames.push_back(corrupt);
+  Keyframe wrong_depth = Frame(session, 2);
+  cv::Mat small(240, 320, CV_16UC1, cv::Scalar(5000));
+  wrong_depth.set_depth_png(*EncodeDepthPng(small));
+  frames.push_back(wrong_depth);
+  Keyframe nan_pose = Frame(session, 3);
+  nan_pose.mutable_t_odom_cam()->set_qx(std::nan(""));
+  frames.push_back(nan_pose);
+  Keyframe unknown = Frame("no-such-session", 4);
+  frames.push_back(unknown);
+  Keyframe bad_mask = Frame(session, 5);
+  bad_mask.mutable_detections(0)->set_mask_png("not a png");
+  frames.push_back(bad_mask);
+  frames.push_back(Frame(session, 6));  // the stream still works
+
+  grpc::Status st;
+  const auto acks = Send(frames, &st);
+  ASSERT_TRUE(st.ok());
+  ASSERT_EQ(acks.size(), 7u);
+  EXPECT_EQ(acks[0].status().code(), 0);
+  const int kInvalid = static_cast<int>(absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(acks[1].status().code(), kInvalid);
+  EXPECT_NE(acks[1].status().message().find("rgb_jpeg"), std::string::npos);
+  EXPECT_EQ(acks[2].status().code(), kInvalid);
+  EXPECT_NE(acks[2].status().message().find("depth_png"), std::string::npos);
+  EXPECT_EQ(acks[3].status().code(), kInvalid);
+  EXPECT_NE(acks[3].status().message().find("quaternion"), std::string::npos);
+  EXPECT_EQ(acks[4].status().code(), static_cast<int>(absl::StatusCode::kNotFound));
+  EXPECT_EQ(acks[5].status().code(), kInvalid);
+  EXPECT_NE(acks[5].status().message().find("mask"), std::string::npos);
+  for (int i = 1; i <= 5; ++i) EXPECT_EQ(acks[i].keyframe_id(), 0);
+  EXPECT_EQ(acks[6].status().code(), 0);
+  EXPECT_EQ(StoredKeyframes(), 2u);
+
+  // 200 MB in one message: refused by gRPC's receive limit; the server lives on.
+  Keyframe huge = Frame(session, 7);
+  huge.set_rgb_jpeg(std::string(200u << 20, 'x'));
+  grpc::Status huge_status;
+  const auto huge_acks = Send({huge}, &huge_status);
+  EXPECT_TRUE(huge_acks.empty());
+  EXPECT_EQ(huge_status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED)
+      << huge_status.error_message();
+  const auto after = Send({Frame(session, 8)}, &st);
+  ASSERT_EQ(after.size(), 1u);
+  EXPECT_EQ(after[0].status().code(), 0);
+  EXPECT_EQ(StoredKeyframes(), 3u);
+}
+
+TEST_F(ServiceTest, ResumeAfterRestartReturnsLastStoredSeqAndSameObjects) {
+  const std::string session = Open();
+  grpc::Status st;
+  Send({Frame(session, 0), Frame(session, 1), Frame(session, 2), Frame(session, 3)}, &st);
+  server_->Flush();
+  const auto before = server_->mapper().Snapshot(true);
+  ASSERT_EQ(before.size(), 3u);
+  Stop();
+  Start();  // same DB: the map is rebuilt from the stored keyframes
+  EXPECT_EQ(server_->replayed_keyframes(), 4u);
+  const auto after = server_->mapper().Snapshot(true);
+  ASSERT_EQ(after.size(), before.size());
+  for (size_t i = 0; i < before.size(); ++i) {
+    EXPECT_EQ(after[i].id, before[i].id);
+    EXPECT_EQ(after[i].class_name, before[i].class_name);
+    EXPECT_TRUE(after[i].centroid_m.isApprox(before[i].centroid_m, 1e-9));
+  }
+  int64_t last_seq = 0;
+  EXPECT_EQ(Open(/*resume=*/true, &last_seq), session);
+  EXPECT_EQ(last_seq, 3);
+  const auto acks = Send({Frame(session, 3), Frame(session, 4)}, &st);
+  ASSERT_EQ(acks.size(), 2u);
+  EXPECT_TRUE(acks[0].duplicate());
+  EXPECT_FALSE(acks[1].duplicate());
+  EXPECT_EQ(StoredKeyframes(), 5u);
+}
+
+TEST_F(ServiceTest, WatchObjectsStreamsCreatedEvents) {
+  grpc::ClientContext watch_ctx;
+  auto reader = query_->WatchObjects(&watch_ctx, {});
+  // The watcher is registered once the call is running on the server.
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const std::string session = Open();
+  grpc::Status st;
+  Send({Frame(session, 0)}, &st);
+  server_->Flush();
+  loci::v1::ObjectEvent event;
+  ASSERT_TRUE(reader->Read(&event));
+  EXPECT_EQ(event.kind(), loci::v1::ObjectEvent::CREATED);
+  EXPECT_FALSE(event.object().class_name().empty());
+  watch_ctx.TryCancel();
+  reader->Finish();
+}
+
+TEST_F(ServiceTest, OpenSessionValidatesItsRequest) {
+  grpc::ClientContext ctx;
+  loci::v1::OpenSessionResponse resp;
+  EXPECT_EQ(
+      mapping_->OpenSession(&ctx, testing::OpenRequest("bad name!", camera_), &resp).error_code(),
+      grpc::StatusCode::INVALID_ARGUMENT);
+  grpc::ClientContext ctx2;
+  PinholeCamera bad = camera_;
+  bad.fx = -1;
+  EXPECT_EQ(mapping_->OpenSession(&ctx2, testing::OpenRequest("r", bad), &resp).error_code(),
+            grpc::StatusCode::INVALID_ARGUMENT);
+}
+
+}  // namespace
+}  // namespace loci::server
