@@ -37,6 +37,16 @@ struct MaskOptions {
   // the mask, pixels; 0 or 1 = no morphology. Default 3.
   int morph_kernel_px = 3;
 
+  // Support-plane removal: a plane fitted (RANSAC on inverse depth, which is affine in the
+  // pixel coordinates for any plane) to the mask pixels near the box border is removed when
+  // it does not also cover the box centre: the table under a keyboard, the floor behind a
+  // chair. Default true.
+  bool remove_support_plane = true;
+  // Plane inlier tolerance: max(plane_tolerance_m, plane_tolerance_sigma * sigma(z)) with the
+  // Kinect noise sigma(z) = 0.0015 z^2 m. Defaults 0.008 m and 2.5.
+  float plane_tolerance_m = 0.008f;
+  float plane_tolerance_sigma = 2.5f;
+
   static StatusOr<MaskOptions> FromYaml(const YAML::Node& node);
   Status Validate() const;
 };

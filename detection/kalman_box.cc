@@ -10,23 +10,32 @@ KalmanBoxFilter::Meas KalmanBoxFilter::ToMeas(const cv::Rect2f& b) {
   return {b.x + b.width * 0.5, b.y + b.height * 0.5, b.width / h, h};
 }
 
+double KalmanBoxFilter::PosStd(double scale) const {
+  return std::max(scale * w_pos_ * x_(3), scale * min_pos_px_);
+}
+
+double KalmanBoxFilter::VelStd(double scale) const {
+  return std::max(scale * w_vel_ * x_(3), min_vel_px_);
+}
+
 KalmanBoxFilter::KalmanBoxFilter(const cv::Rect2f& box_px, double std_weight_position,
-                                 double std_weight_velocity)
-    : w_pos_(std_weight_position), w_vel_(std_weight_velocity) {
+                                 double std_weight_velocity, double min_position_std_px,
+                                 double min_velocity_std_px)
+    : w_pos_(std_weight_position),
+      w_vel_(std_weight_velocity),
+      min_pos_px_(min_position_std_px),
+      min_vel_px_(min_velocity_std_px) {
   const Meas z = ToMeas(box_px);
   x_.setZero();
   x_.head<4>() = z;
-  const double h = z(3);
   State sd;
-  sd << 2 * w_pos_ * h, 2 * w_pos_ * h, 1e-2, 2 * w_pos_ * h, 10 * w_vel_ * h, 10 * w_vel_ * h,
-      1e-5, 10 * w_vel_ * h;
+  sd << PosStd(2), PosStd(2), 1e-2, PosStd(2), VelStd(10), VelStd(10), 1e-5, VelStd(10);
   P_ = sd.cwiseAbs2().asDiagonal();
 }
 
 void KalmanBoxFilter::Predict() {
-  const double h = x_(3);
   State sd;
-  sd << w_pos_ * h, w_pos_ * h, 1e-2, w_pos_ * h, w_vel_ * h, w_vel_ * h, 1e-5, w_vel_ * h;
+  sd << PosStd(1), PosStd(1), 1e-2, PosStd(1), VelStd(1), VelStd(1), 1e-5, VelStd(1);
   // A = [I I; 0 I]: x_k = x_{k-1} + v (eq. 1), P = A P A^T + Q (eq. 2).
   Cov A = Cov::Identity();
   A.topRightCorner<4, 4>().setIdentity();
@@ -36,8 +45,7 @@ void KalmanBoxFilter::Predict() {
 }
 
 Eigen::Matrix4d KalmanBoxFilter::MeasurementNoise() const {
-  const double h = x_(3);
-  Eigen::Vector4d sd(w_pos_ * h, w_pos_ * h, 1e-1, w_pos_ * h);
+  Eigen::Vector4d sd(PosStd(1), PosStd(1), 1e-1, PosStd(1));
   return sd.cwiseAbs2().asDiagonal();
 }
 

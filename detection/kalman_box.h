@@ -16,9 +16,11 @@ class KalmanBoxFilter {
   using Meas = Eigen::Matrix<double, 4, 1>;
 
   // std_weight_position / std_weight_velocity: noise std as a fraction of the box height
-  // (DeepSORT: 1/20 and 1/160).
+  // (DeepSORT: 1/20 and 1/160), floored at min_position_std_px / min_velocity_std_px (pixels,
+  // pixels per step) so small boxes still allow for camera ego-motion between keyframes.
   explicit KalmanBoxFilter(const cv::Rect2f& box_px, double std_weight_position = 1.0 / 20,
-                           double std_weight_velocity = 1.0 / 160);
+                           double std_weight_velocity = 1.0 / 160, double min_position_std_px = 0.0,
+                           double min_velocity_std_px = 0.0);
 
   // Eqs. 1-2: x = A x, P = A P A^T + Q (one step).
   void Predict();
@@ -37,7 +39,10 @@ class KalmanBoxFilter {
  private:
   Eigen::Matrix4d MeasurementNoise() const;
 
-  double w_pos_, w_vel_;
+  double PosStd(double scale) const;
+  double VelStd(double scale) const;
+
+  double w_pos_, w_vel_, min_pos_px_, min_vel_px_;
   State x_;
   Cov P_;
 };

@@ -24,6 +24,8 @@ StatusOr<TrackerOptions> TrackerOptions::FromYaml(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "appearance_momentum", &o.appearance_momentum));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "std_weight_position", &o.std_weight_position));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "std_weight_velocity", &o.std_weight_velocity));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "min_position_std_px", &o.min_position_std_px));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "min_velocity_std_px", &o.min_velocity_std_px));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "hue_bins", &o.appearance.hue_bins));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "saturation_bins", &o.appearance.saturation_bins));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "min_saturation", &o.appearance.min_saturation));
@@ -40,7 +42,8 @@ Status TrackerOptions::Validate() const {
       !(max_iou_distance > 0.0 && max_iou_distance <= 1.0) ||
       !(appearance_momentum >= 0.0 && appearance_momentum < 1.0) ||
       !(max_appearance_distance > 0.0) || !(std_weight_position > 0.0) ||
-      !(std_weight_velocity > 0.0)) {
+      !(std_weight_velocity > 0.0) || !(min_position_std_px >= 0.0) ||
+      !(min_velocity_std_px >= 0.0)) {
     return absl::InvalidArgumentError("tracker: a gate, weight or noise parameter is out of range");
   }
   if (appearance.hue_bins < 1 || appearance.saturation_bins < 1 || appearance.max_side_px < 1) {
@@ -117,7 +120,7 @@ void MultiObjectTracker::Update(const cv::Mat& bgr, std::vector<Detection2D>* de
   for (size_t i = 0; i < dets.size(); ++i) unmatched_dets[i] = static_cast<int>(i);
   std::vector<std::pair<int, int>> matches;
   std::vector<char> matched_track(tracks_.size(), false);
-  for (int level = 1; level <= options_.max_age && !unmatched_dets.empty(); ++level) {
+  for (int level = 1; level <= options_.max_age + 1 && !unmatched_dets.empty(); ++level) {
     std::vector<int> level_tracks;
     for (size_t i = 0; i < tracks_.size(); ++i) {
       if (tracks_[i].state == Track::State::kConfirmed && tracks_[i].time_since_update == level) {
@@ -140,7 +143,11 @@ void MultiObjectTracker::Update(const cv::Mat& bgr, std::vector<Detection2D>* de
     const Track& t = tracks_[ti];
     if (t.class_id != dets[di].class_id || t.class_name != dets[di].class_name) return kForbidden;
     const double dist = 1.0 - BoxIou(predicted[ti], dets[di].box_px);
-    return dist <= options_.max_iou_distance ? dist : kForbidden;
+    if (dist <= options_.max_iou_distance) return dist;
+    // A young track has no velocity yet: fall back to the cascade cost (Mahalanobis-gated,
+    // with appearance), offset so IoU matches are preferred.
+    const double c = cascade_cost(ti, di);
+    return c < kForbidden ? 1.0 + c : kForbidden;
   };
   const size_t first_stage = matches.size();
   Match(iou_tracks, &unmatched_dets, iou_cost, &matches);
@@ -184,7 +191,8 @@ void MultiObjectTracker::Update(const cv::Mat& bgr, std::vector<Detection2D>* de
   // New tentative tracks from the leftover detections.
   for (int di : unmatched_dets) {
     Track t{.kf = KalmanBoxFilter(dets[di].box_px, options_.std_weight_position,
-                                  options_.std_weight_velocity)};
+                                  options_.std_weight_velocity, options_.min_position_std_px,
+                                  options_.min_velocity_std_px)};
     t.class_id = dets[di].class_id;
     t.class_name = dets[di].class_name;
     t.hits = 1;

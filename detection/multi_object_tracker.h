@@ -21,7 +21,8 @@ namespace loci::detection {
 struct TrackerOptions {
   // Hits before a track is confirmed and its id is reported. Default 2 (keyframes are sparse).
   int n_init = 2;
-  // Updates a confirmed track may go unmatched before it is deleted. Default 30.
+  // Consecutive updates a confirmed track may miss and still be matched again; one more miss
+  // deletes it. Default 30.
   int max_age = 30;
   // Motion gate: a pair is feasible when IoU(predicted, detection) >= min_iou or the squared
   // Mahalanobis distance <= mahalanobis_gate (chi-square 4 dof, 95 % = 9.4877).
@@ -41,6 +42,11 @@ struct TrackerOptions {
   // Kalman noise as fractions of the box height (DeepSORT values).
   double std_weight_position = 1.0 / 20;
   double std_weight_velocity = 1.0 / 160;
+  // Floors of those noises in pixels (position) and pixels per update (velocity): between
+  // keyframes a hand-held camera shifts every box by tens of pixels, whatever its size.
+  // Defaults 2 px and 4 px.
+  double min_position_std_px = 2.0;
+  double min_velocity_std_px = 4.0;
   AppearanceOptions appearance;
 
   static StatusOr<TrackerOptions> FromYaml(const YAML::Node& node);
