@@ -13,4 +13,8 @@ void RegisterEvalCommands(CLI::App& app);
 // `loci synth` (synth/): synthetic RGB-D sequences with ground truth.
 void RegisterSynthCommands(CLI::App& app);
 
+// `loci detect` and `loci bench detect` (detection/); the bench group is reused.
+void RegisterDetectCommand(CLI::App& app);
+void RegisterBenchDetectCommand(CLI::App& app);
+
 }  // namespace loci::cli

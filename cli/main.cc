@@ -20,6 +20,8 @@ int main(int argc, char** argv) {
 
   loci::cli::RegisterEvalCommands(app);
   loci::cli::RegisterSynthCommands(app);
+  loci::cli::RegisterDetectCommand(app);
+  loci::cli::RegisterBenchDetectCommand(app);
 
   CLI11_PARSE(app, argc, argv);
   return loci::cli::ExitCode();

@@ -190,15 +190,21 @@ cv::Mat SegmentObjectDepth(const cv::Mat& depth, const cv::Rect2f& box_px, const
   const double cy = box_px.y + box_px.height * 0.5 - roi.y;
   const double sx = std::max(1.0, double{o.centre_sigma_rel} * box_px.width);
   const double sy = std::max(1.0, double{o.centre_sigma_rel} * box_px.height);
+  // The Gaussian is separable: exp(-(dx^2 + dy^2) / 2) = wx(u) * wy(v).
+  std::vector<float> wx(roi.width);
+  for (int u = 0; u < roi.width; ++u) {
+    const double dx = (u + 0.5 - cx) / sx;
+    wx[u] = static_cast<float>(std::exp(-0.5 * dx * dx));
+  }
   int valid = 0;
   for (int v = 0; v < roi.height; ++v) {
     const float* d = depth_m.ptr<float>(v);
     int* b = bin_of.ptr<int>(v);
     float* w = weight.ptr<float>(v);
     const double dy = (v + 0.5 - cy) / sy;
+    const float wy = static_cast<float>(std::exp(-0.5 * dy * dy));
     for (int u = 0; u < roi.width; ++u) {
-      const double dx = (u + 0.5 - cx) / sx;
-      w[u] = static_cast<float>(std::exp(-0.5 * (dx * dx + dy * dy)));
+      w[u] = wx[u] * wy;
       if (!(d[u] >= o.min_depth_m && d[u] <= o.max_depth_m)) continue;
       b[u] = std::clamp(static_cast<int>((std::log(d[u]) - log_min) / log_step), 0, num_bins - 1);
       hist[b[u]] += w[u];
