@@ -24,6 +24,7 @@ struct MapPoint {
   int found = 1;                 // frames in which it was matched
   int dynamic_votes = 0;         // times the dynamic test flagged it
   int num_keyframes = 0;         // window keyframes observing it
+  double weight = 0;             // sum of 1/sigma^2 (m^-2) of the depth measurements averaged
   // Last matched observation (for the epipolar test): pixel and the frame's T_world_cam.
   Eigen::Vector2d last_uv_px = Eigen::Vector2d::Zero();
   SE3d last_T_world_cam = SE3d::Identity();

@@ -94,7 +94,22 @@ OrbFrame OrbExtractor::Extract(const cv::Mat& gray, const cv::Mat& depth_m, int6
     const int v = static_cast<int>(std::lround(kp.pt.y));
     if (depth_m.empty() || u < 0 || v < 0 || u >= depth_m.cols || v >= depth_m.rows) continue;
     const float z = depth_m.at<float>(v, u);
-    if (z >= opt_.min_depth_m && z <= opt_.max_depth_m) {
+    if (z < opt_.min_depth_m || z > opt_.max_depth_m) continue;
+    // Corners often sit on depth edges, where the (not exactly synchronised) depth image mixes
+    // foreground and background: keep the depth only when the 3x3 neighbourhood agrees.
+    bool consistent = true;
+    for (int dv = -1; dv <= 1 && consistent; ++dv) {
+      for (int du = -1; du <= 1; ++du) {
+        const int uu = std::clamp(u + du, 0, depth_m.cols - 1);
+        const int vv = std::clamp(v + dv, 0, depth_m.rows - 1);
+        const float zn = depth_m.at<float>(vv, uu);
+        if (zn <= 0 || std::abs(zn - z) > opt_.depth_edge_ratio * z) {
+          consistent = false;
+          break;
+        }
+      }
+    }
+    if (consistent) {
       f.depth_m[i] = z;
       f.p_cam[i] = cam.BackProject(kp.pt.x, kp.pt.y, z);
     }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <unordered_set>
 
 #include <opencv2/calib3d.hpp>
@@ -51,6 +52,17 @@ int PnpRansac(const std::vector<cv::Point3f>& obj, const std::vector<cv::Point2f
   if (!IsFinite(T)) return 0;
   *T_cw = T;
   return static_cast<int>(inliers.size());
+}
+
+// Observations whose reprojection error under T_cw is below max_px.
+int CountInliers(const PinholeCamera& cam, const std::vector<PoseObservation>& obs,
+                 const SE3d& T_cw, double max_px) {
+  int n = 0;
+  for (const PoseObservation& o : obs) {
+    const auto uv = cam.Project(T_cw * o.p_world);
+    n += uv && (*uv - o.uv_px).squaredNorm() <= max_px * max_px;
+  }
+  return n;
 }
 
 }  // namespace
@@ -235,12 +247,12 @@ int Tracker::TrackLocalMap(const OrbFrame& frame, const SE3d& T_cw_init, SE3d* T
   SE3d T_pnp = T_cw_init;
   const int pnp_inliers =
       PnpRansac(obj, img, cam, opt_.pnp_iterations, opt_.pnp_reproj_px, &T_pnp);
-  // Keep the prediction when RANSAC explains fewer matches than the prediction does.
-  PoseRefineResult a = RefinePose(cam, bf, obs, T_start);
-  if (pnp_inliers >= opt_.min_inliers) {
-    PoseRefineResult b = RefinePose(cam, bf, obs, T_pnp);
-    if (b.num_inliers > a.num_inliers) a = std::move(b);
+  // Start from whichever of the prediction and the RANSAC pose explains more matches.
+  if (pnp_inliers >= opt_.min_inliers && CountInliers(cam, obs, T_pnp, opt_.pnp_reproj_px) >
+                                             CountInliers(cam, obs, T_start, opt_.pnp_reproj_px)) {
+    T_start = T_pnp;
   }
+  PoseRefineResult a = RefinePose(cam, bf, obs, T_start);
   if (a.num_inliers < opt_.min_inliers) return a.num_inliers;
   *T_cw = a.T_cam_world;
 
@@ -310,16 +322,22 @@ bool Tracker::NeedKeyframe(const OrbFrame& frame, const SE3d& T_cw,
   const bool moved = RotationAngleRad(T_kf_cur) > k.min_rotation_rad ||
                      T_kf_cur.translation().norm() > k.min_translation_m;
   if (!moved) return false;
-  // Eq. (7): static co-visibility index mu = |N1 and N2| / N1 with N1 the keyframe's static points.
+  // Eq. (7): static co-visibility index mu = |N1 and N2| / N1, N1 = static features of this
+  // frame (with depth, not dynamic), N2 = static points of the last keyframe.
   std::unordered_set<int64_t> kf_points(last->point_ids.begin(), last->point_ids.end());
-  int common = 0;
+  int common = 0, dynamic = 0;
   std::vector<char> matched(frame.size(), 0);
   for (const PointMatch& m : matches) {
     matched[m.kp] = 1;
+    if (m.dynamic) ++dynamic;
     if (m.inlier && !m.dynamic && kf_points.count(m.point->id)) ++common;
   }
+  int static_features = -dynamic;
+  for (size_t i = 0; i < frame.size(); ++i) {
+    static_features += frame.depth_m[i] > 0 && !dynamic_.IsPriorDynamic(frame.class_weight[i]);
+  }
   const double mu =
-      kf_points.empty() ? 0.0 : static_cast<double>(common) / static_cast<double>(kf_points.size());
+      static_features <= 0 ? 0.0 : static_cast<double>(common) / static_features;
   int new_points = 0;
   for (size_t i = 0; i < frame.size(); ++i) new_points += !matched[i] && frame.depth_m[i] > 0;
   return mu < k.max_covisibility && new_points > k.min_new_points;
@@ -338,7 +356,17 @@ void Tracker::CreateKeyframe(OrbFrame frame, const SE3d& T_cw,
     // The newest view describes the point best for the frames that follow.
     m.point->descriptor = frame.descriptors[m.kp];
     m.point->octave = frame.keypoints[m.kp].octave;
-    if (frame.depth_m[m.kp] > 0) m.point->ref_depth_m = frame.depth_m[m.kp];
+    if (frame.depth_m[m.kp] > 0) {
+      m.point->ref_depth_m = frame.depth_m[m.kp];
+      // Depth noise grows with z^2 (Kinect): average the keyframes' measurements of the point
+      // with inverse-variance weights, which removes most of a single view's depth noise.
+      const double z = frame.depth_m[m.kp];
+      const double w = 1.0 / (z * z * z * z);
+      if (m.point->weight <= 0) m.point->weight = w;
+      const Vec3d p_new = kf->T_world_cam * frame.p_cam[m.kp];
+      m.point->p_world = (m.point->p_world * m.point->weight + p_new * w) / (m.point->weight + w);
+      m.point->weight += w;
+    }
     kf->point_ids.push_back(m.point->id);
   }
   for (size_t i = 0; i < frame.size(); ++i) {
@@ -350,6 +378,7 @@ void Tracker::CreateKeyframe(OrbFrame frame, const SE3d& T_cw,
     p->last_uv_px = Eigen::Vector2d(frame.keypoints[i].pt.x, frame.keypoints[i].pt.y);
     p->last_T_world_cam = kf->T_world_cam;
     p->last_seen_frame = frame_index_;
+    p->weight = 1.0 / std::pow(frame.depth_m[i], 4.0);
     kf->point_ids.push_back(p->id);
   }
   kf->frame = std::move(frame);

@@ -33,6 +33,7 @@ Status TrackerOptions::FromYaml(const YAML::Node& n) {
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "depth_scale", &depth_scale));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_depth_m", &min_depth_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_depth_m", &max_depth_m));
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "depth_edge_ratio", &depth_edge_ratio));
   const YAML::Node o = n["orb"];
   LOCI_RETURN_IF_ERROR(ReadOptional(o, "num_features", &orb.num_features));
   LOCI_RETURN_IF_ERROR(ReadOptional(o, "fast_threshold", &orb.fast_threshold));

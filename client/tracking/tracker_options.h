@@ -26,7 +26,7 @@ struct KeyframeRuleOptions {
   double min_rotation_rad = 0.087;     // 5 deg
   double min_translation_m = 0.05;
   // Paper 004 eq. (7): static co-visibility index below which a moving camera needs a keyframe.
-  double max_covisibility = 0.80;
+  double max_covisibility = 0.60;
   int min_new_points = 15;             // paper 004: new features needed to justify a keyframe
   // Paper 001 sec. 4 / ORB-SLAM: keyframe whenever tracking gets thin, and at least every N frames.
   int min_tracked_points = 120;
@@ -50,10 +50,12 @@ struct TrackerOptions {
   double depth_scale = 5000.0;         // depth PNG units per metre
   double min_depth_m = 0.1;            // valid depth range for 3-D points
   double max_depth_m = 4.0;
+  // Depth at a keypoint is used only when its 3x3 neighbours differ by less than this fraction.
+  double depth_edge_ratio = 0.03;
   OrbOptions orb;
   KeyframeRuleOptions keyframes;
   DynamicOptions dynamic;
-  int local_map_keyframes = 10;        // keyframes whose points form the local map
+  int local_map_keyframes = 30;        // keyframes whose points form the local map
   double search_radius_px = 12.0;      // projection search radius at level 0 (first pass)
   double refine_radius_px = 4.0;       // second pass after the first pose, level 0
   int max_hamming = 64;                // ORB descriptor distance accepted for a match (bits)
