@@ -28,6 +28,7 @@ struct BenchTrackArgs {
   std::string config;
   std::string trajectory_out;
   bool no_dynamic = false;
+  bool verbose = false;
 };
 
 double Percentile(std::vector<double> v, double q) {
@@ -80,6 +81,11 @@ int RunBenchTrack(const BenchTrackArgs& a) {
       return 1;
     }
     ms.push_back(r->track_ms);
+    if (a.verbose) {
+      std::fprintf(stderr, "%zu %s kf=%d feat=%d match=%d inl=%d dyn=%d pts=%d %.1fms\n", i,
+                   TrackStateName(r->state), r->keyframe, r->num_features, r->num_matches,
+                   r->num_inliers, r->num_dynamic, r->num_map_points, r->track_ms);
+    }
     total_track_s += r->track_ms * 1e-3;
     lost += !r->tracked;
     segments = std::max<size_t>(segments, r->segment);
@@ -136,6 +142,7 @@ void RegisterBenchTrackCommand(CLI::App& app) {
   c->add_option("--max-frames", args->max_frames, "stop after N frames (0 = all)");
   c->add_option("--config", args->config, "client YAML (default: config/client.yaml)");
   c->add_option("--trajectory", args->trajectory_out, "write the TUM trajectory here");
+  c->add_flag("--verbose", args->verbose, "per-frame tracking statistics on stderr");
   c->add_flag("--no-dynamic", args->no_dynamic, "disable dynamic-feature suppression");
   c->callback([args] { ExitCode() = RunBenchTrack(*args); });
 }

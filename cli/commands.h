@@ -16,5 +16,7 @@ void RegisterSynthCommands(CLI::App& app);
 // `loci detect` and `loci bench detect` (detection/); the bench group is reused.
 void RegisterDetectCommand(CLI::App& app);
 void RegisterBenchDetectCommand(CLI::App& app);
+// `loci bench track` (client/tracking); adds or reuses the `bench` group.
+void RegisterBenchTrackCommand(CLI::App& app);
 
 }  // namespace loci::cli

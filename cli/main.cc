@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   loci::cli::RegisterSynthCommands(app);
   loci::cli::RegisterDetectCommand(app);
   loci::cli::RegisterBenchDetectCommand(app);
+  loci::cli::RegisterBenchTrackCommand(app);
 
   CLI11_PARSE(app, argc, argv);
   return loci::cli::ExitCode();
