@@ -26,7 +26,7 @@ Primitive Ball(const Vec3d& c_m, double r_m) {
 }
 Mat3d RotX(double rad) { return Eigen::AngleAxisd(rad, Vec3d::UnitX()).toRotationMatrix(); }
 
-std::vector<Primitive> Chair(Rng& rng, double k) {
+std::vector<Primitive> Chair(double k) {
   const double seat = 0.45 * k, seat_h = 0.45 * k, leg = 0.035, back_h = 0.45 * k;
   std::vector<Primitive> p;
   p.push_back(Box({0, 0, seat_h - 0.02}, {seat, seat, 0.04}));
@@ -37,7 +37,6 @@ std::vector<Primitive> Chair(Rng& rng, double k) {
     }
   }
   p.push_back(Box({0, (seat - 0.03) / 2, seat_h + back_h / 2}, {seat, 0.03, back_h}));
-  (void)rng;
   return p;
 }
 
@@ -127,7 +126,7 @@ std::vector<Primitive> BuildClassParts(const std::string& name, Rng& rng) {
   } else if (name == "laptop") {
     p = Laptop(k);
   } else if (name == "chair") {
-    p = Chair(rng, k);
+    p = Chair(k);
   } else if (name == "teddy bear") {
     p = TeddyBear(k);
   } else if (name == "bowl") {

@@ -173,8 +173,8 @@ TEST_F(SynthSequence, AccelerometerGivesGroundTruthGravity) {
     auto g = GravityInCamAt(seq->accel, p.t_ns);
     ASSERT_TRUE(g.ok()) << g.status();
     const Vec3d g_true = p.T_world_cam.linear().transpose() * Vec3d(0, 0, -1);
-    // The camera's own acceleration (< 1 m/s^2) tilts the reading by a few degrees at most.
-    EXPECT_LT(std::acos(std::min(1.0, g->dot(g_true))) * 180 / M_PI, 5.0);
+    // The camera's own acceleration (< 0.5 m/s^2) tilts the reading by < 2 degrees.
+    EXPECT_LT(std::acos(std::min(1.0, g->dot(g_true))) * 180 / M_PI, 3.0);
   }
 }
 
