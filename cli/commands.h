@@ -19,4 +19,7 @@ void RegisterBenchDetectCommand(CLI::App& app);
 // `loci bench track` (client/tracking); adds or reuses the `bench` group.
 void RegisterBenchTrackCommand(CLI::App& app);
 
+// `loci bench query` (query/); adds or reuses the `bench` group.
+void RegisterBenchQueryCommand(CLI::App& app);
+
 }  // namespace loci::cli

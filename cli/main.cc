@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
   loci::cli::RegisterDetectCommand(app);
   loci::cli::RegisterBenchDetectCommand(app);
   loci::cli::RegisterBenchTrackCommand(app);
+  loci::cli::RegisterBenchQueryCommand(app);
 
   CLI11_PARSE(app, argc, argv);
   return loci::cli::ExitCode();

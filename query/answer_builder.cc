@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <map>
+#include <unordered_map>
 
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
@@ -130,31 +131,38 @@ std::vector<RelationResult> AnswerBuilder::Holding(const std::vector<int>& targe
   std::vector<RelationResult> out;
   if (!rel.anchor) return out;
   const std::vector<int> anchors = Matching(*rel.anchor);
-  const std::vector<int> anchors2 = rel.anchor2 ? Matching(*rel.anchor2) : std::vector<int>{};
+  const RelationSearch::Mask target_mask = search_.MakeMask(targets);
   if (rel.kind != RelationKind::kBetween && anchors.size() < targets.size()) {
     // Fewer anchors than targets: search around each anchor instead of each target.
-    std::vector<char> is_target(index_.size(), 0);
-    for (int t : targets) is_target[t] = 1;
-    std::map<int64_t, RelationResult> best;
+    std::unordered_map<int64_t, size_t> slot;  // subject id -> position in `out`
     for (int a : anchors) {
-      for (RelationResult& res : search_.SubjectsOf(rel.kind, a, {})) {
-        const int s = *index_.IndexOfId(res.subject_id);
-        if (!is_target[s]) continue;
-        auto it = best.find(res.subject_id);
-        if (it == best.end() || res.confidence > it->second.confidence) {
-          best[res.subject_id] = std::move(res);
+      for (RelationResult& res : search_.SubjectsOf(rel.kind, a, &target_mask)) {
+        auto [it, inserted] = slot.try_emplace(res.subject_id, out.size());
+        if (inserted) {
+          out.push_back(std::move(res));
+        } else if (res.confidence > out[it->second].confidence) {
+          out[it->second] = std::move(res);
         }
       }
     }
-    for (auto& [id, res] : best) out.push_back(std::move(res));
   } else {
+    const RelationSearch::Mask anchor_mask = search_.MakeMask(anchors);
+    RelationSearch::Mask anchor2_mask;
+    if (rel.anchor2) anchor2_mask = search_.MakeMask(Matching(*rel.anchor2));
     for (int t : targets) {
-      if (auto res = search_.BestTo(rel.kind, t, anchors, anchors2)) out.push_back(*res);
+      if (auto res =
+              search_.BestTo(rel.kind, t, anchor_mask, rel.anchor2 ? &anchor2_mask : nullptr)) {
+        out.push_back(std::move(*res));
+      }
     }
   }
   std::stable_sort(out.begin(), out.end(), [](const RelationResult& a, const RelationResult& b) {
-    return a.confidence > b.confidence;
+    if (a.confidence != b.confidence) return a.confidence > b.confidence;
+    return a.subject_id < b.subject_id;
   });
+  for (size_t k = 0; k < out.size() && k < opt_.max_result_objects; ++k) {
+    search_.WithEvidence(&out[k]);
+  }
   return out;
 }
 

@@ -1,6 +1,7 @@
 // AnswerBuilder intents that list or count: what is REL Y, how many, list, which robot, nearest.
 #include <algorithm>
 #include <map>
+#include <unordered_set>
 
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
@@ -19,8 +20,9 @@ std::string Phrase(RelationKind kind) { return std::string(RelationPhrase(kind))
 
 void AnswerBuilder::WhatRelation(const ParsedQuery& q, AskResult* r) const {
   const RelationClause& rel = *q.relation;
-  const std::vector<std::string> classes =
-      q.target ? q.target->classes : std::vector<std::string>{};
+  RelationSearch::Mask subject_mask;
+  if (q.target && !q.target->any()) subject_mask = search_.MakeMask(Matching(*q.target));
+  const RelationSearch::Mask* subjects = subject_mask.empty() ? nullptr : &subject_mask;
   const std::vector<int> anchors = Matching(*rel.anchor);
   if (NoneOf(*rel.anchor, anchors, r)) return;
   std::vector<RelationResult> found;
@@ -34,26 +36,26 @@ void AnswerBuilder::WhatRelation(const ParsedQuery& q, AskResult* r) const {
         if (a == b || pairs >= kMaxBetweenPairs) continue;
         if ((index_.geom(a).centroid_g - index_.geom(b).centroid_g).norm() > max_span_m) continue;
         ++pairs;
-        for (RelationResult& res : search_.SubjectsBetween(a, b, classes)) found.push_back(res);
+        for (RelationResult& res : search_.SubjectsBetween(a, b, subjects)) {
+          found.push_back(std::move(res));
+        }
       }
     }
   } else {
     for (int a : anchors) {
-      for (RelationResult& res : search_.SubjectsOf(rel.kind, a, classes)) found.push_back(res);
+      for (RelationResult& res : search_.SubjectsOf(rel.kind, a, subjects)) {
+        found.push_back(std::move(res));
+      }
     }
-  }
-  if (q.target && q.target->id) {
-    std::erase_if(found, [&](const RelationResult& x) { return x.subject_id != *q.target->id; });
   }
   // One entry per subject: its most confident relation.
   std::stable_sort(
       found.begin(), found.end(),
       [](const RelationResult& a, const RelationResult& b) { return a.confidence > b.confidence; });
   std::vector<RelationResult> unique;
-  std::vector<int64_t> seen;
+  std::unordered_set<int64_t> seen;
   for (RelationResult& f : found) {
-    if (std::find(seen.begin(), seen.end(), f.subject_id) != seen.end()) continue;
-    seen.push_back(f.subject_id);
+    if (!seen.insert(f.subject_id).second) continue;
     unique.push_back(std::move(f));
   }
   r->count = static_cast<int64_t>(unique.size());
@@ -65,6 +67,7 @@ void AnswerBuilder::WhatRelation(const ParsedQuery& q, AskResult* r) const {
     const MapObject& o = index_.object(s);
     AddObject(s, r);
     r->relations.push_back(u);
+    search_.WithEvidence(&r->relations.back());
     std::string item =
         absl::StrCat(CountedClass(index_.vocabulary(), o.class_name, 1), " (#", o.id, ")");
     if (anchors.size() > 1) absl::StrAppend(&item, " ", RelText(u));

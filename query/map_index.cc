@@ -8,8 +8,8 @@ namespace {
 
 // Objects spanning more grid cells than this are kept in a list checked by every query.
 constexpr int64_t kMaxCellsPerObject = 256;
-// Queries covering more cells than this scan every object instead.
-constexpr int64_t kMaxCellsPerQuery = 4096;
+// Most cells of the dense grid; larger maps get larger cells.
+constexpr double kMaxGridCells = 4e6;
 
 bool Finite(const MapObject& o) {
   return o.centroid_m.allFinite() && o.aabb_min_m.allFinite() && o.aabb_max_m.allFinite() &&
@@ -89,20 +89,11 @@ std::shared_ptr<const MapIndex> MapIndex::Build(std::vector<MapObject> objects,
     if (ok) ++index->class_counts_[o.class_name];
 
     const BoxG& b = index->geoms_.back().box;
-    const int64_t x0 = std::floor(b.min.x() / index->cell_m_);
-    const int64_t x1 = std::floor(b.max.x() / index->cell_m_);
-    const int64_t y0 = std::floor(b.min.y() / index->cell_m_);
-    const int64_t y1 = std::floor(b.max.y() / index->cell_m_);
-    if ((x1 - x0 + 1) * (y1 - y0 + 1) > kMaxCellsPerObject) {
-      index->large_.push_back(static_cast<int>(i));
-      continue;
-    }
-    for (int64_t ix = x0; ix <= x1; ++ix) {
-      for (int64_t iy = y0; iy <= y1; ++iy) {
-        index->cells_[index->CellKey(ix, iy)].push_back(static_cast<int>(i));
-      }
-    }
+    if (i == 0) index->bounds_ = b;
+    index->bounds_.min = index->bounds_.min.cwiseMin(b.min);
+    index->bounds_.max = index->bounds_.max.cwiseMax(b.max);
   }
+  index->BuildGrid();
   // Most recent first (stable for equal stamps).
   std::vector<size_t> idx(viewpoints.size());
   for (size_t i = 0; i < idx.size(); ++i) idx[i] = i;
@@ -133,26 +124,79 @@ std::vector<int> MapIndex::OfClasses(const std::vector<std::string>& classes) co
   return out;
 }
 
-std::vector<int> MapIndex::Candidates(const BoxG& box, double radius_m) const {
-  const int64_t x0 = std::floor((box.min.x() - radius_m) / cell_m_);
-  const int64_t x1 = std::floor((box.max.x() + radius_m) / cell_m_);
-  const int64_t y0 = std::floor((box.min.y() - radius_m) / cell_m_);
-  const int64_t y1 = std::floor((box.max.y() + radius_m) / cell_m_);
-  std::vector<int> out;
-  if ((x1 - x0 + 1) * (y1 - y0 + 1) > kMaxCellsPerQuery) {
-    out.resize(objects_.size());
-    for (size_t i = 0; i < out.size(); ++i) out[i] = static_cast<int>(i);
-    return out;
-  }
-  for (int64_t ix = x0; ix <= x1; ++ix) {
-    for (int64_t iy = y0; iy <= y1; ++iy) {
-      auto it = cells_.find(CellKey(ix, iy));
-      if (it != cells_.end()) out.insert(out.end(), it->second.begin(), it->second.end());
+MapIndex::CellRange MapIndex::Cells(const BoxG& box, double radius_m) const {
+  auto cell = [&](double v, double origin, int64_t n) {
+    return std::clamp<int64_t>(static_cast<int64_t>(std::floor((v - origin) / cell_m_)), -1, n);
+  };
+  return {cell(box.min.x() - radius_m, bounds_.min.x(), nx_),
+          cell(box.max.x() + radius_m, bounds_.min.x(), nx_),
+          cell(box.min.y() - radius_m, bounds_.min.y(), ny_),
+          cell(box.max.y() + radius_m, bounds_.min.y(), ny_)};
+}
+
+void MapIndex::BuildGrid() {
+  const Vec3d span = bounds_.max - bounds_.min;
+  const double area = std::max(span.x(), cell_m_) * std::max(span.y(), cell_m_);
+  cell_m_ = std::max(cell_m_, std::sqrt(area / kMaxGridCells));
+  nx_ = static_cast<int64_t>(std::floor(span.x() / cell_m_)) + 1;
+  ny_ = static_cast<int64_t>(std::floor(span.y() / cell_m_)) + 1;
+  // Compressed rows: cell c holds cell_items_[cell_start_[c] .. cell_start_[c + 1]).
+  std::vector<int> count(nx_ * ny_ + 1, 0);
+  std::vector<char> large(geoms_.size(), 0);
+  for (size_t i = 0; i < geoms_.size(); ++i) {
+    const CellRange r = Cells(geoms_[i].box, 0.0);
+    if ((r.x1 - r.x0 + 1) * (r.y1 - r.y0 + 1) > kMaxCellsPerObject) {
+      large[i] = 1;
+      large_.push_back(static_cast<int>(i));
+      continue;
+    }
+    for (int64_t ix = r.x0; ix <= r.x1; ++ix) {
+      for (int64_t iy = r.y0; iy <= r.y1; ++iy) ++count[ix * ny_ + iy + 1];
     }
   }
-  out.insert(out.end(), large_.begin(), large_.end());
-  std::sort(out.begin(), out.end());
-  out.erase(std::unique(out.begin(), out.end()), out.end());
+  for (size_t c = 1; c < count.size(); ++c) count[c] += count[c - 1];
+  cell_start_ = count;
+  cell_items_.resize(count.back());
+  for (size_t i = 0; i < geoms_.size(); ++i) {
+    if (large[i]) continue;
+    const CellRange r = Cells(geoms_[i].box, 0.0);
+    for (int64_t ix = r.x0; ix <= r.x1; ++ix) {
+      for (int64_t iy = r.y0; iy <= r.y1; ++iy) {
+        cell_items_[count[ix * ny_ + iy]++] = static_cast<int>(i);
+      }
+    }
+  }
+}
+
+std::vector<int> MapIndex::Candidates(const BoxG& box, double radius_m) const {
+  std::vector<int> out;
+  if (geoms_.empty()) return out;
+  out.reserve(64);
+  // Objects spanning several cells are met several times: a per-thread stamp per object
+  // (generation counter) drops the repeats without sorting.
+  thread_local std::vector<uint32_t> stamp;
+  thread_local uint32_t generation = 0;
+  if (stamp.size() < geoms_.size()) stamp.resize(geoms_.size(), 0);
+  if (++generation == 0) {
+    std::fill(stamp.begin(), stamp.end(), 0);
+    generation = 1;
+  }
+  auto take = [&](int i) {
+    if (stamp[i] == generation) return;
+    stamp[i] = generation;
+    if (HorizontalGap(geoms_[i].box, box) <= radius_m) out.push_back(i);
+  };
+  const CellRange r = Cells(box, radius_m);
+  for (int64_t ix = std::max<int64_t>(r.x0, 0); ix <= std::min(r.x1, nx_ - 1); ++ix) {
+    const int64_t y0 = std::max<int64_t>(r.y0, 0);
+    const int64_t y1 = std::min(r.y1, ny_ - 1);
+    if (y0 > y1) break;
+    // Cells of one column are contiguous in cell_items_.
+    const int begin = cell_start_[ix * ny_ + y0];
+    const int end = cell_start_[ix * ny_ + y1 + 1];
+    for (int k = begin; k < end; ++k) take(cell_items_[k]);
+  }
+  for (int i : large_) take(i);
   return out;
 }
 

@@ -58,9 +58,11 @@ class MapIndex {
   std::vector<int> OfClasses(const std::vector<std::string>& classes) const;
   // Object count per class (eligible objects only), sorted by class name.
   const std::map<std::string, int>& class_counts() const { return class_counts_; }
-  // Indices of objects whose footprint lies within `radius_m` of `box`'s footprint in g (a
-  // superset: callers test the exact relation). Sorted, no duplicates.
+  // Indices of the objects whose footprint lies within `radius_m` of `box`'s footprint in g
+  // (horizontal gap), no duplicates, in no particular order.
   std::vector<int> Candidates(const BoxG& box, double radius_m) const;
+  // Bounding box of every object's box in g (zero box when empty).
+  const BoxG& bounds() const { return bounds_; }
   // FindObjects: indices of matching objects, in id order.
   std::vector<int> Find(const ObjectFilter& filter) const;
 
@@ -73,7 +75,12 @@ class MapIndex {
  private:
   MapIndex(const GravityFrame& gravity, const Vocabulary& vocabulary)
       : gravity_(gravity), vocabulary_(vocabulary) {}
-  int64_t CellKey(int64_t ix, int64_t iy) const { return (ix << 32) ^ (iy & 0xffffffffLL); }
+  // Inclusive range of grid cells (clamped to [-1, n]) covering a box grown by radius_m.
+  struct CellRange {
+    int64_t x0, x1, y0, y1;
+  };
+  CellRange Cells(const BoxG& box, double radius_m) const;
+  void BuildGrid();
 
   GravityFrame gravity_;
   UpSource up_source_ = UpSource::kConfig;
@@ -85,8 +92,15 @@ class MapIndex {
   std::unordered_map<std::string, std::vector<int>> by_class_;
   std::map<std::string, int> class_counts_;
   std::vector<ViewpointG> viewpoints_;
+  BoxG bounds_;
   double cell_m_ = 1.0;
-  std::unordered_map<int64_t, std::vector<int>> cells_;
+  // Dense grid over bounds_ (x_g, y_g), cell_m_ per side, nx_ * ny_ cells, column-major by x:
+  // the objects of cell (ix, iy) are cell_items_[cell_start_[ix * ny_ + iy] ...
+  // cell_start_[ix * ny_ + iy + 1]).
+  int64_t nx_ = 0;
+  int64_t ny_ = 0;
+  std::vector<int> cell_start_;
+  std::vector<int> cell_items_;
   std::vector<int> large_;  // objects covering too many cells, always candidates
 };
 

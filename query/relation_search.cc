@@ -16,10 +16,24 @@ bool Better(const RelationResult& a, const RelationResult& b) {
 
 }  // namespace
 
-bool RelationSearch::ClassOk(int i, const std::vector<std::string>& classes) const {
-  if (classes.empty()) return true;
-  const std::string& c = index_.object(i).class_name;
-  return std::find(classes.begin(), classes.end(), c) != classes.end();
+RelationSearch::Mask RelationSearch::MakeMask(const std::vector<int>& indices) const {
+  Mask mask(index_.size(), 0);
+  for (int i : indices) mask[i] = 1;
+  return mask;
+}
+
+void RelationSearch::WithEvidence(RelationResult* r) const {
+  const auto s = index_.IndexOfId(r->subject_id);
+  const auto a = index_.IndexOfId(r->anchor_id);
+  if (!s || !a || !r->evidence.empty()) return;
+  if (r->kind == RelationKind::kBetween) {
+    const auto b = index_.IndexOfId(r->anchor2_id);
+    if (b) *r = eval_.Between(index_.geom(*s), index_.geom(*a), index_.geom(*b), true);
+    return;
+  }
+  if (r->kind == RelationKind::kNearest) return;
+  const RelationKind kind = r->kind;
+  *r = Evaluate(kind, *s, *a, true);
 }
 
 RelationResult RelationSearch::Evaluate(RelationKind kind, int subject, int anchor,
@@ -42,21 +56,21 @@ RelationResult RelationSearch::Evaluate(RelationKind kind, int subject, int anch
   return r;
 }
 
-std::vector<RelationResult> RelationSearch::SubjectsOf(
-    RelationKind kind, int anchor, const std::vector<std::string>& classes) const {
+std::vector<RelationResult> RelationSearch::SubjectsOf(RelationKind kind, int anchor,
+                                                       const Mask* subjects) const {
   std::vector<RelationResult> out;
   const ObjectGeom& a = index_.geom(anchor);
   for (int i : index_.Candidates(a.box, eval_.SearchRadius(kind, a))) {
-    if (i == anchor || !index_.eligible(i) || !ClassOk(i, classes)) continue;
-    if (!Evaluate(kind, i, anchor, false).holds) continue;
-    out.push_back(Evaluate(kind, i, anchor, true));
+    if (i == anchor || !index_.eligible(i) || (subjects && !(*subjects)[i])) continue;
+    RelationResult r = Evaluate(kind, i, anchor, false);
+    if (r.holds) out.push_back(std::move(r));
   }
   std::sort(out.begin(), out.end(), Better);
   return out;
 }
 
-std::vector<RelationResult> RelationSearch::SubjectsBetween(
-    int a, int b, const std::vector<std::string>& classes) const {
+std::vector<RelationResult> RelationSearch::SubjectsBetween(int a, int b,
+                                                            const Mask* subjects) const {
   std::vector<RelationResult> out;
   const ObjectGeom& ga = index_.geom(a);
   const ObjectGeom& gb = index_.geom(b);
@@ -65,50 +79,42 @@ std::vector<RelationResult> RelationSearch::SubjectsBetween(
   span.max = ga.box.max.cwiseMax(gb.box.max);
   const double radius = std::max(eval_.options().between_min_m, 1.0);
   for (int i : index_.Candidates(span, radius)) {
-    if (i == a || i == b || !index_.eligible(i) || !ClassOk(i, classes)) continue;
-    if (!eval_.Between(index_.geom(i), ga, gb, false).holds) continue;
-    out.push_back(eval_.Between(index_.geom(i), ga, gb, true));
+    if (i == a || i == b || !index_.eligible(i) || (subjects && !(*subjects)[i])) continue;
+    RelationResult r = eval_.Between(index_.geom(i), ga, gb, false);
+    if (r.holds) out.push_back(std::move(r));
   }
   std::sort(out.begin(), out.end(), Better);
   return out;
 }
 
 std::optional<RelationResult> RelationSearch::BestTo(RelationKind kind, int subject,
-                                                     const std::vector<int>& anchors,
-                                                     const std::vector<int>& anchors2) const {
+                                                     const Mask& anchors,
+                                                     const Mask* anchors2) const {
   const ObjectGeom& s = index_.geom(subject);
   std::optional<RelationResult> best;
-  auto consider = [&](const RelationResult& r) {
-    if (r.holds && (!best || Better(r, *best))) best = r;
+  auto consider = [&](RelationResult r) {
+    if (r.holds && (!best || Better(r, *best))) best = std::move(r);
   };
   if (kind == RelationKind::kBetween) {
+    if (anchors2 == nullptr) return best;
     // Anchors of "between" lie on both sides within a few metres of the subject.
-    const double radius = eval_.options().directional_max_m;
-    std::vector<int> near = index_.Candidates(s.box, radius);
     std::vector<int> a1, a2;
-    std::set_intersection(near.begin(), near.end(), anchors.begin(), anchors.end(),
-                          std::back_inserter(a1));
-    std::set_intersection(near.begin(), near.end(), anchors2.begin(), anchors2.end(),
-                          std::back_inserter(a2));
+    for (int i : index_.Candidates(s.box, eval_.options().directional_max_m)) {
+      if (i == subject || !index_.eligible(i)) continue;
+      if (anchors[i]) a1.push_back(i);
+      if ((*anchors2)[i]) a2.push_back(i);
+    }
     for (int a : a1) {
       for (int b : a2) {
-        if (!index_.eligible(a) || !index_.eligible(b)) continue;
-        if (eval_.Between(s, index_.geom(a), index_.geom(b), false).holds) {
-          consider(eval_.Between(s, index_.geom(a), index_.geom(b), true));
-        }
+        consider(eval_.Between(s, index_.geom(a), index_.geom(b), false));
       }
     }
     return best;
   }
   // The relation's reach around the subject bounds the anchors worth testing.
-  const double radius = std::max(eval_.SearchRadius(kind, s), 0.01);
-  std::vector<int> near = index_.Candidates(s.box, radius);
-  std::vector<int> cands;
-  std::set_intersection(near.begin(), near.end(), anchors.begin(), anchors.end(),
-                        std::back_inserter(cands));
-  for (int a : cands) {
-    if (a == subject || !index_.eligible(a)) continue;
-    if (Evaluate(kind, subject, a, false).holds) consider(Evaluate(kind, subject, a, true));
+  for (int a : index_.Candidates(s.box, std::max(eval_.SearchRadius(kind, s), 0.01))) {
+    if (a == subject || !anchors[a] || !index_.eligible(a)) continue;
+    consider(Evaluate(kind, subject, a, false));
   }
   return best;
 }
@@ -143,8 +149,11 @@ std::optional<RelationSearch::Nearest> RelationSearch::NearestTo(
       const double gap = BoxGap(index_.geom(i).box, anchor.box);
       if (!best || gap < best->gap_m) best = Nearest{i, anchor_index, gap};
     }
-    // Objects outside the candidates are more than `radius` away horizontally.
-    if ((best && best->gap_m <= radius) || cands.size() >= index_.size()) return best;
+    // Objects outside the candidates are more than `radius` away horizontally; past this reach
+    // every object is a candidate.
+    const BoxG& b = index_.bounds();
+    const double reach = HorizontalGap(anchor.box, b) + (b.max - b.min).head<2>().norm();
+    if ((best && best->gap_m <= radius) || radius > reach) return best;
     radius *= 2.0;
   }
 }

@@ -23,18 +23,21 @@ class RelationSearch {
   // accepts "on", "under" and "below" accept each other.
   RelationResult Evaluate(RelationKind kind, int subject, int anchor, bool evidence) const;
 
-  // Eligible objects holding `kind` to `anchor`, restricted to `classes` (empty = any class),
-  // with evidence, best confidence first.
-  std::vector<RelationResult> SubjectsOf(RelationKind kind, int anchor,
-                                         const std::vector<std::string>& classes) const;
-  // Eligible objects between anchors a and b, restricted to `classes`.
-  std::vector<RelationResult> SubjectsBetween(int a, int b,
-                                              const std::vector<std::string>& classes) const;
-  // Best holding relation of `subject` to any object of `anchors` (sorted indices), nullopt
-  // when none holds. For kBetween `anchors2` gives the second anchor set.
-  std::optional<RelationResult> BestTo(RelationKind kind, int subject,
-                                       const std::vector<int>& anchors,
-                                       const std::vector<int>& anchors2) const;
+  // Membership masks over the index (mask[i] != 0: object i belongs). Null = every object.
+  using Mask = std::vector<char>;
+  Mask MakeMask(const std::vector<int>& indices) const;
+
+  // Eligible objects in `subjects` holding `kind` to `anchor`, best confidence first. Evidence
+  // is left empty (it costs a string per result): add it with WithEvidence for what is shown.
+  std::vector<RelationResult> SubjectsOf(RelationKind kind, int anchor, const Mask* subjects) const;
+  // Eligible objects in `subjects` between anchors a and b (no evidence).
+  std::vector<RelationResult> SubjectsBetween(int a, int b, const Mask* subjects) const;
+  // Best holding relation of `subject` to any object of `anchors` (no evidence), nullopt when
+  // none holds. For kBetween `anchors2` gives the second anchor set.
+  std::optional<RelationResult> BestTo(RelationKind kind, int subject, const Mask& anchors,
+                                       const Mask* anchors2) const;
+  // Re-evaluates `r` with its evidence sentence.
+  void WithEvidence(RelationResult* r) const;
   // What holds `subject` up or contains it: the best "on", else "inside", else "under".
   std::optional<RelationResult> Support(int subject) const;
   // Nearest (smallest box gap) pair subject-in-`subjects` x anchor-in-`anchors`, or to the
@@ -50,7 +53,6 @@ class RelationSearch {
   const ViewpointG* viewpoint() const { return viewpoint_; }
 
  private:
-  bool ClassOk(int i, const std::vector<std::string>& classes) const;
   // Nearest member (member[i] != 0) to `anchor`, growing the grid search radius.
   std::optional<Nearest> NearestTo(const ObjectGeom& anchor, int anchor_index,
                                    const std::vector<char>& member) const;

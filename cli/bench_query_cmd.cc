@@ -1,0 +1,204 @@
+// `loci bench query [--objects 10000] [--queries 20000] [--threads 2] [--seed 1]`: in-process
+// Ask latency (p50 / p99 per question form and overall) and throughput of the query engine on a
+// synthetic office map (query/synthetic_map.h), plus the time to index the snapshot. The gRPC
+// loopback figures come with the server's Ask service.
+#include <stdlib.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <random>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "cli/commands.h"
+#include "common/config.h"
+#include "query/query_engine.h"
+#include "query/synthetic_map.h"
+
+namespace loci::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct BenchQueryArgs {
+  size_t objects = 10000;
+  size_t queries = 20000;
+  int threads = 2;
+  uint64_t seed = 1;
+  std::string config;
+};
+
+double Percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
+}
+
+double MsSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+// Question forms of the mix; "%d" is replaced by a random object id of the named class.
+struct Form {
+  const char* text;
+  const char* id_class;  // nullptr = no id
+};
+constexpr Form kForms[] = {
+    {"where is the book on the table", nullptr},
+    {"what is on #%d", "dining table"},
+    {"is there a cup near the keyboard", nullptr},
+    {"how many chairs are there", nullptr},
+    {"list all objects", nullptr},
+    {"which robot saw the laptop last", nullptr},
+    {"what is left of #%d", "tv"},
+    {"where is #%d", "book"},
+    {"where is the nearest chair to #%d", "dining table"},
+    {"is #%d under the table", "chair"},
+    {"what is on the desk", nullptr},
+    {"how many cups are on the tables", nullptr},
+};
+constexpr size_t kNumForms = sizeof(kForms) / sizeof(kForms[0]);
+
+int RunBenchQuery(const BenchQueryArgs& a) {
+  query::QueryOptions options = query::QueryOptions::Defaults();
+  if (!a.config.empty()) {
+    auto o = query::LoadQueryOptions(a.config);
+    if (!o.ok()) {
+      std::fprintf(stderr, "error: %s\n", std::string(o.status().message()).c_str());
+      return 1;
+    }
+    options = *o;
+  }
+  if (a.objects == 0 || a.queries == 0 || a.threads < 1) {
+    std::fprintf(stderr, "error: --objects, --queries and --threads must be > 0\n");
+    return 1;
+  }
+  const query::QueryEngine engine(options);
+  query::SyntheticMapOptions so;
+  so.object_count = a.objects;
+  so.seed = a.seed;
+  const int64_t now_ns = 2'000'000'000'000'000'000;
+  std::vector<MapObject> objects = query::MapObjectsFromGroundTruth(
+      query::MakeSyntheticOffice(so), now_ns - 30'000'000'000, "robot-a");
+  // A viewpoint in the middle of the first room, level, looking along +y.
+  query::Viewpoint view{"robot-a", SE3d::Identity(), now_ns};
+  view.T_map_cam.linear() << 1, 0, 0, 0, 0, 1, 0, -1, 0;
+  view.T_map_cam.translation() = Vec3d(1.5, 3.0, 1.2);
+
+  std::vector<double> index_ms;
+  std::shared_ptr<const query::MapIndex> index;
+  for (int k = 0; k < 5; ++k) {
+    const auto t0 = Clock::now();
+    index = engine.Index(objects, std::nullopt, {view});
+    index_ms.push_back(MsSince(t0));
+  }
+
+  // The question list, drawn once so every run asks the same.
+  std::mt19937_64 rng(a.seed);
+  std::vector<std::vector<int64_t>> ids_of(kNumForms);
+  for (size_t f = 0; f < kNumForms; ++f) {
+    if (!kForms[f].id_class) continue;
+    for (const MapObject& o : objects) {
+      if (o.class_name == kForms[f].id_class) ids_of[f].push_back(o.id);
+    }
+  }
+  std::vector<std::pair<size_t, std::string>> questions;
+  for (size_t i = 0; i < a.queries; ++i) {
+    const size_t f = i % kNumForms;
+    std::string text = kForms[f].text;
+    if (kForms[f].id_class && !ids_of[f].empty()) {
+      const int64_t id = ids_of[f][rng() % ids_of[f].size()];
+      text.replace(text.find("%d"), 2, std::to_string(id));
+    }
+    questions.push_back({f, text});
+  }
+
+  // Single thread: latency per form.
+  std::vector<std::vector<double>> ms_by_form(kNumForms);
+  std::vector<double> all_ms;
+  size_t failures = 0;
+  const auto t_all = Clock::now();
+  for (const auto& [f, text] : questions) {
+    const auto t0 = Clock::now();
+    const query::AskResult r = engine.Ask(text, *index, query::AskContext{now_ns, ""});
+    const double ms = MsSince(t0);
+    failures += !r.status.ok();
+    ms_by_form[f].push_back(ms);
+    all_ms.push_back(ms);
+  }
+  const double single_s = MsSince(t_all) * 1e-3;
+
+  // Several threads sharing the index: throughput.
+  std::atomic<size_t> next{0};
+  const auto t_mt = Clock::now();
+  std::vector<std::thread> workers;
+  for (int t = 0; t < a.threads; ++t) {
+    workers.emplace_back([&] {
+      for (size_t i; (i = next.fetch_add(1)) < questions.size();) {
+        (void)engine.Ask(questions[i].second, *index, query::AskContext{now_ns, ""});
+      }
+    });
+  }
+  for (std::thread& w : workers) w.join();
+  const double mt_s = MsSince(t_mt) * 1e-3;
+
+  // A one-off Ask that indexes the snapshot itself (MapView path).
+  const auto t_view = Clock::now();
+  query::MapView mv;
+  mv.objects = objects;
+  mv.viewpoints = {view};
+  mv.now_ns = now_ns;
+  (void)engine.Ask(kForms[0].text, mv);
+  const double view_ms = MsSince(t_view);
+
+  double load[3] = {0, 0, 0};
+  const bool have_load = getloadavg(load, 3) == 3;
+  std::printf("loci bench query: %zu objects, %zu questions (%zu forms), in-process\n",
+              objects.size(), questions.size(), kNumForms);
+  if (have_load) {
+    std::printf(
+        "  machine load average %.2f (%u hardware threads): tail latencies include "
+        "preemption by other processes\n",
+        load[0], std::thread::hardware_concurrency());
+  }
+  std::printf("  index build   median %.2f ms (5 runs)\n", Percentile(index_ms, 0.5));
+  std::printf("  Ask on MapView (index + answer) %.2f ms\n", view_ms);
+  std::printf("  %-44s %9s %9s %9s\n", "question form", "p50 ms", "p99 ms", "max ms");
+  for (size_t f = 0; f < kNumForms; ++f) {
+    std::printf("  %-44s %9.3f %9.3f %9.3f\n", kForms[f].text, Percentile(ms_by_form[f], 0.5),
+                Percentile(ms_by_form[f], 0.99), Percentile(ms_by_form[f], 1.0));
+  }
+  std::printf("  %-44s %9.3f %9.3f %9.3f\n", "all", Percentile(all_ms, 0.5),
+              Percentile(all_ms, 0.99), Percentile(all_ms, 1.0));
+  std::printf("  throughput 1 thread  %.0f Ask/s\n", questions.size() / single_s);
+  std::printf("  throughput %d threads %.0f Ask/s\n", a.threads, questions.size() / mt_s);
+  if (failures > 0) std::printf("  %zu questions failed to parse\n", failures);
+  return failures > 0 ? 1 : 0;
+}
+
+}  // namespace
+
+void RegisterBenchQueryCommand(CLI::App& app) {
+  CLI::App* bench = nullptr;
+  for (CLI::App* s : app.get_subcommands([](CLI::App* s) { return s->get_name() == "bench"; })) {
+    bench = s;
+  }
+  if (!bench) {
+    bench = app.add_subcommand("bench", "benchmarks that print their figures");
+    bench->require_subcommand(1);
+  }
+  auto args = std::make_shared<BenchQueryArgs>();
+  CLI::App* c = bench->add_subcommand("query", "query engine Ask latency and throughput");
+  c->add_option("--objects", args->objects, "objects in the synthetic map")->capture_default_str();
+  c->add_option("--queries", args->queries, "questions to ask")->capture_default_str();
+  c->add_option("--threads", args->threads, "threads for the throughput run")
+      ->capture_default_str();
+  c->add_option("--seed", args->seed, "random seed of map and questions")->capture_default_str();
+  c->add_option("--config", args->config, "query YAML (default: built-in defaults)");
+  c->callback([args] { ExitCode() = RunBenchQuery(*args); });
+}
+
+}  // namespace loci::cli
