@@ -1,0 +1,70 @@
+#include "client/app/keyframe_stage.h"
+
+#include <chrono>
+
+#include <spdlog/spdlog.h>
+
+namespace loci {
+
+KeyframeStage::KeyframeStage(std::unique_ptr<detection::Detector> detector,
+                             std::unique_ptr<detection::MultiObjectTracker> mot, Sink sink,
+                             size_t capacity)
+    : detector_(std::move(detector)),
+      mot_(std::move(mot)),
+      sink_(std::move(sink)),
+      capacity_(std::max<size_t>(1, capacity)) {
+  thread_ = std::thread([this] { Loop(); });
+}
+
+KeyframeStage::~KeyframeStage() { (void)Finish(); }
+
+void KeyframeStage::Push(KeyframeData kf) {
+  std::unique_lock<std::mutex> lock(mu_);
+  cv_.wait(lock, [&] { return queue_.size() < capacity_ || done_; });
+  queue_.push_back(std::move(kf));
+  cv_.notify_all();
+}
+
+Status KeyframeStage::Finish() {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    done_ = true;
+    cv_.notify_all();
+  }
+  if (thread_.joinable()) thread_.join();
+  return first_error_;
+}
+
+void KeyframeStage::Loop() {
+  while (true) {
+    KeyframeData kf;
+    {
+      std::unique_lock<std::mutex> lock(mu_);
+      cv_.wait(lock, [&] { return !queue_.empty() || done_; });
+      if (queue_.empty()) return;
+      kf = std::move(queue_.front());
+      queue_.pop_front();
+      cv_.notify_all();
+    }
+    if (detector_) {
+      const auto t0 = std::chrono::steady_clock::now();
+      auto dets = detector_->Detect(kf.bgr, kf.t_ns);
+      if (dets.ok()) {
+        kf.detections = std::move(*dets);
+        if (mot_) mot_->Update(kf.bgr, &kf.detections);
+      } else {
+        spdlog::warn("detector {}: {}", detector_->Name(), std::string(dets.status().message()));
+      }
+      detect_ms_total_ +=
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+              .count();
+      ++detected_;
+    }
+    if (sink_) {
+      Status s = sink_(std::move(kf));
+      if (!s.ok() && first_error_.ok()) first_error_ = s;
+    }
+  }
+}
+
+}  // namespace loci

@@ -1,0 +1,52 @@
+// The keyframe stage of loci-track: its own thread takes keyframes from a bounded queue, runs the
+// detector + multi-object tracker on them when one is configured (so tracking keeps its rate),
+// and hands them to a sink (MapClient::Send, or nothing offline). Push blocks when the queue is
+// full (back-pressure from the network through to the tracker, never a silent drop).
+#pragma once
+
+#include <condition_variable>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+#include "client/streaming/map_client.h"
+#include "detection/detector.h"
+#include "detection/multi_object_tracker.h"
+
+namespace loci {
+
+class KeyframeStage {
+ public:
+  using Sink = std::function<Status(KeyframeData)>;
+  // detector may be null (detections already attached, or none). capacity >= 1.
+  KeyframeStage(std::unique_ptr<detection::Detector> detector,
+                std::unique_ptr<detection::MultiObjectTracker> mot, Sink sink, size_t capacity);
+  ~KeyframeStage();
+
+  void Push(KeyframeData kf);
+  // Processes everything queued, then stops the thread. Returns the first sink error, if any.
+  Status Finish();
+
+  double detect_ms_total() const { return detect_ms_total_; }
+  int detected_keyframes() const { return detected_; }
+
+ private:
+  void Loop();
+
+  std::unique_ptr<detection::Detector> detector_;
+  std::unique_ptr<detection::MultiObjectTracker> mot_;
+  Sink sink_;
+  size_t capacity_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<KeyframeData> queue_;
+  bool done_ = false;
+  Status first_error_;
+  double detect_ms_total_ = 0;
+  int detected_ = 0;
+  std::thread thread_;
+};
+
+}  // namespace loci
