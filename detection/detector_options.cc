@@ -1,6 +1,7 @@
 #include "detection/detector_options.h"
 
 #include <algorithm>
+#include <cctype>
 #include <filesystem>
 #include <fstream>
 
