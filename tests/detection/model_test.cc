@@ -2,12 +2,16 @@
 // README's reference detections come back), not the models' quality.
 #include <gtest/gtest.h>
 
+#include <map>
 #include <opencv2/imgcodecs.hpp>
+#include <set>
 #include <string>
 #include <vector>
 
+#include "common/tum_io.h"
 #include "detection/decode.h"
 #include "detection/detector_options.h"
+#include "detection/multi_object_tracker.h"
 
 namespace loci::detection {
 namespace {
@@ -106,6 +110,47 @@ TEST(YoloxModel, RejectsBadImage) {
   // A tiny image still runs (letterbox scales it up).
   auto r = (*d)->Detect(cv::Mat(3, 5, CV_8UC3, cv::Scalar(0, 0, 0)), 0);
   EXPECT_TRUE(r.ok()) << r.status();
+}
+
+}  // namespace
+}  // namespace loci::detection
+
+namespace loci::detection {
+namespace {
+
+TEST(YoloxModel, TrackerKeepsIdsOnRealSequence) {
+  // YOLOX-Nano + tracker (with appearance) over the 60 shipped fr1_rpy frames (2 s of a camera
+  // rolling and pitching over a desk).
+  auto seq = LoadTumSequence(kRoot + "/tests/data/tum_fr1_rpy_sample");
+  ASSERT_TRUE(seq.ok()) << seq.status();
+  DetectorOptions o;
+  o.model_path = kRoot + "/models/yolox_nano/yolox_nano.onnx";
+  o.classes = {"tv", "laptop", "keyboard", "person", "chair", "mouse", "cup", "book"};
+  auto d = MakeDetector(o);
+  ASSERT_TRUE(d.ok()) << d.status();
+  MultiObjectTracker tracker;
+  std::map<std::string, std::set<int64_t>> ids;
+  int dets = 0, with_id = 0;
+  for (const TumFrame& f : seq->frames) {
+    const cv::Mat bgr = cv::imread(f.rgb_path, cv::IMREAD_COLOR);
+    ASSERT_FALSE(bgr.empty());
+    auto r = (*d)->Detect(bgr, f.rgb_t_ns);
+    ASSERT_TRUE(r.ok()) << r.status();
+    tracker.Update(bgr, &*r);
+    for (const Detection2D& det : *r) {
+      ++dets;
+      if (det.track_id == 0) continue;
+      ++with_id;
+      ids[det.class_name].insert(det.track_id);
+    }
+  }
+  for (const auto& [name, s] : ids) std::printf("  %-10s %zu track ids\n", name.c_str(), s.size());
+  std::printf("%d detections in %zu frames, %d with a confirmed id\n", dets, seq->frames.size(),
+              with_id);
+  ASSERT_GT(dets, 60);
+  EXPECT_GE(with_id, dets * 8 / 10);
+  ASSERT_TRUE(ids.count("keyboard"));
+  EXPECT_LE(ids["keyboard"].size(), 2u);  // one keyboard on the desk
 }
 
 }  // namespace
