@@ -76,7 +76,7 @@ double DepthAt(const cv::Mat& depth, int u, int v, const MaskOptions& o) {
   return z >= o.min_depth_m && z <= o.max_depth_m ? z : 0.0;
 }
 
-// Removes from `mask` (pixels of depth_m = depth(roi)) a plane that holds most of the mask's
+// Removes from `mask` (pixels of depth_m = depth(roi)) a plane that holds >= 30 % of the mask's
 // pixels near the box border, few of its central pixels (not the object's own face), and
 // continues outside the box (a box is tight on its object: a surface that extends beyond it
 // is support or background; the rim of a curved object does not).
@@ -112,7 +112,7 @@ void RemoveSupportPlane(const cv::Mat& depth, const cv::Rect& roi, const cv::Mat
       best = p;
     }
   }
-  if (best_inliers < 0.4 * band.size()) return;
+  if (best_inliers < 0.3 * band.size()) return;
   size_t centre_in = 0;
   for (const auto& q : centre) centre_in += best.Inlier(q.x, q.y, q.z, o);
   if (centre.empty() || centre_in > 0.3 * centre.size()) return;  // the object's own face
