@@ -209,9 +209,12 @@ std::string AnswerBuilder::OneSentence(int i, const std::optional<RelationResult
 std::string AnswerBuilder::AnchorText(const RelationClause& rel,
                                       const std::vector<int>& anchors) const {
   if (!rel.anchor) return "you";
-  std::string a =
-      anchors.size() == 1 ? ObjectRef(index_.object(anchors[0])) : PhraseWithArticle(*rel.anchor);
-  if (rel.anchor2) absl::StrAppend(&a, " and ", PhraseWithArticle(*rel.anchor2));
+  auto text = [&](const ObjectPhrase& p, size_t n) {
+    if (n == 1 && !rel.anchor2) return ObjectRef(index_.object(anchors[0]));
+    return p.plural ? absl::StrCat("the ", PhrasePlural(p)) : PhraseWithArticle(p);
+  };
+  std::string a = text(*rel.anchor, anchors.size());
+  if (rel.anchor2) absl::StrAppend(&a, " and ", text(*rel.anchor2, 2));
   return a;
 }
 
@@ -290,7 +293,8 @@ void AnswerBuilder::Exists(const ParsedQuery& q, AskResult* r) const {
   const std::vector<int> targets = Matching(*q.target);
   if (targets.empty()) {
     NoneOf(*q.target, targets, r);
-    r->answer = absl::StrCat("No, ", Uncapitalize(r->answer));
+    r->answer =
+        absl::StrCat("No, ", r->answer.rfind("I ", 0) == 0 ? r->answer : Uncapitalize(r->answer));
     return;
   }
   if (!q.relation) {

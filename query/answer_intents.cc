@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <map>
 #include <unordered_set>
+#include <utility>
 
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
@@ -60,36 +61,56 @@ void AnswerBuilder::WhatRelation(const ParsedQuery& q, AskResult* r) const {
   }
   r->count = static_cast<int64_t>(unique.size());
   r->yes = !unique.empty();
-  std::vector<std::string> items;
+  // Group the subjects by their anchor (pair), groups in order of their best relation.
+  std::vector<std::pair<std::pair<int64_t, int64_t>, std::vector<std::string>>> groups;
   for (const RelationResult& u : unique) {
-    if (r->objects.size() >= opt_.max_result_objects) break;
     const int s = *index_.IndexOfId(u.subject_id);
     const MapObject& o = index_.object(s);
-    AddObject(s, r);
-    r->relations.push_back(u);
-    search_.WithEvidence(&r->relations.back());
-    std::string item =
-        absl::StrCat(CountedClass(index_.vocabulary(), o.class_name, 1), " (#", o.id, ")");
-    if (anchors.size() > 1) absl::StrAppend(&item, " ", RelText(u));
-    items.push_back(item);
+    if (r->objects.size() < opt_.max_result_objects) {
+      AddObject(s, r);
+      r->relations.push_back(u);
+      search_.WithEvidence(&r->relations.back());
+    }
+    const std::pair<int64_t, int64_t> key{u.anchor_id, u.anchor2_id};
+    auto it =
+        std::find_if(groups.begin(), groups.end(), [&](const auto& g) { return g.first == key; });
+    if (it == groups.end()) {
+      if (groups.size() > opt_.sentence_max_items) continue;  // only counted below
+      groups.push_back({key, {}});
+      it = groups.end() - 1;
+    }
+    it->second.push_back(
+        absl::StrCat(CountedClass(index_.vocabulary(), o.class_name, 1), " (#", o.id, ")"));
   }
-  const std::string where = absl::StrCat(Phrase(rel.kind), " ", AnchorText(rel, anchors));
   const std::string what = q.target && !q.target->any() ? PhraseNoun(*q.target) : "";
   if (unique.empty()) {
     r->answer = absl::StrCat(what.empty() ? "Nothing" : absl::StrCat("No ", what), " is ",
                              anchors.size() > 1
                                  ? absl::StrCat(Phrase(rel.kind), " any of the ", anchors.size(),
                                                 " ", PhrasePlural(*rel.anchor))
-                                 : where,
+                                 : absl::StrCat(Phrase(rel.kind), " ", AnchorText(rel, anchors)),
                              ".");
     return;
   }
-  const std::string scope =
-      anchors.size() > 1 && rel.kind != RelationKind::kBetween
-          ? absl::StrCat(Phrase(rel.kind), " the ", anchors.size(), " ", PhrasePlural(*rel.anchor))
-          : where;
-  r->answer = absl::StrCat(Capitalize(scope), unique.size() == 1 ? " there is " : " there are ",
-                           JoinItems(items, opt_.sentence_max_items), ".");
+  std::vector<std::string> parts;
+  for (size_t g = 0; g < groups.size() && g < opt_.sentence_max_items; ++g) {
+    const auto& [key, items] = groups[g];
+    std::string anchor = ObjectRef(index_.object(*index_.IndexOfId(key.first)));
+    if (key.second != 0) {
+      absl::StrAppend(&anchor, " and ", ObjectRef(index_.object(*index_.IndexOfId(key.second))));
+    }
+    parts.push_back(absl::StrCat(Phrase(rel.kind), " ", anchor,
+                                 items.size() == 1 ? " there is " : " there are ",
+                                 JoinItems(items, opt_.sentence_max_items)));
+  }
+  std::string answer = Capitalize(absl::StrJoin(parts, "; "));
+  if (groups.size() > opt_.sentence_max_items) {
+    absl::StrAppend(&answer, "; and more ", Phrase(rel.kind), " other ", PhrasePlural(*rel.anchor));
+  }
+  if (groups.size() > 1) {
+    absl::StrAppend(&answer, " (", unique.size(), unique.size() == 1 ? " object)" : " objects)");
+  }
+  r->answer = absl::StrCat(answer, ".");
 }
 
 void AnswerBuilder::Count(const ParsedQuery& q, AskResult* r) const {

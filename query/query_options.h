@@ -44,8 +44,9 @@ struct RelationOptions {
   double next_to_level_tolerance_m = 0.15;
   // inside: minimal fraction of the subject's box volume inside the anchor's box. Default 0.7.
   double inside_min_fraction = 0.7;
-  // between: the subject's horizontal distance to the segment joining the two anchors must be at
-  // most between_factor * the subject's size, and at least between_min_m. Defaults 1.0, 0.3.
+  // between: the distance from the subject's centre to the segment joining the anchors' centres
+  // must be at most max(between_min_m, between_factor * half the subject's size), 5-95 % of the
+  // way along, and the subject must not hold up either anchor. Defaults 1.0, 0.3.
   double between_factor = 1.0;
   double between_min_m = 0.3;
   // left / right / in front / behind (seen from a viewpoint): the horizontal offset from the

@@ -317,15 +317,21 @@ RelationResult RelationEvaluator::Between(const ObjectGeom& s, const ObjectGeom&
     if (ev) r.evidence = "the two anchors coincide";
     return r;
   }
+  // Position along the horizontal segment, distance to the 3-D segment at that position (a
+  // chair on the floor is not between two things on a table).
   const double t = as.dot(ab) / len2;
-  const double perp = (as - t * ab).norm();
-  const double threshold = std::max(opt_.between_min_m, opt_.between_factor * s.size_m);
-  r.confidence = Clamp01(1.0 - 0.5 * perp / threshold);
-  r.holds = t > 0.05 && t < 0.95 && perp <= threshold && r.confidence >= opt_.min_confidence;
-  r.distance_m = perp;
+  const Vec3d on_segment = a.centroid_g + std::clamp(t, 0.0, 1.0) * (b.centroid_g - a.centroid_g);
+  const double dist = (s.centroid_g - on_segment).norm();
+  // A table under both anchors is not between them.
+  const bool holds_anchor = FootprintFraction(a, s) >= 0.5 || FootprintFraction(b, s) >= 0.5;
+  const double threshold = std::max(opt_.between_min_m, opt_.between_factor * 0.5 * s.size_m);
+  r.confidence = Clamp01(1.0 - 0.5 * dist / threshold);
+  r.holds = t > 0.05 && t < 0.95 && dist <= threshold && !holds_anchor &&
+            r.confidence >= opt_.min_confidence;
+  r.distance_m = dist;
   if (ev) {
     r.evidence = absl::StrFormat("%.2f m from the line joining the two, %.0f%% of the way along",
-                                 perp, 100 * t);
+                                 dist, 100 * t);
   }
   return r;
 }

@@ -94,6 +94,11 @@ TEST_F(QueryEngineTest, WhatIsOnTheDeskListsExactlyWhatIsOnIt) {
   EXPECT_EQ(none.count, 0);
   EXPECT_NE(none.answer.find("Nothing is on any of the 2 chairs"), std::string::npos)
       << none.answer;
+  EXPECT_EQ(r.answer.rfind("On the dining table (#1) there are a book (#2), a cup (#3), a keyboard "
+                           "(#4) and a laptop (#14); on the dining table (#10) there are ",
+                           0),
+            0u)
+      << r.answer;
   const AskResult books = Ask("which books are on the table");
   EXPECT_EQ(Ids(books), std::vector<int64_t>{2});
 }
@@ -114,6 +119,7 @@ TEST_F(QueryEngineTest, IsThereACupNearTheKeyboard) {
             std::string::npos)
       << no.answer;
   EXPECT_EQ(Ask("is there a bottle").yes, false);
+  EXPECT_EQ(Ask("is there a bottle on the table").answer, "No, I have not seen any bottles.");
   EXPECT_EQ(Ask("is there a laptop").yes, true);
 }
 
@@ -124,6 +130,14 @@ TEST_F(QueryEngineTest, YesNoRelationChecks) {
   EXPECT_EQ(Ask("is the mouse under the table").yes, false);
   EXPECT_EQ(Ask("is the keyboard between the book and the cup").yes, true);
   EXPECT_EQ(Ask("is the shelf between the book and the cup").yes, false);
+}
+
+TEST_F(QueryEngineTest, BetweenExcludesWhatHoldsTheAnchors) {
+  const AskResult r = Ask("what is between the book and the cup");
+  const std::vector<int64_t> ids = Ids(r);
+  EXPECT_TRUE(std::count(ids.begin(), ids.end(), 4)) << r.answer;   // the keyboard
+  EXPECT_FALSE(std::count(ids.begin(), ids.end(), 1)) << r.answer;  // the table under both
+  EXPECT_FALSE(std::count(ids.begin(), ids.end(), 6)) << r.answer;  // a chair on the floor
 }
 
 TEST_F(QueryEngineTest, Counts) {

@@ -13,6 +13,7 @@
 #include "common/objects_json.h"
 #include "query/query_engine.h"
 #include "query/synthetic_map.h"
+#include "synth/scene.h"
 
 namespace loci::query {
 namespace {
@@ -115,6 +116,22 @@ TEST(SyntheticSceneTest, TenThousandObjectsCountsAndSupports) {
   EXPECT_EQ(engine.Ask("how many chairs are there", *index, {}).count, chairs);
   EXPECT_EQ(engine.Ask("how many books are on the shelves", *index, {}).count, books_on_shelves);
   EXPECT_EQ(engine.Ask("list all objects", *index, {}).count, 10000);
+}
+
+// The scenes of `loci synth` (synth/scene.h): table, shelf and up to 40 objects on them or on
+// the floor, for many seeds.
+TEST(SyntheticSceneTest, LociSynthScenes) {
+  for (uint64_t seed = 1; seed <= 12; ++seed) {
+    synth::SceneOptions o;
+    o.seed = seed;
+    o.num_frames = 1;
+    o.num_objects = 10 + static_cast<int>(seed % 4) * 10;
+    o.dynamic = seed % 2 == 0;
+    auto scene = synth::MakeScene(o);
+    ASSERT_TRUE(scene.ok()) << scene.status();
+    SCOPED_TRACE("synth seed " + std::to_string(seed));
+    CheckScene(synth::ToGroundTruth(*scene));
+  }
 }
 
 TEST(SyntheticSceneTest, LociSynthSceneFromEnvironment) {
