@@ -1,11 +1,9 @@
 // Ground-truth scenes (objects.json layout): every "on" relation is answered correctly, "what is
 // on the Y" lists exactly the ground truth, counts are right, negatives say no. Runs on the
-// synthetic office generator (through an objects.json round trip) and, when LOCI_OBJECTS_JSON
-// names one, on a `loci synth` scene.
+// synthetic office generator (through an objects.json round trip) and on `loci synth` scenes.
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -132,14 +130,6 @@ TEST(SyntheticSceneTest, LociSynthScenes) {
     SCOPED_TRACE("synth seed " + std::to_string(seed));
     CheckScene(synth::ToGroundTruth(*scene));
   }
-}
-
-TEST(SyntheticSceneTest, LociSynthSceneFromEnvironment) {
-  const char* path = std::getenv("LOCI_OBJECTS_JSON");
-  if (path == nullptr) GTEST_SKIP() << "set LOCI_OBJECTS_JSON to a `loci synth` objects.json";
-  auto scene = ReadObjectsJson(path);
-  ASSERT_TRUE(scene.ok()) << scene.status();
-  CheckScene(*scene);
 }
 
 }  // namespace
