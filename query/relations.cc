@@ -134,8 +134,11 @@ RelationResult RelationEvaluator::On(const ObjectGeom& s, const ObjectGeom& a, b
   // is scored with twice the sigma.
   const double sigma = gap >= 0 ? opt_.on_gap_sigma_m : 2.0 * opt_.on_gap_sigma_m;
   r.confidence = std::exp(-0.5 * (gap / sigma) * (gap / sigma)) * (0.5 + 0.5 * Clamp01(overlap));
+  // A thing resting on a surface rises above it: its top must be above the anchor's top (a
+  // keyboard on a desk is not "on" the taller chair tucked under the desk). Not its centre: the
+  // fused centre of a thin object (keyboard, 3 cm) can sit at the surface height.
   r.holds = std::abs(gap) <= opt_.on_max_gap_m && overlap >= opt_.on_min_overlap &&
-            s.centroid_g.z() > a.box.max.z() && s.size_m > 0;
+            s.box.max.z() > a.box.max.z() && s.size_m > 0;
   r.distance_m = std::abs(gap);
   if (ev) {
     r.evidence = absl::StrFormat("bottom %s the top surface (z %.2f m), footprint overlap %.2f",

@@ -75,7 +75,8 @@ class SceneBuilder {
     Add("mouse", OnTop(desk, 0.8, 0.3), Size(0.06, 0.1, 0.04), desk);
     if (Coin(0.5)) Add("cup", OnTop(desk, 0.12, 0.35), Size(0.08, 0.08, 0.1), desk);
     const GroundTruthObject& d = Get(desk);
-    Add("chair", {d.centroid_m.x(), d.aabb_min_m.y() + 0.1, 0}, Size(0.45, 0.45, 0.9), 0);
+    // Seat partly under the desk; the back stays clear of the keyboard.
+    Add("chair", {d.centroid_m.x(), d.aabb_min_m.y() - 0.1, 0}, Size(0.45, 0.45, 0.9), 0);
     // Shelf with books on top, a couch and a plant.
     const int64_t shelf = Add("shelf", {ox + 5.0, oy + 0.4, 0}, Size(0.8, 0.3, 1.2), 0);
     if (!shelf) return;

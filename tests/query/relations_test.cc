@@ -59,6 +59,18 @@ TEST_F(RelationsTest, OnToleratesSmallGapsButNotHovering) {
   EXPECT_FALSE(r.holds) << r.evidence;
 }
 
+TEST_F(RelationsTest, NotOnATallerBoxBelowTheSurface) {
+  // A chair tucked under a desk reaches above the desk top (back at 0.81 m); the keyboard on
+  // the desk (0.78-0.81 m) lies over the chair's footprint but rests on the desk.
+  const ObjectGeom desk = frame_.Geom(Box(20, "dining table", {0, 0, 0}, {1.2, 0.6, 0.78}));
+  const ObjectGeom chair = frame_.Geom(Box(21, "chair", {0.3, -0.2, 0}, {0.75, 0.25, 0.81}));
+  const ObjectGeom keyboard =
+      frame_.Geom(Box(22, "keyboard", {0.35, 0.05, 0.78}, {0.79, 0.19, 0.805}));
+  EXPECT_TRUE(eval_.Evaluate(RelationKind::kOn, keyboard, desk).holds);
+  const RelationResult r = eval_.Evaluate(RelationKind::kOn, keyboard, chair);
+  EXPECT_FALSE(r.holds) << r.evidence;
+}
+
 TEST_F(RelationsTest, ChairUnderTable) {
   EXPECT_TRUE(Eval(RelationKind::kUnder, 5, 1).holds);
   EXPECT_FALSE(Eval(RelationKind::kUnder, 6, 1).holds);  // standing away

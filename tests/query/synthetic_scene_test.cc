@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <map>
+#include <random>
 #include <set>
 
 #include "common/objects_json.h"
@@ -114,6 +115,26 @@ TEST(SyntheticSceneTest, TenThousandObjectsCountsAndSupports) {
   EXPECT_EQ(engine.Ask("how many chairs are there", *index, {}).count, chairs);
   EXPECT_EQ(engine.Ask("how many books are on the shelves", *index, {}).count, books_on_shelves);
   EXPECT_EQ(engine.Ask("list all objects", *index, {}).count, 10000);
+}
+
+// Fused boxes are never exact: jitter every box face by N(0, 5 mm) and the centroid with it; the
+// "on" answers must still match the ground truth exactly.
+TEST(SyntheticSceneTest, NoisyBoxesKeepOnRelations) {
+  SyntheticMapOptions o;
+  o.object_count = 400;
+  o.seed = 11;
+  GroundTruthScene scene = MakeSyntheticOffice(o);
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.005);
+  for (GroundTruthObject& g : scene.objects) {
+    for (int k = 0; k < 3; ++k) {
+      g.aabb_min_m[k] += noise(rng);
+      g.aabb_max_m[k] += noise(rng);
+    }
+    g.centroid_m = 0.5 * (g.aabb_min_m + g.aabb_max_m);
+    g.extent_m = g.aabb_max_m - g.aabb_min_m;
+  }
+  CheckScene(scene);
 }
 
 // The scenes of `loci synth` (synth/scene.h): table, shelf and up to 40 objects on them or on
