@@ -6,7 +6,6 @@
 #include <chrono>
 #include <cstdio>
 #include <iostream>
-
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
@@ -69,8 +68,8 @@ int RunBenchTrack(const BenchTrackArgs& a) {
   Trajectory est;
   size_t keyframes = 0, kf_bytes = 0, lost = 0, segments = 0;
   double total_track_s = 0;
-  const size_t n = a.max_frames > 0 ? std::min<size_t>(a.max_frames, seq->frames.size())
-                                    : seq->frames.size();
+  const size_t n =
+      a.max_frames > 0 ? std::min<size_t>(a.max_frames, seq->frames.size()) : seq->frames.size();
   for (size_t i = 0; i < n; ++i) {
     const TumFrame& f = seq->frames[i];
     const cv::Mat bgr = cv::imread(f.rgb_path, cv::IMREAD_COLOR);
@@ -99,13 +98,13 @@ int RunBenchTrack(const BenchTrackArgs& a) {
   }
   std::printf("frames            %zu (lost %zu, new segments %zu)\n", n, lost, segments);
   std::printf("tracking ms/frame median %.2f  p95 %.2f  mean %.2f  (threads %d)\n",
-              Percentile(ms, 0.5), Percentile(ms, 0.95), total_track_s * 1e3 / std::max<size_t>(1, n),
-              a.threads);
-  std::printf("keyframes         %zu  (%.2f keyframes/s of sequence time, %.1f per 100 frames)\n",
-              keyframes,
-              n > 1 ? keyframes / NsToSeconds(seq->frames[n - 1].rgb_t_ns - seq->frames[0].rgb_t_ns)
-                    : 0.0,
-              100.0 * keyframes / std::max<size_t>(1, n));
+              Percentile(ms, 0.5), Percentile(ms, 0.95),
+              total_track_s * 1e3 / std::max<size_t>(1, n), a.threads);
+  std::printf(
+      "keyframes         %zu  (%.2f keyframes/s of sequence time, %.1f per 100 frames)\n",
+      keyframes,
+      n > 1 ? keyframes / NsToSeconds(seq->frames[n - 1].rgb_t_ns - seq->frames[0].rgb_t_ns) : 0.0,
+      100.0 * keyframes / std::max<size_t>(1, n));
   std::printf("bytes/keyframe    %.0f (JPEG q90 + 16-bit PNG depth)\n",
               keyframes ? static_cast<double>(kf_bytes) / keyframes : 0.0);
   if (!a.trajectory_out.empty()) (void)WriteTumTrajectory(a.trajectory_out, est);
@@ -136,7 +135,8 @@ void RegisterBenchTrackCommand(CLI::App& app) {
     bench->require_subcommand(1);
   }
   auto args = std::make_shared<BenchTrackArgs>();
-  CLI::App* c = bench->add_subcommand("track", "visual odometry speed and accuracy on a TUM folder");
+  CLI::App* c =
+      bench->add_subcommand("track", "visual odometry speed and accuracy on a TUM folder");
   c->add_option("--tum", args->tum_dir, "TUM RGB-D folder")->required();
   c->add_option("--threads", args->threads, "OpenCV threads")->capture_default_str();
   c->add_option("--max-frames", args->max_frames, "stop after N frames (0 = all)");

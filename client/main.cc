@@ -1,14 +1,14 @@
 // loci-track: the tracking client. Runs RGB-D odometry over a TUM folder (or takes poses from a
 // trajectory file), selects keyframes, attaches detections and gravity, and streams keyframes to
 // loci-server. See `loci-track --help`.
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <iostream>
 #include <memory>
-
-#include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
-#include <spdlog/spdlog.h>
 
 #include "client/app/keyframe_stage.h"
 #include "client/app/pose_source.h"
@@ -34,8 +34,8 @@ void Progress(size_t i, size_t n, int kfs, const FrameResult& r) {
   const int width = 30;
   const int filled = n ? static_cast<int>(width * (i + 1) / n) : width;
   std::fprintf(stderr, "\r[%s%s] %zu/%zu  kf %d  inliers %d  %.1f ms   ",
-               std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(), i + 1,
-               n, kfs, r.num_inliers, r.track_ms);
+               std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(), i + 1, n,
+               kfs, r.num_inliers, r.track_ms);
 }
 
 int Run(const Args& a) {
@@ -132,8 +132,8 @@ int Run(const Args& a) {
   }
 
   Trajectory traj, kf_traj;
-  const size_t n = a.max_frames > 0 ? std::min<size_t>(a.max_frames, seq->frames.size())
-                                    : seq->frames.size();
+  const size_t n =
+      a.max_frames > 0 ? std::min<size_t>(a.max_frames, seq->frames.size()) : seq->frames.size();
   int keyframes = 0, lost = 0;
   for (size_t i = 0; i < n; ++i) {
     const TumFrame& f = seq->frames[i];
@@ -145,8 +145,8 @@ int Run(const Args& a) {
     }
     std::vector<Detection2D> dets;
     if (const FrameDetections* fd = FindDetections(file_dets, f.rgb_t_ns)) dets = fd->detections;
-    StatusOr<FrameResult> r = tracker ? tracker->Track(bgr, depth, f.rgb_t_ns, &dets)
-                                      : pose_source->At(f.rgb_t_ns);
+    StatusOr<FrameResult> r =
+        tracker ? tracker->Track(bgr, depth, f.rgb_t_ns, &dets) : pose_source->At(f.rgb_t_ns);
     if (!r.ok()) {
       spdlog::warn("frame {}: {}", i, std::string(r.status().message()));
       continue;
@@ -193,10 +193,11 @@ int Run(const Args& a) {
   if (client) {
     Status s = client->Close();
     const MapClientStats st = client->stats();
-    std::printf("streamed to %s: session %s, queued %ld, acked %ld (duplicates %ld), "
-                "rejected %ld, reconnects %ld, %.1f MB sent\n",
-                a.server.c_str(), client->session_id().c_str(), st.queued, st.acked,
-                st.duplicates, st.rejected, st.reconnects, st.bytes_sent / 1e6);
+    std::printf(
+        "streamed to %s: session %s, queued %ld, acked %ld (duplicates %ld), "
+        "rejected %ld, reconnects %ld, %.1f MB sent\n",
+        a.server.c_str(), client->session_id().c_str(), st.queued, st.acked, st.duplicates,
+        st.rejected, st.reconnects, st.bytes_sent / 1e6);
     if (!s.ok() || !stage_status.ok() || st.rejected > 0) {
       std::cerr << "error: " << (!s.ok() ? s.message() : stage_status.message()) << " "
                 << st.last_error << "\n";

@@ -1,8 +1,8 @@
 #include "client/app/keyframe_stage.h"
 
-#include <chrono>
-
 #include <spdlog/spdlog.h>
+
+#include <chrono>
 
 namespace loci {
 
@@ -56,8 +56,7 @@ void KeyframeStage::Loop() {
         spdlog::warn("detector {}: {}", detector_->Name(), std::string(dets.status().message()));
       }
       detect_ms_total_ +=
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-              .count();
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       ++detected_;
     }
     if (sink_) {

@@ -1,10 +1,10 @@
 #include "client/streaming/map_client.h"
 
-#include <algorithm>
-#include <chrono>
-
 #include <grpcpp/grpcpp.h>
 #include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
 
 #include "client/streaming/keyframe_encoder.h"
 #include "loci/v1/mapping.grpc.pb.h"
@@ -82,8 +82,8 @@ struct MapClient::Impl {
         if (ack.status().code() != 0) {
           // A rejection is final (the server never stores it): report, do not resend.
           ++stats.rejected;
-          stats.last_error = absl::StrCat("keyframe ", ack.seq(), " rejected: ",
-                                          ack.status().message());
+          stats.last_error =
+              absl::StrCat("keyframe ", ack.seq(), " rejected: ", ack.status().message());
           spdlog::warn("{}", stats.last_error);
         }
         unacked.erase(ack.seq());

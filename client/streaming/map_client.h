@@ -17,12 +17,11 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <thread>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "common/camera.h"
 #include "common/detections_io.h"
@@ -37,8 +36,8 @@ struct MapClientOptions {
   int max_unacked = 16;                    // keyframes sent or queued without ack (back-pressure)
   double initial_backoff_s = 0.1;          // first reconnect delay, doubled up to max_backoff_s
   double max_backoff_s = 2.0;
-  double rpc_timeout_s = 5.0;              // deadline of OpenSession / CloseSession
-  int jpeg_quality = 90;                   // RGB JPEG quality [1, 100]
+  double rpc_timeout_s = 5.0;  // deadline of OpenSession / CloseSession
+  int jpeg_quality = 90;       // RGB JPEG quality [1, 100]
   std::string client_version = "loci-track 0.1.0";
 };
 
@@ -46,20 +45,20 @@ struct MapClientOptions {
 struct KeyframeData {
   int64_t t_ns = 0;
   SE3d T_odom_cam = SE3d::Identity();
-  cv::Mat bgr;                               // CV_8UC3
-  cv::Mat depth_u16;                         // CV_16UC1, depth_scale units per metre
+  cv::Mat bgr;        // CV_8UC3
+  cv::Mat depth_u16;  // CV_16UC1, depth_scale units per metre
   std::vector<Detection2D> detections;
-  std::optional<Vec3d> gravity_cam;          // unit, pointing down, cam frame
+  std::optional<Vec3d> gravity_cam;  // unit, pointing down, cam frame
   int segment = 0;
 };
 
 struct MapClientStats {
-  int64_t queued = 0;        // keyframes handed to Send
-  int64_t acked = 0;         // acknowledged as stored (including duplicates)
-  int64_t duplicates = 0;    // acknowledged as already stored (after a resend)
-  int64_t rejected = 0;      // acknowledged with an error status
-  int64_t reconnects = 0;    // streams re-opened after a failure
-  int64_t bytes_sent = 0;    // encoded keyframe bytes written (resends included)
+  int64_t queued = 0;      // keyframes handed to Send
+  int64_t acked = 0;       // acknowledged as stored (including duplicates)
+  int64_t duplicates = 0;  // acknowledged as already stored (after a resend)
+  int64_t rejected = 0;    // acknowledged with an error status
+  int64_t reconnects = 0;  // streams re-opened after a failure
+  int64_t bytes_sent = 0;  // encoded keyframe bytes written (resends included)
   std::string last_error;
 };
 

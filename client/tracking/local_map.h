@@ -16,15 +16,15 @@ namespace loci {
 
 struct MapPoint {
   int64_t id = 0;
-  Vec3d p_world;                 // m
-  OrbDescriptor descriptor{};    // from its latest keyframe observation
-  int octave = 0;                // pyramid level of that observation
-  double ref_depth_m = 1.0;      // depth of that observation (predicts the level when seen again)
-  int visible = 1;               // frames in which it projected inside the image
-  int found = 1;                 // frames in which it was matched
-  int dynamic_votes = 0;         // times the dynamic test flagged it
-  int num_keyframes = 0;         // window keyframes observing it
-  double weight = 0;             // sum of 1/sigma^2 (m^-2) of the depth measurements averaged
+  Vec3d p_world;               // m
+  OrbDescriptor descriptor{};  // from its latest keyframe observation
+  int octave = 0;              // pyramid level of that observation
+  double ref_depth_m = 1.0;    // depth of that observation (predicts the level when seen again)
+  int visible = 1;             // frames in which it projected inside the image
+  int found = 1;               // frames in which it was matched
+  int dynamic_votes = 0;       // times the dynamic test flagged it
+  int num_keyframes = 0;       // window keyframes observing it
+  double weight = 0;           // sum of 1/sigma^2 (m^-2) of the depth measurements averaged
   // Last matched observation (for the epipolar test): pixel and the frame's T_world_cam.
   Eigen::Vector2d last_uv_px = Eigen::Vector2d::Zero();
   SE3d last_T_world_cam = SE3d::Identity();
@@ -36,8 +36,8 @@ struct KeyframeRecord {
   int64_t id = 0;
   int64_t frame_index = 0;
   SE3d T_world_cam;
-  std::vector<int64_t> point_ids;   // static points it observes
-  OrbFrame frame;                   // features, for relocalisation
+  std::vector<int64_t> point_ids;  // static points it observes
+  OrbFrame frame;                  // features, for relocalisation
 };
 
 class LocalMap {

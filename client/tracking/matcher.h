@@ -10,15 +10,15 @@
 namespace loci {
 
 struct PointMatch {
-  int kp = -1;               // keypoint index in the frame
+  int kp = -1;  // keypoint index in the frame
   MapPoint* point = nullptr;
-  int distance = 0;          // Hamming bits
-  bool inlier = false;       // after pose refinement
-  bool dynamic = false;      // flagged by the dynamic test
+  int distance = 0;      // Hamming bits
+  bool inlier = false;   // after pose refinement
+  bool dynamic = false;  // flagged by the dynamic test
 };
 
 struct ProjectionSearchParams {
-  double radius_px = 12.0;   // at level 0, scaled by the predicted level's scale
+  double radius_px = 12.0;  // at level 0, scaled by the predicted level's scale
   int max_hamming = 64;
   float ratio = 0.85f;
   int num_levels = 8;

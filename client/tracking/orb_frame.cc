@@ -30,8 +30,8 @@ void OrbFrame::FeaturesInRadius(double u, double v, double radius_px, int min_le
 OrbExtractor::OrbExtractor(const TrackerOptions& options) : opt_(options) {
   // Twice the target so the grid selection has candidates in every cell.
   orb_ = cv::ORB::create(opt_.orb.num_features * 2, opt_.orb.scale_factor, opt_.orb.num_levels,
-                         /*edgeThreshold=*/19, /*firstLevel=*/0, /*WTA_K=*/2,
-                         cv::ORB::HARRIS_SCORE, /*patchSize=*/31, opt_.orb.fast_threshold);
+                         /*edgeThreshold=*/19, /*firstLevel=*/0, /*WTA_K=*/2, cv::ORB::HARRIS_SCORE,
+                         /*patchSize=*/31, opt_.orb.fast_threshold);
   level_scale_.resize(opt_.orb.num_levels);
   for (int l = 0; l < opt_.orb.num_levels; ++l) {
     level_scale_[l] = std::pow(opt_.orb.scale_factor, static_cast<float>(l));
@@ -118,10 +118,10 @@ OrbFrame OrbExtractor::Extract(const cv::Mat& gray, const cv::Mat& depth_m, int6
   f.grid_rows = (f.height_px + OrbFrame::kCellPx - 1) / OrbFrame::kCellPx;
   f.grid.assign(static_cast<size_t>(f.grid_cols) * f.grid_rows, {});
   for (size_t i = 0; i < n; ++i) {
-    const int c = std::clamp(static_cast<int>(f.keypoints[i].pt.x) / OrbFrame::kCellPx, 0,
-                             f.grid_cols - 1);
-    const int r = std::clamp(static_cast<int>(f.keypoints[i].pt.y) / OrbFrame::kCellPx, 0,
-                             f.grid_rows - 1);
+    const int c =
+        std::clamp(static_cast<int>(f.keypoints[i].pt.x) / OrbFrame::kCellPx, 0, f.grid_cols - 1);
+    const int r =
+        std::clamp(static_cast<int>(f.keypoints[i].pt.y) / OrbFrame::kCellPx, 0, f.grid_rows - 1);
     f.grid[r * f.grid_cols + c].push_back(static_cast<int>(i));
   }
   return f;

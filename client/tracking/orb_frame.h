@@ -3,13 +3,12 @@
 // projection search.
 #pragma once
 
+#include <Eigen/Core>
 #include <array>
 #include <cstdint>
-#include <vector>
-
-#include <Eigen/Core>
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
+#include <vector>
 
 #include "client/tracking/tracker_options.h"
 
@@ -25,11 +24,11 @@ inline int HammingDistance(const OrbDescriptor& a, const OrbDescriptor& b) {
 struct OrbFrame {
   int64_t t_ns = 0;
   int width_px = 0, height_px = 0;
-  std::vector<cv::KeyPoint> keypoints;      // level-0 pixel coordinates
-  std::vector<OrbDescriptor> descriptors;   // one per keypoint
-  std::vector<float> depth_m;               // per keypoint, 0 = no valid depth
-  std::vector<Eigen::Vector3d> p_cam;       // per keypoint, valid when depth_m > 0
-  std::vector<float> class_weight;          // per keypoint: dynamic weight of its box, or -1
+  std::vector<cv::KeyPoint> keypoints;     // level-0 pixel coordinates
+  std::vector<OrbDescriptor> descriptors;  // one per keypoint
+  std::vector<float> depth_m;              // per keypoint, 0 = no valid depth
+  std::vector<Eigen::Vector3d> p_cam;      // per keypoint, valid when depth_m > 0
+  std::vector<float> class_weight;         // per keypoint: dynamic weight of its box, or -1
   // Keypoint indices per grid cell of kCellPx pixels (projection search).
   static constexpr int kCellPx = 16;
   int grid_cols = 0, grid_rows = 0;

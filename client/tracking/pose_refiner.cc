@@ -1,8 +1,7 @@
 #include "client/tracking/pose_refiner.h"
 
-#include <cmath>
-
 #include <Eigen/Cholesky>
+#include <cmath>
 
 namespace loci {
 namespace {

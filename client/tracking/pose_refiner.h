@@ -4,9 +4,8 @@
 // re-classified between rounds with chi-square gates (95 %, 2 / 3 degrees of freedom).
 #pragma once
 
-#include <vector>
-
 #include <Eigen/Core>
+#include <vector>
 
 #include "common/camera.h"
 #include "common/se3.h"

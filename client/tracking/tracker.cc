@@ -3,11 +3,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <unordered_set>
-
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
+#include <unordered_set>
 
 #include "client/tracking/pose_refiner.h"
 #include "common/image_codec.h"
@@ -31,8 +30,7 @@ void PoseToRvecTvec(const SE3d& T, cv::Mat* rvec, cv::Mat* tvec) {
   Eigen::Matrix3d Re = T.linear();
   cv::eigen2cv(Re, R);
   cv::Rodrigues(R, *rvec);
-  *tvec = (cv::Mat_<double>(3, 1) << T.translation().x(), T.translation().y(),
-           T.translation().z());
+  *tvec = (cv::Mat_<double>(3, 1) << T.translation().x(), T.translation().y(), T.translation().z());
 }
 
 // PnP-RANSAC over 3-D world points and pixels; returns the inlier count (0 on failure).
@@ -44,9 +42,9 @@ int PnpRansac(const std::vector<cv::Point3f>& obj, const std::vector<cv::Point2f
   cv::Mat rvec, tvec;
   PoseToRvecTvec(*T_cw, &rvec, &tvec);
   std::vector<int> inliers;
-  const bool ok = cv::solvePnPRansac(obj, img, K, cv::noArray(), rvec, tvec, true, iterations,
-                                     static_cast<float>(reproj_px), 0.99, inliers,
-                                     cv::SOLVEPNP_EPNP);
+  const bool ok =
+      cv::solvePnPRansac(obj, img, K, cv::noArray(), rvec, tvec, true, iterations,
+                         static_cast<float>(reproj_px), 0.99, inliers, cv::SOLVEPNP_EPNP);
   if (!ok) return 0;
   const SE3d T = PoseFromRvecTvec(rvec, tvec);
   if (!IsFinite(T)) return 0;
@@ -69,11 +67,16 @@ int CountInliers(const PinholeCamera& cam, const std::vector<PoseObservation>& o
 
 const char* TrackStateName(TrackState s) {
   switch (s) {
-    case TrackState::kInitialised: return "initialised";
-    case TrackState::kTracking: return "tracking";
-    case TrackState::kRelocalised: return "relocalised";
-    case TrackState::kLost: return "lost";
-    case TrackState::kNewSegment: return "new_segment";
+    case TrackState::kInitialised:
+      return "initialised";
+    case TrackState::kTracking:
+      return "tracking";
+    case TrackState::kRelocalised:
+      return "relocalised";
+    case TrackState::kLost:
+      return "lost";
+    case TrackState::kNewSegment:
+      return "new_segment";
   }
   return "?";
 }
@@ -94,9 +97,9 @@ StatusOr<FrameResult> Tracker::Track(const cv::Mat& image, const cv::Mat& depth_
     return absl::InvalidArgumentError("Track: image must be CV_8UC3 or CV_8UC1");
   }
   if (image.cols != cam.width_px || image.rows != cam.height_px) {
-    return absl::InvalidArgumentError(absl::StrCat("Track: image is ", image.cols, "x",
-                                                   image.rows, ", camera expects ", cam.width_px,
-                                                   "x", cam.height_px));
+    return absl::InvalidArgumentError(absl::StrCat("Track: image is ", image.cols, "x", image.rows,
+                                                   ", camera expects ", cam.width_px, "x",
+                                                   cam.height_px));
   }
   if (depth_u16.type() != CV_16UC1 || depth_u16.size() != image.size()) {
     return absl::InvalidArgumentError("Track: depth must be CV_16UC1 of the image size");
@@ -182,8 +185,8 @@ StatusOr<FrameResult> Tracker::Track(const cv::Mat& image, const cv::Mat& depth_
     r.num_dynamic += m.dynamic;
     if (m.inlier && !m.dynamic) {
       ++m.point->found;
-      m.point->last_uv_px = Vec3d(frame.keypoints[m.kp].pt.x, frame.keypoints[m.kp].pt.y, 0)
-                                .head<2>();
+      m.point->last_uv_px =
+          Vec3d(frame.keypoints[m.kp].pt.x, frame.keypoints[m.kp].pt.y, 0).head<2>();
       m.point->last_T_world_cam = T_cw.inverse();
       m.point->last_seen_frame = frame_index_;
     }
@@ -245,8 +248,7 @@ int Tracker::TrackLocalMap(const OrbFrame& frame, const SE3d& T_cw_init, SE3d* T
   }
   SE3d T_start = T_cw_init;
   SE3d T_pnp = T_cw_init;
-  const int pnp_inliers =
-      PnpRansac(obj, img, cam, opt_.pnp_iterations, opt_.pnp_reproj_px, &T_pnp);
+  const int pnp_inliers = PnpRansac(obj, img, cam, opt_.pnp_iterations, opt_.pnp_reproj_px, &T_pnp);
   // Start from whichever of the prediction and the RANSAC pose explains more matches.
   if (pnp_inliers >= opt_.min_inliers && CountInliers(cam, obs, T_pnp, opt_.pnp_reproj_px) >
                                              CountInliers(cam, obs, T_start, opt_.pnp_reproj_px)) {
@@ -270,9 +272,8 @@ int Tracker::TrackLocalMap(const OrbFrame& frame, const SE3d& T_cw_init, SE3d* T
     m.dynamic = false;
     if (opt_.dynamic.enabled) {
       const bool has_prev = m.point->last_seen_frame >= 0;
-      const double D = dynamic_.DynamicValue(Eigen::Vector2d(kp.pt.x, kp.pt.y),
-                                             frame.depth_m[m.kp], m.point->p_world, *T_cw,
-                                             has_prev, m.point->last_uv_px,
+      const double D = dynamic_.DynamicValue(Eigen::Vector2d(kp.pt.x, kp.pt.y), frame.depth_m[m.kp],
+                                             m.point->p_world, *T_cw, has_prev, m.point->last_uv_px,
                                              m.point->last_T_world_cam);
       m.dynamic = D > dynamic_.Threshold(frame.class_weight[m.kp]);
     }
@@ -336,8 +337,7 @@ bool Tracker::NeedKeyframe(const OrbFrame& frame, const SE3d& T_cw,
   for (size_t i = 0; i < frame.size(); ++i) {
     static_features += frame.depth_m[i] > 0 && !dynamic_.IsPriorDynamic(frame.class_weight[i]);
   }
-  const double mu =
-      static_features <= 0 ? 0.0 : static_cast<double>(common) / static_features;
+  const double mu = static_features <= 0 ? 0.0 : static_cast<double>(common) / static_features;
   int new_points = 0;
   for (size_t i = 0; i < frame.size(); ++i) new_points += !matched[i] && frame.depth_m[i] > 0;
   return mu < k.max_covisibility && new_points > k.min_new_points;

@@ -15,9 +15,8 @@
 #pragma once
 
 #include <memory>
-#include <vector>
-
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "client/tracking/dynamic_filter.h"
 #include "client/tracking/local_map.h"
@@ -36,16 +35,16 @@ const char* TrackStateName(TrackState s);
 struct FrameResult {
   int64_t t_ns = 0;
   TrackState state = TrackState::kLost;
-  bool tracked = false;          // false: T_odom_cam is only the motion-model prediction
+  bool tracked = false;  // false: T_odom_cam is only the motion-model prediction
   SE3d T_odom_cam = SE3d::Identity();
-  bool keyframe = false;         // a new keyframe was created from this frame
-  int segment = 0;               // odometry segment (increments after an unrecoverable loss)
+  bool keyframe = false;  // a new keyframe was created from this frame
+  int segment = 0;        // odometry segment (increments after an unrecoverable loss)
   int num_features = 0;
   int num_matches = 0;
   int num_inliers = 0;
-  int num_dynamic = 0;           // matched features flagged dynamic
+  int num_dynamic = 0;  // matched features flagged dynamic
   int num_map_points = 0;
-  double track_ms = 0;           // wall time of Track(), ms
+  double track_ms = 0;  // wall time of Track(), ms
 };
 
 class Tracker {
@@ -68,8 +67,8 @@ class Tracker {
   int TrackLocalMap(const OrbFrame& frame, const SE3d& T_cw_init, SE3d* T_cw,
                     std::vector<PointMatch>* matches);
   bool Relocalise(const OrbFrame& frame, SE3d* T_cw_init);
-  bool NeedKeyframe(const OrbFrame& frame, const SE3d& T_cw,
-                    const std::vector<PointMatch>& matches, int num_inliers) const;
+  bool NeedKeyframe(const OrbFrame& frame, const SE3d& T_cw, const std::vector<PointMatch>& matches,
+                    int num_inliers) const;
   void CreateKeyframe(OrbFrame frame, const SE3d& T_cw, const std::vector<PointMatch>& matches);
 
   TrackerOptions opt_;
@@ -82,8 +81,8 @@ class Tracker {
   int segment_ = 0;
   int lost_count_ = 0;
   bool have_velocity_ = false;
-  SE3d T_cw_last_ = SE3d::Identity();    // last tracked pose, T_cam_world
-  SE3d velocity_ = SE3d::Identity();     // T_cam_prevcam of the last two tracked frames
+  SE3d T_cw_last_ = SE3d::Identity();  // last tracked pose, T_cam_world
+  SE3d velocity_ = SE3d::Identity();   // T_cam_prevcam of the last two tracked frames
 };
 
 }  // namespace loci

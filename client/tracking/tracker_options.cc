@@ -10,8 +10,8 @@ Status TrackerOptions::Validate() const {
   if (!(min_depth_m > 0 && max_depth_m > min_depth_m)) {
     return absl::InvalidArgumentError("need 0 < min_depth_m < max_depth_m");
   }
-  if (orb.num_features < 50 || orb.num_levels < 1 || orb.scale_factor <= 1.f ||
-      orb.grid_cols < 1 || orb.grid_rows < 1 || orb.fast_threshold < 1) {
+  if (orb.num_features < 50 || orb.num_levels < 1 || orb.scale_factor <= 1.f || orb.grid_cols < 1 ||
+      orb.grid_rows < 1 || orb.fast_threshold < 1) {
     return absl::InvalidArgumentError("orb options out of range");
   }
   if (local_map_keyframes < 1 || min_inliers < 6 || search_radius_px <= 0 ||

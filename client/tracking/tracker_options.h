@@ -2,10 +2,10 @@
 // FromYaml fills only the keys present (config/client.yaml, section `tracker`).
 #pragma once
 
+#include <yaml-cpp/yaml.h>
+
 #include <map>
 #include <string>
-
-#include <yaml-cpp/yaml.h>
 
 #include "common/camera.h"
 #include "common/status.h"
@@ -13,30 +13,30 @@
 namespace loci {
 
 struct OrbOptions {
-  int num_features = 1000;     // keypoints kept per frame after grid distribution
-  int fast_threshold = 12;     // FAST corner threshold, grey levels (low: blurred fr1 images)
-  int num_levels = 8;          // pyramid levels
-  float scale_factor = 1.2f;   // pyramid scale between levels
-  int grid_cols = 8;           // grid distribution: cells across the image
-  int grid_rows = 6;           // grid distribution: cells down the image
+  int num_features = 1000;    // keypoints kept per frame after grid distribution
+  int fast_threshold = 12;    // FAST corner threshold, grey levels (low: blurred fr1 images)
+  int num_levels = 8;         // pyramid levels
+  float scale_factor = 1.2f;  // pyramid scale between levels
+  int grid_cols = 8;          // grid distribution: cells across the image
+  int grid_rows = 6;          // grid distribution: cells down the image
 };
 
 struct KeyframeRuleOptions {
   // Paper 004 eq. (6): "effective motion" since the last keyframe.
-  double min_rotation_rad = 0.087;     // 5 deg
+  double min_rotation_rad = 0.087;  // 5 deg
   double min_translation_m = 0.05;
   // Paper 004 eq. (7): static co-visibility index below which a moving camera needs a keyframe.
   double max_covisibility = 0.60;
-  int min_new_points = 15;             // paper 004: new features needed to justify a keyframe
+  int min_new_points = 15;  // paper 004: new features needed to justify a keyframe
   // Paper 001 sec. 4 / ORB-SLAM: keyframe whenever tracking gets thin, and at least every N frames.
   int min_tracked_points = 120;
   int max_frames_between = 30;
 };
 
 struct DynamicOptions {
-  bool enabled = true;                 // false: no box prior, no geometric test (ablation)
-  double epipolar_sigma_px = 1.5;      // d1 normaliser (pixel noise at level 0)
-  double depth_sigma_at_1m = 0.01;     // d2 normaliser: sigma_z = this * z^2 (Kinect, m)
+  bool enabled = true;              // false: no box prior, no geometric test (ablation)
+  double epipolar_sigma_px = 1.5;   // d1 normaliser (pixel noise at level 0)
+  double depth_sigma_at_1m = 0.01;  // d2 normaliser: sigma_z = this * z^2 (Kinect, m)
   // Paper 004 threshold on D = |d1|/sigma_px + |d2|/sigma_z; a feature in a box of class weight
   // w is dynamic when D > threshold / w (paper 002: stricter test for more dynamic classes).
   double threshold = 6.0;
@@ -47,24 +47,24 @@ struct DynamicOptions {
 
 struct TrackerOptions {
   PinholeCamera camera = PinholeCamera::TumFr1();
-  double depth_scale = 5000.0;         // depth PNG units per metre
-  double min_depth_m = 0.1;            // valid depth range for 3-D points
+  double depth_scale = 5000.0;  // depth PNG units per metre
+  double min_depth_m = 0.1;     // valid depth range for 3-D points
   double max_depth_m = 4.0;
   // Depth at a keypoint is used only when its 3x3 neighbours differ by less than this fraction.
   double depth_edge_ratio = 0.03;
   OrbOptions orb;
   KeyframeRuleOptions keyframes;
   DynamicOptions dynamic;
-  int local_map_keyframes = 30;        // keyframes whose points form the local map
-  double search_radius_px = 12.0;      // projection search radius at level 0 (first pass)
-  double refine_radius_px = 4.0;       // second pass after the first pose, level 0
-  int max_hamming = 64;                // ORB descriptor distance accepted for a match (bits)
-  float match_ratio = 0.85f;           // best / second-best distance ratio
-  int min_inliers = 20;                // fewer: frame lost, relocalisation
-  int lost_frames_before_reset = 5;    // failed relocalisations before a new segment
-  double virtual_baseline_m = 0.08;    // RGB-D depth as a virtual stereo residual (ORB-SLAM2)
-  int pnp_iterations = 100;            // PnP-RANSAC iterations
-  double pnp_reproj_px = 4.0;          // PnP-RANSAC inlier threshold
+  int local_map_keyframes = 30;      // keyframes whose points form the local map
+  double search_radius_px = 12.0;    // projection search radius at level 0 (first pass)
+  double refine_radius_px = 4.0;     // second pass after the first pose, level 0
+  int max_hamming = 64;              // ORB descriptor distance accepted for a match (bits)
+  float match_ratio = 0.85f;         // best / second-best distance ratio
+  int min_inliers = 20;              // fewer: frame lost, relocalisation
+  int lost_frames_before_reset = 5;  // failed relocalisations before a new segment
+  double virtual_baseline_m = 0.08;  // RGB-D depth as a virtual stereo residual (ORB-SLAM2)
+  int pnp_iterations = 100;          // PnP-RANSAC iterations
+  double pnp_reproj_px = 4.0;        // PnP-RANSAC inlier threshold
 
   Status Validate() const;
   // Reads the `tracker` node (see config/client.yaml) over the current values.

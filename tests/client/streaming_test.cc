@@ -1,19 +1,18 @@
 // MapClient against the real loci-server binary on loopback: keyframes of the shipped fr1_rpy
 // sample stream while the server is killed (SIGKILL) and restarted on the same port and
 // database; at the end every keyframe must be stored exactly once, in one session.
+#include <gtest/gtest.h>
+#include <netinet/in.h>
 #include <signal.h>
 #include <sqlite3.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
-#include <netinet/in.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <filesystem>
-#include <thread>
-
-#include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
+#include <thread>
 
 #include "client/streaming/map_client.h"
 #include "common/config.h"
@@ -66,8 +65,8 @@ StatusOr<std::unique_ptr<MapClient>> ConnectWithRetry(const MapClientOptions& o,
 class StreamingTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("loci_stream_test_" + std::to_string(getpid()));
+    dir_ =
+        std::filesystem::temp_directory_path() / ("loci_stream_test_" + std::to_string(getpid()));
     std::filesystem::create_directories(dir_);
     db_ = (dir_ / "loci.db").string();
     listen_ = "127.0.0.1:" + std::to_string(FreePort());

@@ -1,14 +1,15 @@
 // Visual odometry accuracy on real data (shipped fr1_rpy sample, full fr1_rpy when present) and
 // on synthetic scenes rendered by loci_synth (static: ATE < 1 cm; a large moving object:
 // suppression must cut the ATE at least 3x).
+#include "client/tracking/tracker.h"
+
+#include <gtest/gtest.h>
+
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
-
-#include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "client/tracking/tracker.h"
 #include "common/config.h"
 #include "common/trajectory_eval.h"
 #include "common/tum_io.h"
@@ -58,8 +59,8 @@ TEST(TrackerTest, ShippedSampleNeverLosesTracking) {
 
 TEST(TrackerTest, FullFr1RpyAteWithinTarget) {
   std::string dir;
-  for (const std::string& c : {DataDirFromEnv() + "/tum_fr1_rpy",
-                               SourceDir() + "/../shared/data/tum_fr1_rpy"}) {
+  for (const std::string& c :
+       {DataDirFromEnv() + "/tum_fr1_rpy", SourceDir() + "/../shared/data/tum_fr1_rpy"}) {
     if (std::filesystem::exists(c + "/rgb.txt")) dir = c;
   }
   if (dir.empty()) {
@@ -109,9 +110,10 @@ TEST(TrackerTest, SyntheticStaticSceneBelowOneCentimetre) {
   EXPECT_LT(ate, 0.01);
 }
 
-// A walking "person" made large (a cross of two 1.6 m x 2 m panels with a wall's texture) that crosses the table the
-// camera looks at, so that it covers a large part of most images: without suppression its
-// features pull the pose along; with detections + the dynamic test they are kept out.
+// A walking "person" made large (a cross of two 1.6 m x 2 m panels with a wall's texture) that
+// crosses the table the camera looks at, so that it covers a large part of most images: without
+// suppression its features pull the pose along; with detections + the dynamic test they are kept
+// out.
 TEST(TrackerTest, SyntheticDynamicSceneSuppressionCutsAteThreeTimes) {
   synth::SceneOptions so;
   so.seed = 3;
