@@ -22,4 +22,9 @@ void RegisterBenchTrackCommand(CLI::App& app);
 // `loci bench query` (query/); adds or reuses the `bench` group.
 void RegisterBenchQueryCommand(CLI::App& app);
 
+// `loci export`, `loci eval objects`, `loci bench ingest` (server/); eval/bench groups reused.
+void RegisterExportCommand(CLI::App& app);
+void RegisterEvalObjectsCommand(CLI::App& app);
+void RegisterBenchIngestCommand(CLI::App& app);
+
 }  // namespace loci::cli

@@ -20,6 +20,9 @@ int main(int argc, char** argv) {
 
   loci::cli::RegisterEvalCommands(app);
   loci::cli::RegisterSynthCommands(app);
+  loci::cli::RegisterExportCommand(app);
+  loci::cli::RegisterEvalObjectsCommand(app);
+  loci::cli::RegisterBenchIngestCommand(app);
   loci::cli::RegisterDetectCommand(app);
   loci::cli::RegisterBenchDetectCommand(app);
   loci::cli::RegisterBenchTrackCommand(app);

@@ -1,4 +1,5 @@
 // `loci-server`: the loci mapping server (gRPC Mapping + Query services, SQLite persistence).
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -42,6 +43,8 @@ int main(int argc, char** argv) {
   app.add_option("--http", http, "HTTP/JSON API address HOST:PORT or off [off]");
   app.add_option("--log-level", log_level, "trace|debug|info|warn|error")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  // Logs go to stderr: stdout carries only the "listening on HOST:PORT" line for scripts.
+  spdlog::set_default_logger(spdlog::stderr_color_mt("loci-server"));
   spdlog::set_level(spdlog::level::from_str(log_level));
 
   loci::server::ServerOptions options;

@@ -5,10 +5,18 @@
 #include <pcl/filters/voxel_grid_label.h>
 
 #include <algorithm>
+#include <cmath>
+#include <ctime>
 #include <numeric>
 #include <opencv2/imgproc.hpp>
 
 namespace loci::server {
+
+double ThreadCpuMs() {
+  timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
 
 cv::Mat DominantDepthCluster(const cv::Mat& depth_m, const cv::Rect& box,
                              const ObservationOptions& o, double min_depth_m, double max_depth_m) {
@@ -153,12 +161,34 @@ pcl::PointCloud<pcl::PointXYZRGB> ObjectCloud(const cv::Mat& bgr, const cv::Mat&
                                               const cv::Mat& labels, int16_t label,
                                               const cv::Rect& rect, const PinholeCamera& cam,
                                               const MapOptions& options) {
-  pcl::PointCloud<pcl::PointXYZRGB> raw;
+  const ObservationOptions& o = options.observation;
+  // Visible surface area (sum of pixel footprints) decides the voxel edge, and the voxel edge
+  // the pixel stride: no need to back-project several pixels per voxel.
+  double area_m2 = 0;
+  int pixels = 0;
   for (int v = rect.y; v < rect.y + rect.height; ++v) {
     const float* drow = depth_m.ptr<float>(v);
     const int16_t* lrow = labels.ptr<int16_t>(v);
-    const cv::Vec3b* crow = bgr.ptr<cv::Vec3b>(v);
     for (int u = rect.x; u < rect.x + rect.width; ++u) {
+      const float d = drow[u];
+      if (lrow[u] != label || !(d >= options.cloud.min_depth_m && d <= options.cloud.max_depth_m)) {
+        continue;
+      }
+      area_m2 += static_cast<double>(d) * d;
+      ++pixels;
+    }
+  }
+  pcl::PointCloud<pcl::PointXYZRGB> raw;
+  if (pixels == 0) return raw;
+  area_m2 /= cam.fx * cam.fy;
+  const double voxel_m = std::max(o.voxel_m, std::sqrt(area_m2 / o.max_points));
+  const double footprint_m = std::sqrt(area_m2 / pixels);
+  const int stride = std::max(1, static_cast<int>(0.5 * voxel_m / footprint_m));
+  for (int v = rect.y; v < rect.y + rect.height; v += stride) {
+    const float* drow = depth_m.ptr<float>(v);
+    const int16_t* lrow = labels.ptr<int16_t>(v);
+    const cv::Vec3b* crow = bgr.ptr<cv::Vec3b>(v);
+    for (int u = rect.x; u < rect.x + rect.width; u += stride) {
       const float d = drow[u];
       if (lrow[u] != label || !(d >= options.cloud.min_depth_m && d <= options.cloud.max_depth_m)) {
         continue;
@@ -171,15 +201,13 @@ pcl::PointCloud<pcl::PointXYZRGB> ObjectCloud(const cv::Mat& bgr, const cv::Mat&
       raw.push_back(q);
     }
   }
-  if (raw.empty()) return raw;
   pcl::PointCloud<pcl::PointXYZRGB> voxelised;
   pcl::VoxelGrid<pcl::PointXYZRGB> grid;
   grid.setInputCloud(raw.makeShared());
-  const float leaf = static_cast<float>(options.observation.voxel_m);
+  const float leaf = static_cast<float>(voxel_m);
   grid.setLeafSize(leaf, leaf, leaf);
   grid.filter(voxelised);
-  return RemoveOutliers(voxelised, options.observation.sor_mean_k,
-                        options.observation.sor_stddev_mul);
+  return RemoveOutliers(voxelised, o.sor_mean_k, o.sor_stddev_mul);
 }
 
 }  // namespace
@@ -189,8 +217,15 @@ KeyframeProducts BuildKeyframeProducts(const cv::Mat& bgr, const cv::Mat& depth_
                                        const std::vector<Detection2D>& detections,
                                        const MapOptions& options) {
   KeyframeProducts products;
+  double t = ThreadCpuMs();
+  auto lap = [&t](double* out) {
+    const double now = ThreadCpuMs();
+    *out = now - t;
+    t = now;
+  };
   const cv::Mat labels = LabelPixels(depth_m, detections, options);
   products.excluded_pixels = static_cast<uint64_t>(cv::countNonZero(labels < 0));
+  lap(&products.labels_ms);
 
   // Object observations; remember which pixel label became which observation.
   std::vector<uint32_t> label_to_observation(detections.size() + 1, 0);
@@ -212,15 +247,19 @@ KeyframeProducts BuildKeyframeProducts(const cv::Mat& bgr, const cv::Mat& depth_
     label_to_observation[i + 1] = static_cast<uint32_t>(products.observations.size());
   }
 
+  lap(&products.objects_ms);
   pcl::PointCloud<pcl::PointXYZRGBL> cloud =
       BackProject(bgr, depth_m, labels, camera, options.cloud.pixel_stride,
                   options.cloud.min_depth_m, options.cloud.max_depth_m);
   for (auto& p : cloud) {
     p.label = p.label < label_to_observation.size() ? label_to_observation[p.label] : 0;
   }
+  lap(&products.backproject_ms);
   cloud = VoxelFilterLabelled(cloud, options.cloud.voxel_m);
+  lap(&products.voxel_ms);
   products.static_cloud_kf =
       RemoveOutliers(cloud, options.cloud.sor_mean_k, options.cloud.sor_stddev_mul);
+  lap(&products.outlier_ms);
   return products;
 }
 

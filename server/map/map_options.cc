@@ -25,6 +25,7 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
         ReadOptional(n, "cluster_bin_fraction", &observation.cluster_bin_fraction));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "cluster_max_half_m", &observation.cluster_max_half_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "voxel_m", &observation.voxel_m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_points", &observation.max_points));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "sor_mean_k", &observation.sor_mean_k));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "sor_stddev_mul", &observation.sor_stddev_mul));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_points", &observation.min_points));
@@ -82,6 +83,7 @@ Status MapOptions::Validate() const {
   if (!(fusion.min_likelihood > 0 && fusion.min_likelihood < 0.5)) {
     return bad("fusion.min_likelihood in (0, 0.5)");
   }
+  if (observation.max_points < 10) return bad("observation.max_points >= 10");
   if (fusion.confirm_observations < 1) return bad("fusion.confirm_observations >= 1");
   if (fusion.label_universe < 2) return bad("fusion.label_universe >= 2");
   if (octomap.enabled && !(octomap.resolution_m >= 0.005))

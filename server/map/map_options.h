@@ -17,7 +17,7 @@ struct CloudOptions {
   double max_depth_m = 4.0;     // farther readings are ignored: Kinect noise grows with z^2 (4.0)
   int pixel_stride = 2;         // back-project every n-th pixel in u and v for the dense cloud (2)
   double voxel_m = 0.03;        // voxel filter edge for the keyframe and global cloud, m (0.03)
-  int sor_mean_k = 16;          // statistical outlier removal: neighbours per point, K (16)
+  int sor_mean_k = 8;           // statistical outlier removal: neighbours per point, K (8)
   double sor_stddev_mul = 1.0;  // eq. 18 threshold t = m + k * s: this is k (1.0)
 };
 
@@ -33,7 +33,10 @@ struct ObservationOptions {
   double cluster_tolerance_m = 0.04;
   double cluster_bin_fraction = 0.1;
   double cluster_max_half_m = 0.5;
-  double voxel_m = 0.01;        // voxel filter edge of object clouds, m (0.01)
+  double voxel_m = 0.01;  // voxel filter edge of object clouds, m (0.01)
+  // Large objects (tables) are voxelised coarser so that one view gives at most about this many
+  // voxels: edge = max(voxel_m, sqrt(visible area / max_points)) (2000).
+  int max_points = 2000;
   int sor_mean_k = 10;          // outlier removal on object clouds, K (10)
   double sor_stddev_mul = 1.0;  // outlier removal on object clouds, k of eq. 18 (1.0)
   int min_points = 20;          // observations with fewer filtered points are dropped (20)

@@ -2,15 +2,14 @@
 
 #include <algorithm>
 #include <chrono>
+#include <unordered_map>
 
 #include "server/map/keyframe_products.h"
 
 namespace loci::server {
 namespace {
 
-double MsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
+double MsSince(double t0_cpu_ms) { return ThreadCpuMs() - t0_cpu_ms; }
 
 uint32_t PackRgb(uint8_t r, uint8_t g, uint8_t b) {
   return (static_cast<uint32_t>(r) << 16) | (static_cast<uint32_t>(g) << 8) | b;
@@ -23,7 +22,37 @@ Mapper::Mapper(const MapOptions& options)
       objects_(options.fusion, options.observation.voxel_m),
       cloud_(options.cloud.voxel_m),
       octomap_(options.octomap.enabled ? std::make_unique<OccupancyMap>(options.octomap)
-                                       : nullptr) {}
+                                       : nullptr) {
+  if (octomap_) octomap_thread_ = std::thread([this] { OctomapLoop(); });
+}
+
+Mapper::~Mapper() {
+  octomap_queue_.Close();
+  if (octomap_thread_.joinable()) octomap_thread_.join();
+}
+
+void Mapper::OctomapLoop() {
+  while (std::optional<OctomapJob> job = octomap_queue_.Pop()) {
+    const double t0 = ThreadCpuMs();
+    {
+      std::lock_guard<std::mutex> lock(octo_mu_);
+      octomap_->Insert(job->points_m, job->origin_m);
+    }
+    const double ms = ThreadCpuMs() - t0;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      stats_.total.octomap_ms += ms;
+    }
+    std::lock_guard<std::mutex> lock(octomap_progress_mu_);
+    ++octomap_done_;
+    octomap_progress_cv_.notify_all();
+  }
+}
+
+void Mapper::FlushOctomap() const {
+  std::unique_lock<std::mutex> lock(octomap_progress_mu_);
+  octomap_progress_cv_.wait(lock, [&] { return octomap_done_ >= octomap_pushed_; });
+}
 
 void Mapper::SetEventListener(std::function<void(const std::vector<ObjectEventOut>&)> listener) {
   listener_ = std::move(listener);
@@ -31,10 +60,15 @@ void Mapper::SetEventListener(std::function<void(const std::vector<ObjectEventOu
 
 StageTimes Mapper::Integrate(const MapperKeyframe& kf) {
   StageTimes times;
-  auto t0 = std::chrono::steady_clock::now();
+  double t0 = ThreadCpuMs();
   const KeyframeProducts products =
       BuildKeyframeProducts(kf.bgr, kf.depth_m, kf.camera, kf.detections, options_);
   times.products_ms = MsSince(t0);
+  times.labels_ms = products.labels_ms;
+  times.objects_ms = products.objects_ms;
+  times.backproject_ms = products.backproject_ms;
+  times.voxel_ms = products.voxel_ms;
+  times.outlier_ms = products.outlier_ms;
 
   // World products derived from the keyframe-frame products with T_map_kf.
   const Eigen::Isometry3f T_map_kf = kf.T_map_kf.cast<float>();
@@ -74,7 +108,7 @@ StageTimes Mapper::Integrate(const MapperKeyframe& kf) {
   std::vector<ObjectEventOut> events;
   {
     std::lock_guard<std::mutex> lock(mu_);
-    t0 = std::chrono::steady_clock::now();
+    t0 = ThreadCpuMs();
     std::vector<ObjectChange> changes;
     const std::vector<int64_t> ids = objects_.Integrate(observations, &changes);
     for (const ObjectChange& c : changes) {
@@ -88,7 +122,7 @@ StageTimes Mapper::Integrate(const MapperKeyframe& kf) {
     }
     times.fusion_ms = MsSince(t0);
 
-    t0 = std::chrono::steady_clock::now();
+    t0 = ThreadCpuMs();
     std::vector<SemanticPoint> points;
     points.reserve(static_points_m.size());
     for (size_t i = 0; i < static_points_m.size(); ++i) {
@@ -109,17 +143,34 @@ StageTimes Mapper::Integrate(const MapperKeyframe& kf) {
   }
 
   if (octomap_) {
-    t0 = std::chrono::steady_clock::now();
-    std::lock_guard<std::mutex> lock(octo_mu_);
-    octomap_->Insert(static_points_m, kf.T_map_kf.translation());
-    times.octomap_ms = MsSince(t0);
+    // One ray per OctoMap leaf is enough: thin the cloud to the OctoMap resolution first.
+    OctomapJob job;
+    job.origin_m = kf.T_map_kf.translation();
+    std::unordered_map<VoxelKey, std::pair<Eigen::Vector3f, int>> leaves;
+    for (const Eigen::Vector3f& p : static_points_m) {
+      auto& [sum, n] = leaves[KeyOf(p.cast<double>(), options_.octomap.resolution_m)];
+      if (n == 0) sum.setZero();
+      sum += p;
+      ++n;
+    }
+    job.points_m.reserve(leaves.size());
+    for (const auto& [key, sn] : leaves) job.points_m.push_back(sn.first / sn.second);
+    {
+      std::lock_guard<std::mutex> lock(octomap_progress_mu_);
+      ++octomap_pushed_;
+    }
+    octomap_queue_.Push(std::move(job));
   }
   {
     std::lock_guard<std::mutex> lock(mu_);
     stats_.total.products_ms += times.products_ms;
     stats_.total.fusion_ms += times.fusion_ms;
     stats_.total.cloud_ms += times.cloud_ms;
-    stats_.total.octomap_ms += times.octomap_ms;
+    stats_.total.labels_ms += times.labels_ms;
+    stats_.total.objects_ms += times.objects_ms;
+    stats_.total.backproject_ms += times.backproject_ms;
+    stats_.total.voxel_ms += times.voxel_ms;
+    stats_.total.outlier_ms += times.outlier_ms;
   }
   if (listener_ && !events.empty()) listener_(events);
   return times;
@@ -158,12 +209,14 @@ std::vector<SemanticPoint> Mapper::Cloud(double voxel_m,
 
 std::string Mapper::OctomapBt() const {
   if (!octomap_) return {};
+  FlushOctomap();
   std::lock_guard<std::mutex> lock(octo_mu_);
   return octomap_->SerializeBt();
 }
 
 std::vector<Eigen::Vector3d> Mapper::OccupiedCenters() const {
   if (!octomap_) return {};
+  FlushOctomap();
   std::lock_guard<std::mutex> lock(octo_mu_);
   return octomap_->OccupiedCenters();
 }
@@ -181,6 +234,7 @@ std::map<std::string, RobotPose> Mapper::LatestPoses() const {
 
 MapperStats Mapper::Stats() const {
   MapperStats s;
+  if (octomap_) FlushOctomap();  // so the OctoMap figures cover every integrated keyframe
   {
     std::lock_guard<std::mutex> lock(mu_);
     s = stats_;

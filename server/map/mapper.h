@@ -2,8 +2,11 @@
 // answers thread-safe snapshots for the services, exports and the query engine.
 //
 // Integrate() is called by one mapping thread; every other method may be called concurrently.
+// The OctoMap is updated on its own thread (ray casting is the costliest stage); its readers wait
+// until every integrated keyframe is in.
 #pragma once
 
+#include <condition_variable>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -12,12 +15,14 @@
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "common/camera.h"
 #include "common/detections_io.h"
 #include "common/map_object.h"
 #include "common/se3.h"
+#include "server/map/bounded_queue.h"
 #include "server/map/map_options.h"
 #include "server/map/object_map.h"
 #include "server/map/occupancy_map.h"
@@ -40,12 +45,15 @@ struct MapperKeyframe {
   Vec3d gravity_cam = Vec3d::Zero();  // unit, pointing down
 };
 
-// Milliseconds spent per stage of one keyframe.
+// Thread CPU milliseconds spent per stage of one keyframe (CPU time, so the figures hold on a
+// loaded machine).
 struct StageTimes {
   double products_ms = 0;  // labels, back-projection, voxel + outlier filters
-  double fusion_ms = 0;    // association, object update, merges
-  double cloud_ms = 0;     // global semantic cloud
-  double octomap_ms = 0;   // ray casting into the OctoMap
+  // ... of which: pixel labels, object clouds, dense back-projection, voxel filter, outliers
+  double labels_ms = 0, objects_ms = 0, backproject_ms = 0, voxel_ms = 0, outlier_ms = 0;
+  double fusion_ms = 0;   // association, object update, merges
+  double cloud_ms = 0;    // global semantic cloud
+  double octomap_ms = 0;  // ray casting into the OctoMap (its own thread)
 };
 
 struct RobotPose {
@@ -72,6 +80,9 @@ struct ObjectEventOut {
 class Mapper {
  public:
   explicit Mapper(const MapOptions& options);
+  ~Mapper();
+  Mapper(const Mapper&) = delete;
+  Mapper& operator=(const Mapper&) = delete;
 
   StageTimes Integrate(const MapperKeyframe& keyframe);
 
@@ -92,8 +103,16 @@ class Mapper {
   std::map<std::string, RobotPose> LatestPoses() const;
   MapperStats Stats() const;
   const MapOptions& options() const { return options_; }
+  // Blocks until the OctoMap holds every keyframe integrated so far.
+  void FlushOctomap() const;
 
  private:
+  struct OctomapJob {
+    std::vector<Eigen::Vector3f> points_m;  // static points at the OctoMap resolution
+    Vec3d origin_m = Vec3d::Zero();         // camera centre
+  };
+  void OctomapLoop();
+
   MapOptions options_;
   std::function<void(const std::vector<ObjectEventOut>&)> listener_;
 
@@ -107,6 +126,12 @@ class Mapper {
 
   mutable std::mutex octo_mu_;  // the OctoMap alone, so ray casting does not block queries
   std::unique_ptr<OccupancyMap> octomap_;
+  BoundedQueue<OctomapJob> octomap_queue_{8};
+  mutable std::mutex octomap_progress_mu_;
+  mutable std::condition_variable octomap_progress_cv_;
+  uint64_t octomap_pushed_ = 0;  // guarded by octomap_progress_mu_
+  uint64_t octomap_done_ = 0;    // guarded by octomap_progress_mu_
+  std::thread octomap_thread_;
 };
 
 }  // namespace loci::server

@@ -6,6 +6,7 @@
 #include <regex>
 
 #include "common/time.h"
+#include "server/map/keyframe_products.h"
 #include "server/service/keyframe_decoder.h"
 #include "server/service/proto_convert.h"
 #include "server/service/replay.h"
@@ -139,13 +140,20 @@ loci::v1::KeyframeAck MapServer::Ingest(const loci::v1::Keyframe& kf) {
   }
   MapperKeyframe decoded;
   ValidationLimits limits{options_.max_detections, options_.max_image_px};
+  const double cpu0 = ThreadCpuMs();
   auto record = ValidateKeyframe(kf, *session, limits, &decoded);
+  const double cpu1 = ThreadCpuMs();
+  const auto t1 = std::chrono::steady_clock::now();
   if (!record.ok()) {
     spdlog::warn("keyframe {} of {} rejected: {}", kf.seq(), kf.session_id(),
                  record.status().ToString());
     return MakeAck(kf.seq(), record.status());
   }
   auto inserted = store_->InsertKeyframe(*record);
+  const auto t2 = std::chrono::steady_clock::now();
+  validate_ms_total_ = validate_ms_total_ + (cpu1 - cpu0);
+  store_ms_total_ = store_ms_total_ + std::chrono::duration<double, std::milli>(t2 - t1).count();
+  ++accepted_count_;
   if (!inserted.ok()) {
     spdlog::error("keyframe {} of {} not stored: {}", kf.seq(), kf.session_id(),
                   inserted.status().ToString());
@@ -209,6 +217,16 @@ void MapServer::Flush() {
 double MapServer::ingest_ms_mean() const {
   const uint64_t n = mapping_count_;
   return n == 0 ? 0.0 : mapping_ms_total_ / static_cast<double>(n);
+}
+
+double MapServer::validate_ms_mean() const {
+  const uint64_t n = accepted_count_;
+  return n == 0 ? 0.0 : validate_ms_total_ / static_cast<double>(n);
+}
+
+double MapServer::store_ms_mean() const {
+  const uint64_t n = accepted_count_;
+  return n == 0 ? 0.0 : store_ms_total_ / static_cast<double>(n);
 }
 
 void MapServer::Subscribe(std::shared_ptr<ObjectEventQueue> queue) {

@@ -15,8 +15,8 @@
 #include "common/status.h"
 #include "detection/detector.h"
 #include "loci/v1/mapping.pb.h"
+#include "server/map/bounded_queue.h"
 #include "server/map/mapper.h"
-#include "server/service/bounded_queue.h"
 #include "server/service/server_options.h"
 #include "server/storage/map_store.h"
 
@@ -54,6 +54,10 @@ class MapServer {
   uint64_t replayed_keyframes() const { return replayed_; }
   // Mean mapping time per keyframe mapped by the worker since start (replay excluded), ms.
   double ingest_ms_mean() const;
+  // Mean time of the handler-side stages per accepted keyframe, ms: validation with image
+  // decoding (thread CPU time), and the storage transaction (wall time).
+  double validate_ms_mean() const;
+  double store_ms_mean() const;
 
  private:
   MapServer(const ServerOptions& options, std::shared_ptr<MapStore> store,
@@ -79,6 +83,9 @@ class MapServer {
   uint64_t mapped_ = 0;    // guarded by progress_mu_
   std::atomic<double> mapping_ms_total_{0};
   std::atomic<uint64_t> mapping_count_{0};
+  std::atomic<double> validate_ms_total_{0};
+  std::atomic<double> store_ms_total_{0};
+  std::atomic<uint64_t> accepted_count_{0};
 
   std::mutex watchers_mu_;
   std::vector<std::shared_ptr<ObjectEventQueue>> watchers_;
