@@ -83,11 +83,11 @@ StatusOr<std::vector<Candidate>> DecodeYolox(const cv::Mat& output, int input_si
       for (int gx = 0; gx < g; ++gx, ++row) {
         const float* p = rows.ptr<float>(row);
         const float obj = p[4];
-        if (obj < min_score) continue;  // score = obj * cls <= obj
+        if (!(obj >= min_score)) continue;  // score = obj * cls <= obj; also drops NaN
         const float* cls = p + 5;
         const int c = static_cast<int>(std::max_element(cls, cls + num_classes) - cls);
         const float score = obj * cls[c];
-        if (score < min_score) continue;
+        if (!(score >= min_score)) continue;
         const float cx = (p[0] + gx) * stride, cy = (p[1] + gy) * stride;
         const float w = std::exp(p[2]) * stride, h = std::exp(p[3]) * stride;
         if (!std::isfinite(w) || !std::isfinite(h)) continue;
@@ -128,7 +128,7 @@ StatusOr<std::vector<Candidate>> DecodeNanodet(const std::vector<cv::Mat>& outpu
     for (int i = 0; i < n; ++i) {
       const float* pc = cls.ptr<float>(i);
       const int c = static_cast<int>(std::max_element(pc, pc + num_classes) - pc);
-      if (pc[c] < min_score) continue;
+      if (!(pc[c] >= min_score)) continue;  // also drops NaN
       const float* pb = box.ptr<float>(i);
       std::array<float, 4> d{};  // left, top, right, bottom distances in bins
       for (int k = 0; k < 4; ++k) {
