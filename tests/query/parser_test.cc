@@ -214,6 +214,27 @@ TEST_F(ParserTest, ObjectIds) {
   EXPECT_EQ(b.target->id, 12);
 }
 
+TEST_F(ParserTest, Paraphrases) {
+  struct Case {
+    const char* text;
+    Intent intent;
+  };
+  for (const Case& c : {Case{"where did you see the cup", Intent::kWhere},
+                        Case{"where was the laptop last seen?", Intent::kWhere},
+                        Case{"show me the mugs on the desk", Intent::kWhere},
+                        Case{"find the remote control", Intent::kWhere},
+                        Case{"How many people are in the room?", Intent::kCount},
+                        Case{"Which robot has seen the mouse?", Intent::kWhichRobot},
+                        Case{"can you see a teddy bear", Intent::kExists},
+                        Case{"are there any bottles on the table", Intent::kExists},
+                        Case{"what objects are on top of the shelf", Intent::kWhatRelation},
+                        Case{"what's there", Intent::kList}}) {
+    auto q = ParseQuestion(c.text, vocab_);
+    ASSERT_TRUE(q.ok()) << c.text << ": " << q.status().message();
+    EXPECT_EQ(q->intent, c.intent) << c.text;
+  }
+}
+
 TEST_F(ParserTest, UnknownWordsListWhatIsKnown) {
   auto q = ParseQuestion("where is the unicorn", vocab_);
   ASSERT_FALSE(q.ok());

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
+#include <thread>
 
 #include "test_scene.h"
 
@@ -264,6 +266,27 @@ TEST_F(QueryEngineTest, GravityFromCallerRotatedMap) {
   EXPECT_EQ(r.up_source, "given");
   v.up_map.reset();  // wrong up (config +z): the book is no longer on the shelf
   EXPECT_EQ(engine_.Ask("what is on the shelf", v).count, 0);
+}
+
+TEST_F(QueryEngineTest, ConcurrentAsksOnOneIndexAgree) {
+  const std::vector<std::string> questions = {"what is on the desk", "where is the book",
+                                              "is there a cup near the keyboard",
+                                              "what is left of the monitor"};
+  std::vector<std::string> expected;
+  for (const std::string& q : questions) expected.push_back(Ask(q).answer);
+  std::vector<std::thread> threads;
+  std::atomic<int> mismatches{0};
+  for (int t = 0; t < 4; ++t) {
+    threads.emplace_back([&] {
+      for (int k = 0; k < 200; ++k) {
+        const size_t i = k % questions.size();
+        const AskResult r = engine_.Ask(questions[i], *index_, AskContext{kT0, ""});
+        if (r.answer != expected[i]) ++mismatches;
+      }
+    });
+  }
+  for (std::thread& t : threads) t.join();
+  EXPECT_EQ(mismatches.load(), 0);
 }
 
 TEST_F(QueryEngineTest, BadObjectsAreIgnoredNotFatal) {
