@@ -6,6 +6,7 @@
 
 #include "server/map/keyframe_products.h"
 #include "server/map/label_distribution.h"
+#include "server/map/object_eval.h"
 #include "server/map/object_map.h"
 
 namespace loci::server {
@@ -197,6 +198,47 @@ TEST(ObjectMap, MergesDuplicatesThatEndUpOverlapping) {
   // A different class at the same place is not merged.
   map.Integrate({Obs(3, {0.0, 0, 1}, 0.10, 3, "book")}, &changes);
   EXPECT_EQ(map.size(), 2u);
+}
+
+TEST(ObjectEval, CountErrorMatchingFalsePositivesAndMisses) {
+  GroundTruthScene gt;
+  auto add_gt = [&](int64_t id, const std::string& cls, Eigen::Vector3d c, bool dynamic = false) {
+    GroundTruthObject o;
+    o.id = id;
+    o.class_name = cls;
+    o.centroid_m = c;
+    o.dynamic = dynamic;
+    gt.objects.push_back(o);
+  };
+  add_gt(1, "cup", {0, 0, 0});
+  add_gt(2, "cup", {1, 0, 0});
+  add_gt(3, "book", {0, 1, 0});
+  add_gt(4, "person", {5, 5, 0}, /*dynamic=*/true);  // never evaluated
+  auto obj = [](int64_t id, const std::string& cls, Eigen::Vector3d c) {
+    MapObject o;
+    o.id = id;
+    o.class_name = cls;
+    o.centroid_m = c;
+    return o;
+  };
+  const std::vector<MapObject> found = {obj(10, "cup", {0.01, 0, 0}),  // -> gt 1
+                                        obj(11, "cup", {0.98, 0, 0}),  // -> gt 2
+                                        obj(12, "book", {2, 2, 0}),    // too far: FP
+                                        obj(13, "chair", {0, 1, 0})};  // wrong class: FP
+  const ObjectEvalResult r = EvaluateObjects(found, gt, ObjectEvalOptions{});
+  EXPECT_EQ(r.gt_count, 3);
+  EXPECT_EQ(r.detected_count, 4);
+  EXPECT_NEAR(r.count_error, 1.0 / 3.0, 1e-12);  // |4 - 3| / 3, eq. 24
+  ASSERT_EQ(r.matches.size(), 2u);
+  EXPECT_NEAR(r.max_centroid_error_m, 0.02, 1e-9);
+  EXPECT_NEAR(r.mean_centroid_error_m, 0.015, 1e-9);
+  EXPECT_EQ(r.missed_gt_ids, std::vector<int64_t>{3});
+  EXPECT_EQ(r.false_positive_ids.size(), 2u);
+  ObjectEvalOptions only_cups;
+  only_cups.classes = {"cup"};
+  const ObjectEvalResult c = EvaluateObjects(found, gt, only_cups);
+  EXPECT_EQ(c.count_error, 0.0);
+  EXPECT_TRUE(c.missed_gt_ids.empty() && c.false_positive_ids.empty());
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <map>
 #include <thread>
 
 #include "common/image_codec.h"
@@ -19,6 +20,25 @@ namespace {
 
 using loci::v1::Keyframe;
 using loci::v1::KeyframeAck;
+
+// Stands in for the detection module's detectors: the exact boxes of the rendered view whose
+// stamp it is asked about (the server runs it on keyframes without detections).
+class ViewDetector final : public detection::Detector {
+ public:
+  explicit ViewDetector(std::map<int64_t, std::vector<Detection2D>> by_t_ns)
+      : by_t_ns_(std::move(by_t_ns)) {}
+  StatusOr<std::vector<Detection2D>> Detect(const cv::Mat& bgr, int64_t t_ns) override {
+    if (bgr.empty()) return absl::InvalidArgumentError("empty image");
+    ++calls;
+    auto it = by_t_ns_.find(t_ns);
+    return it == by_t_ns_.end() ? std::vector<Detection2D>{} : it->second;
+  }
+  std::string Name() const override { return "view"; }
+  int calls = 0;
+
+ private:
+  std::map<int64_t, std::vector<Detection2D>> by_t_ns_;
+};
 
 class ServiceTest : public ::testing::Test {
  protected:
@@ -38,11 +58,11 @@ class ServiceTest : public ::testing::Test {
   }
   void TearDown() override { Stop(); }
 
-  void Start() {
+  void Start(std::shared_ptr<detection::Detector> detector = nullptr) {
     ServerOptions o;
     o.db_path = db_;
     o.map.mapped_classes = {"book", "cup", "laptop"};
-    auto s = MapServer::Open(o);
+    auto s = MapServer::Open(o, nullptr, std::move(detector));
     ASSERT_TRUE(s.ok()) << s.status();
     server_ = std::move(*s);
     auto g = GrpcServer::Start(server_.get(), "127.0.0.1:0", o.max_message_mb);
@@ -290,6 +310,25 @@ TEST_F(ServiceTest, WatchObjectsStreamsCreatedEvents) {
   EXPECT_FALSE(event.object().class_name().empty());
   watch_ctx.TryCancel();
   reader->Finish();
+}
+
+TEST_F(ServiceTest, ServerDetectorRunsOnKeyframesWithoutDetections) {
+  std::map<int64_t, std::vector<Detection2D>> by_t_ns;
+  for (int i = 0; i < 6; ++i) by_t_ns[1'000'000'000LL * (i + 1)] = views_[i].detections;
+  auto detector = std::make_shared<ViewDetector>(by_t_ns);
+  Stop();
+  Start(detector);
+  const std::string session = Open();
+  std::vector<Keyframe> frames;
+  for (int i = 0; i < 6; ++i) {
+    frames.push_back(Frame(session, i));
+    frames.back().clear_detections();
+  }
+  grpc::Status st;
+  ASSERT_EQ(Send(frames, &st).size(), 6u);
+  server_->Flush();
+  EXPECT_EQ(detector->calls, 6);
+  EXPECT_EQ(server_->mapper().Snapshot(true).size(), 3u);
 }
 
 TEST_F(ServiceTest, OpenSessionValidatesItsRequest) {
