@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <ctime>
+#include <future>
 #include <numeric>
 #include <opencv2/imgproc.hpp>
 
@@ -218,15 +219,32 @@ KeyframeProducts BuildKeyframeProducts(const cv::Mat& bgr, const cv::Mat& depth_
                                        const MapOptions& options) {
   KeyframeProducts products;
   double t = ThreadCpuMs();
-  auto lap = [&t](double* out) {
-    const double now = ThreadCpuMs();
-    *out = now - t;
-    t = now;
-  };
   const cv::Mat labels = LabelPixels(depth_m, detections, options);
   products.excluded_pixels = static_cast<uint64_t>(cv::countNonZero(labels < 0));
-  lap(&products.labels_ms);
+  products.labels_ms = ThreadCpuMs() - t;
 
+  // The dense cloud (labels = 1 + detection index for now) runs on a second core while this
+  // thread builds the object observations.
+  struct Dense {
+    pcl::PointCloud<pcl::PointXYZRGBL> cloud;
+    double backproject_ms = 0, voxel_ms = 0, outlier_ms = 0;
+  };
+  std::future<Dense> dense_future = std::async(std::launch::async, [&] {
+    Dense d;
+    double t0 = ThreadCpuMs();
+    d.cloud = BackProject(bgr, depth_m, labels, camera, options.cloud.pixel_stride,
+                          options.cloud.min_depth_m, options.cloud.max_depth_m);
+    double t1 = ThreadCpuMs();
+    d.backproject_ms = t1 - t0;
+    d.cloud = VoxelFilterLabelled(d.cloud, options.cloud.voxel_m);
+    t0 = ThreadCpuMs();
+    d.voxel_ms = t0 - t1;
+    d.cloud = RemoveOutliers(d.cloud, options.cloud.sor_mean_k, options.cloud.sor_stddev_mul);
+    d.outlier_ms = ThreadCpuMs() - t0;
+    return d;
+  });
+
+  t = ThreadCpuMs();
   // Object observations; remember which pixel label became which observation.
   std::vector<uint32_t> label_to_observation(detections.size() + 1, 0);
   for (int i = 0; i < static_cast<int>(detections.size()); ++i) {
@@ -246,20 +264,16 @@ KeyframeProducts BuildKeyframeProducts(const cv::Mat& bgr, const cv::Mat& depth_
     products.observations.push_back(std::move(obs));
     label_to_observation[i + 1] = static_cast<uint32_t>(products.observations.size());
   }
+  products.objects_ms = ThreadCpuMs() - t;
 
-  lap(&products.objects_ms);
-  pcl::PointCloud<pcl::PointXYZRGBL> cloud =
-      BackProject(bgr, depth_m, labels, camera, options.cloud.pixel_stride,
-                  options.cloud.min_depth_m, options.cloud.max_depth_m);
-  for (auto& p : cloud) {
+  Dense dense = dense_future.get();
+  for (auto& p : dense.cloud) {
     p.label = p.label < label_to_observation.size() ? label_to_observation[p.label] : 0;
   }
-  lap(&products.backproject_ms);
-  cloud = VoxelFilterLabelled(cloud, options.cloud.voxel_m);
-  lap(&products.voxel_ms);
-  products.static_cloud_kf =
-      RemoveOutliers(cloud, options.cloud.sor_mean_k, options.cloud.sor_stddev_mul);
-  lap(&products.outlier_ms);
+  products.static_cloud_kf = std::move(dense.cloud);
+  products.backproject_ms = dense.backproject_ms;
+  products.voxel_ms = dense.voxel_ms;
+  products.outlier_ms = dense.outlier_ms;
   return products;
 }
 

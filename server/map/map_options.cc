@@ -51,6 +51,7 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "enabled", &octomap.enabled));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "resolution_m", &octomap.resolution_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_range_m", &octomap.max_range_m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "ray_voxel_m", &octomap.ray_voxel_m));
   }
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "dynamic_classes", &dynamic_classes));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "mapped_classes", &mapped_classes));

@@ -69,6 +69,10 @@ struct OctomapOptions {
   bool enabled = true;
   double resolution_m = 0.05;  // leaf size, m (0.05)
   double max_range_m = 4.0;    // rays are truncated at this range, m; <= 0 = none (4.0)
+  // Free space is carved by rays to one end point per ray voxel of this edge; the other end
+  // points are marked occupied without a ray (ray casting dominates the cost). <= resolution_m
+  // = a ray to every end point (0.1).
+  double ray_voxel_m = 0.1;
 };
 
 struct MapOptions {
