@@ -37,6 +37,7 @@ struct KeyframeRecord {
   int64_t frame_index = 0;
   SE3d T_world_cam;
   std::vector<int64_t> point_ids;  // static points it observes
+  std::vector<int> point_kp;       // keypoint in `frame` observing point_ids[i]
   OrbFrame frame;                  // features, for relocalisation
 };
 
@@ -57,6 +58,7 @@ class LocalMap {
   // All points of the window.
   std::vector<MapPoint*> Points();
   const std::deque<std::unique_ptr<KeyframeRecord>>& keyframes() const { return keyframes_; }
+  std::deque<std::unique_ptr<KeyframeRecord>>& mutable_keyframes() { return keyframes_; }
   const KeyframeRecord* LastKeyframe() const {
     return keyframes_.empty() ? nullptr : keyframes_.back().get();
   }

@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 #include <unordered_set>
 
+#include "client/tracking/local_ba.h"
 #include "client/tracking/pose_refiner.h"
 #include "common/image_codec.h"
 
@@ -200,6 +201,21 @@ StatusOr<FrameResult> Tracker::Track(const cv::Mat& image, const cv::Mat& depth_
     CreateKeyframe(std::move(frame), T_cw, matches);
     last_kf_frame_ = frame_index_;
     r.keyframe = true;
+    if (opt_.local_ba_keyframes > 0) {
+      LocalBaOptions ba;
+      ba.num_optimised_keyframes = opt_.local_ba_keyframes;
+      ba.max_iterations = opt_.local_ba_iterations;
+      ba.bf_px = opt_.camera.fx * opt_.virtual_baseline_m;
+      std::vector<float> inv_sigma2(opt_.orb.num_levels);
+      for (int l = 0; l < opt_.orb.num_levels; ++l) {
+        inv_sigma2[l] = 1.f / (extractor_.LevelScale(l) * extractor_.LevelScale(l));
+      }
+      if (LocalBundleAdjust(opt_.camera, ba, inv_sigma2, &map_)) {
+        // The new keyframe is this frame: continue from its adjusted pose.
+        T_cw_last_ = map_.LastKeyframe()->T_world_cam.inverse();
+        r.T_odom_cam = map_.LastKeyframe()->T_world_cam;
+      }
+    }
   }
   return finish();
 }
@@ -368,6 +384,7 @@ void Tracker::CreateKeyframe(OrbFrame frame, const SE3d& T_cw,
       m.point->weight += w;
     }
     kf->point_ids.push_back(m.point->id);
+    kf->point_kp.push_back(m.kp);
   }
   for (size_t i = 0; i < frame.size(); ++i) {
     if (used[i] || frame.depth_m[i] <= 0) continue;
@@ -380,6 +397,7 @@ void Tracker::CreateKeyframe(OrbFrame frame, const SE3d& T_cw,
     p->last_seen_frame = frame_index_;
     p->weight = 1.0 / std::pow(frame.depth_m[i], 4.0);
     kf->point_ids.push_back(p->id);
+    kf->point_kp.push_back(static_cast<int>(i));
   }
   kf->frame = std::move(frame);
   map_.AddKeyframe(std::move(kf));

@@ -63,6 +63,8 @@ Status TrackerOptions::FromYaml(const YAML::Node& n) {
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_inliers", &min_inliers));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "lost_frames_before_reset", &lost_frames_before_reset));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "virtual_baseline_m", &virtual_baseline_m));
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "local_ba_keyframes", &local_ba_keyframes));
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "local_ba_iterations", &local_ba_iterations));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "pnp_iterations", &pnp_iterations));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "pnp_reproj_px", &pnp_reproj_px));
   return Validate();

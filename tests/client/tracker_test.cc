@@ -57,6 +57,15 @@ TEST(TrackerTest, ShippedSampleNeverLosesTracking) {
   EXPECT_LT(s.ate_m, 0.05);  // 60 frames; a drift this large means the odometry is broken
 }
 
+TEST(TrackerTest, ShippedSampleWithLocalBundleAdjustment) {
+  TrackerOptions opt;
+  opt.local_ba_keyframes = 5;
+  const RunStats s = TrackTum(SourceDir() + "/tests/data/tum_fr1_rpy_sample", opt);
+  std::cout << "fr1_rpy sample with local BA: ATE RMSE " << s.ate_m << " m\n";
+  EXPECT_EQ(s.lost, 0);
+  EXPECT_LT(s.ate_m, 0.05);
+}
+
 TEST(TrackerTest, FullFr1RpyAteWithinTarget) {
   std::string dir;
   for (const std::string& c :
