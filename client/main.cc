@@ -95,6 +95,8 @@ int Run(const Args& a) {
     detector = std::move(*det);
     mot = std::make_unique<detection::MultiObjectTracker>(dc->tracker);
   }
+  const bool has_detector = detector != nullptr;
+  constexpr int64_t kMaxBoxAgeNs = 300'000'000;
 
   std::unique_ptr<MapClient> client;
   if (!a.offline) {
@@ -144,7 +146,18 @@ int Run(const Args& a) {
       continue;
     }
     std::vector<Detection2D> dets;
-    if (const FrameDetections* fd = FindDetections(file_dets, f.rgb_t_ns)) dets = fd->detections;
+    bool dets_from_keyframe = false;
+    if (const FrameDetections* fd = FindDetections(file_dets, f.rgb_t_ns)) {
+      dets = fd->detections;
+    } else if (has_detector) {
+      // The detector runs asynchronously on keyframes: its latest boxes (at most
+      // kMaxBoxAgeNs old) serve as the dynamic prior; the geometric test still decides.
+      FrameDetections latest = stage.LatestDetections();
+      if (latest.t_ns > 0 && f.rgb_t_ns - latest.t_ns <= kMaxBoxAgeNs) {
+        dets = std::move(latest.detections);
+        dets_from_keyframe = true;
+      }
+    }
     StatusOr<FrameResult> r =
         tracker ? tracker->Track(bgr, depth, f.rgb_t_ns, &dets) : pose_source->At(f.rgb_t_ns);
     if (!r.ok()) {
@@ -165,7 +178,7 @@ int Run(const Args& a) {
     kf.T_odom_cam = r->T_odom_cam;
     kf.bgr = bgr;
     kf.depth_u16 = depth;
-    kf.detections = std::move(dets);
+    if (!dets_from_keyframe) kf.detections = std::move(dets);  // else: the detector fills them
     kf.segment = r->segment;
     if (auto g = GravityInCamAt(seq->accel, f.rgb_t_ns); g.ok()) kf.gravity_cam = *g;
     stage.Push(std::move(kf));

@@ -35,6 +35,11 @@ Status KeyframeStage::Finish() {
   return first_error_;
 }
 
+FrameDetections KeyframeStage::LatestDetections() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return latest_;
+}
+
 void KeyframeStage::Loop() {
   while (true) {
     KeyframeData kf;
@@ -52,6 +57,9 @@ void KeyframeStage::Loop() {
       if (dets.ok()) {
         kf.detections = std::move(*dets);
         if (mot_) mot_->Update(kf.bgr, &kf.detections);
+        std::lock_guard<std::mutex> lock(mu_);
+        latest_.t_ns = kf.t_ns;
+        latest_.detections = kf.detections;
       } else {
         spdlog::warn("detector {}: {}", detector_->Name(), std::string(dets.status().message()));
       }

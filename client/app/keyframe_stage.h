@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "client/streaming/map_client.h"
+#include "common/detections_io.h"
 #include "detection/detector.h"
 #include "detection/multi_object_tracker.h"
 
@@ -29,6 +30,10 @@ class KeyframeStage {
   // Processes everything queued, then stops the thread. Returns the first sink error, if any.
   Status Finish();
 
+  // Detections of the most recently detected keyframe and its stamp (t_ns 0: none yet), for
+  // the odometry's dynamic prior on the frames that follow.
+  FrameDetections LatestDetections() const;
+
   double detect_ms_total() const { return detect_ms_total_; }
   int detected_keyframes() const { return detected_; }
 
@@ -39,7 +44,8 @@ class KeyframeStage {
   std::unique_ptr<detection::MultiObjectTracker> mot_;
   Sink sink_;
   size_t capacity_;
-  std::mutex mu_;
+  mutable std::mutex mu_;
+  FrameDetections latest_;
   std::condition_variable cv_;
   std::deque<KeyframeData> queue_;
   bool done_ = false;
