@@ -16,7 +16,7 @@ struct CloudOptions {
   double min_depth_m = 0.1;     // nearer depth readings are ignored (default 0.1)
   double max_depth_m = 4.0;     // farther readings are ignored: Kinect noise grows with z^2 (4.0)
   int pixel_stride = 2;         // back-project every n-th pixel in u and v for the dense cloud (2)
-  double voxel_m = 0.03;        // voxel filter edge for the keyframe and global cloud, m (0.03)
+  double voxel_m = 0.04;        // voxel filter edge for the keyframe and global cloud, m (0.04)
   int sor_mean_k = 8;           // statistical outlier removal: neighbours per point, K (8)
   double sor_stddev_mul = 1.0;  // eq. 18 threshold t = m + k * s: this is k (1.0)
 };

@@ -45,7 +45,9 @@ synth::SceneOptions SceneOpts() {
 class Integration : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = new std::string(::testing::TempDir() + "/loci_server_integration");
+    // One directory per process: ctest runs the two tests of this suite in parallel.
+    dir_ = new std::string(::testing::TempDir() + "/loci_server_integration_" +
+                           std::to_string(getpid()));
     fs::create_directories(*dir_);
     ASSERT_TRUE(synth::WriteSequence(SceneOpts(), *dir_ + "/scene").ok());
     auto kfs = testing::LoadSceneKeyframes(*dir_ + "/scene");
@@ -57,6 +59,7 @@ class Integration : public ::testing::Test {
   }
   static void TearDownTestSuite() {
     delete keyframes_;
+    if (dir_ != nullptr) fs::remove_all(*dir_);
     delete dir_;
   }
 
