@@ -41,7 +41,11 @@ StatusOr<PinholeCamera> CameraFromYaml(const YAML::Node& node) {
   return cam;
 }
 
-std::string SourceDir() { return LOCI_SOURCE_DIR; }
+std::string SourceDir() {
+  // An installed copy (docker/, a package) points LOCI_HOME at its config/ and models/.
+  const char* home = std::getenv("LOCI_HOME");
+  return home && *home ? home : LOCI_SOURCE_DIR;
+}
 
 std::string DataDirFromEnv() {
   const char* d = std::getenv("LOCI_DATA");

@@ -30,7 +30,8 @@ Status ReadOptional(const YAML::Node& node, const char* key, T* out) {
 StatusOr<PinholeCamera> CameraFromYaml(const YAML::Node& node);
 StatusOr<PinholeCamera> CameraPreset(const std::string& name);
 
-// The project's source directory baked in at build time (shipped config, models, sample data).
+// Where the shipped config/, models/ and tests/data live: $LOCI_HOME when set, else the source
+// directory baked in at build time.
 std::string SourceDir();
 // $LOCI_DATA if set, else "".
 std::string DataDirFromEnv();
