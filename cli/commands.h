@@ -27,4 +27,8 @@ void RegisterExportCommand(CLI::App& app);
 void RegisterEvalObjectsCommand(CLI::App& app);
 void RegisterBenchIngestCommand(CLI::App& app);
 
+// `loci ask`, `loci objects`, `loci stats` (gRPC clients of a running loci-server).
+void RegisterAskCommand(CLI::App& app);
+void RegisterObjectsCommands(CLI::App& app);
+
 }  // namespace loci::cli

@@ -27,6 +27,8 @@ int main(int argc, char** argv) {
   loci::cli::RegisterBenchDetectCommand(app);
   loci::cli::RegisterBenchTrackCommand(app);
   loci::cli::RegisterBenchQueryCommand(app);
+  loci::cli::RegisterAskCommand(app);
+  loci::cli::RegisterObjectsCommands(app);
 
   CLI11_PARSE(app, argc, argv);
   return loci::cli::ExitCode();

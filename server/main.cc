@@ -7,8 +7,11 @@
 #include <iostream>
 
 #include "common/config.h"
+#include "query/query_options.h"
+#include "server/http/http_api.h"
 #include "server/service/grpc_server.h"
 #include "server/service/map_server.h"
+#include "server/service/query_adapter.h"
 #ifdef LOCI_HAVE_DETECTION
 #include "detection/detector_options.h"
 #endif
@@ -35,12 +38,15 @@ loci::StatusOr<std::shared_ptr<loci::detection::Detector>> MakeServerDetector(
 
 int main(int argc, char** argv) {
   CLI::App app{"loci-server: semantic map server for robot fleets"};
-  std::string config_path, listen, db, http, log_level = "info";
+  std::string config_path, listen, db, http, query_config, log_level = "info";
   app.add_option("--config", config_path, "YAML config (see config/server.yaml)")
       ->check(CLI::ExistingFile);
   app.add_option("--listen", listen, "gRPC address HOST:PORT [127.0.0.1:50051]");
   app.add_option("--db", db, "SQLite database file [./loci.db]");
   app.add_option("--http", http, "HTTP/JSON API address HOST:PORT or off [off]");
+  app.add_option("--query-config", query_config,
+                 "query engine YAML (see config/query.yaml) [built-in defaults]")
+      ->check(CLI::ExistingFile);
   app.add_option("--log-level", log_level, "trace|debug|info|warn|error")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   // Logs go to stderr: stdout carries only the "listening on HOST:PORT" line for scripts.
@@ -56,9 +62,14 @@ int main(int argc, char** argv) {
   if (!listen.empty()) options.listen = listen;
   if (!db.empty()) options.db_path = db;
   if (!http.empty()) options.http = http;
-  if (options.http != "off") {
-    spdlog::warn("--http {}: the HTTP/JSON API is not part of this build yet; serving gRPC only",
-                 options.http);
+  loci::server::QueryAdapterOptions query_options;
+  if (!query_config.empty()) {
+    auto q = loci::query::LoadQueryOptions(query_config);
+    if (!q.ok()) {
+      std::cerr << "error: " << q.status().message() << "\n";
+      return 2;
+    }
+    query_options.query = std::move(*q);
   }
 
   // SIGINT/SIGTERM are handled by sigwait below; block them before any thread starts.
@@ -84,15 +95,31 @@ int main(int argc, char** argv) {
     std::cerr << "error: " << grpc.status().message() << "\n";
     return 1;
   }
+  (*grpc)->query_service().SetQueryEngine(
+      std::make_shared<loci::server::QueryAdapter>(std::move(query_options)));
+  std::unique_ptr<loci::server::HttpApi> http_api;
+  if (options.http != "off") {
+    auto h = loci::server::HttpApi::Start(&(*grpc)->query_service(), options.http);
+    if (!h.ok()) {
+      std::cerr << "error: " << h.status().message() << "\n";
+      return 1;
+    }
+    http_api = std::move(*h);
+  }
   const std::string host = options.listen.substr(0, options.listen.rfind(':'));
   // The bound port on stdout lets scripts and tests start the server on port 0.
   std::cout << "listening on " << host << ":" << (*grpc)->port() << std::endl;
+  if (http_api) {
+    const std::string http_host = options.http.substr(0, options.http.rfind(':'));
+    std::cout << "http on " << http_host << ":" << http_api->port() << std::endl;
+  }
   spdlog::info("loci-server: db {}, {} keyframes replayed", options.db_path,
                (*server)->replayed_keyframes());
 
   int sig = 0;
   sigwait(&signals, &sig);
   spdlog::info("signal {}: shutting down", sig);
+  if (http_api) http_api->Shutdown();
   (*grpc)->Shutdown();
   (*server)->Flush();
   grpc->reset();

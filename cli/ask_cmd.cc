@@ -1,0 +1,77 @@
+// `loci ask "QUESTION" [--server HOST:PORT] [--robot NAME] [--json]`: asks a running
+// loci-server (gRPC Query.Ask) and prints the answer sentence with the matching objects, or the
+// AskResponse as proto JSON (the same JSON as GET /api/ask).
+#include <grpcpp/create_channel.h>
+
+#include <chrono>
+#include <cstdio>
+#include <string>
+
+#include "cli/commands.h"
+#include "loci/v1/query.grpc.pb.h"
+#include "server/http/proto_json.h"
+
+namespace loci::cli {
+namespace {
+
+struct AskArgs {
+  std::string question;
+  std::string server = "127.0.0.1:50051";
+  std::string robot;
+  bool json = false;
+  double timeout_s = 10.0;
+};
+
+int RunAsk(const AskArgs& a) {
+  auto stub =
+      loci::v1::Query::NewStub(grpc::CreateChannel(a.server, grpc::InsecureChannelCredentials()));
+  grpc::ClientContext ctx;
+  ctx.set_deadline(std::chrono::system_clock::now() +
+                   std::chrono::milliseconds(static_cast<int64_t>(a.timeout_s * 1e3)));
+  loci::v1::AskRequest req;
+  req.set_text(a.question);
+  req.set_robot_name(a.robot);
+  loci::v1::AskResponse resp;
+  const grpc::Status s = stub->Ask(&ctx, req, &resp);
+  if (!s.ok()) {
+    std::fprintf(stderr, "error: cannot reach loci-server at %s: %s\n", a.server.c_str(),
+                 s.error_message().c_str());
+    return 1;
+  }
+  if (a.json) {
+    std::printf("%s\n", server::ProtoToJson(resp).c_str());
+    return resp.status().code() == 0 ? 0 : 1;
+  }
+  if (resp.status().code() != 0) {
+    std::fprintf(stderr, "error: %s\n", resp.status().message().c_str());
+    return 1;
+  }
+  std::printf("%s\n", resp.answer().c_str());
+  for (const auto& o : resp.objects()) {
+    std::printf("  #%lld %s (%.2f) at (%.2f, %.2f, %.2f) m\n", static_cast<long long>(o.id()),
+                o.class_name().c_str(), o.confidence(), o.centroid_m().x(), o.centroid_m().y(),
+                o.centroid_m().z());
+  }
+  for (const auto& r : resp.relations()) {
+    std::printf("  %s #%lld -> #%lld (%.2f): %s\n", r.name().c_str(),
+                static_cast<long long>(r.subject_id()), static_cast<long long>(r.anchor_id()),
+                r.confidence(), r.evidence().c_str());
+  }
+  return 0;
+}
+
+}  // namespace
+
+void RegisterAskCommand(CLI::App& app) {
+  auto args = std::make_shared<AskArgs>();
+  CLI::App* c = app.add_subcommand("ask", "ask a running loci-server a question about the map");
+  c->add_option("question", args->question, "e.g. \"where is the book on the table\"")->required();
+  c->add_option("--server", args->server, "gRPC address HOST:PORT")->capture_default_str();
+  c->add_option("--robot", args->robot, "viewpoint robot for left/right/front/behind");
+  c->add_flag("--json", args->json, "print the AskResponse as JSON");
+  c->add_option("--timeout", args->timeout_s, "seconds to wait for the answer")
+      ->capture_default_str();
+  c->callback([args] { ExitCode() = RunAsk(*args); });
+}
+
+}  // namespace loci::cli

@@ -1,0 +1,145 @@
+// `loci objects [--server HOST:PORT] [--class C] [--json]`: the running server's objects as a
+// table (id, class, confidence, centroid, extent, last seen, robots); `loci stats [--server
+// HOST:PORT] [--json]`: its counters. Both over gRPC; --json prints the proto JSON (the same as
+// GET /api/objects and GET /api/stats).
+#include <grpcpp/create_channel.h>
+
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+#include <string>
+#include <vector>
+
+#include "cli/commands.h"
+#include "loci/v1/query.grpc.pb.h"
+#include "server/http/proto_json.h"
+
+namespace loci::cli {
+namespace {
+
+struct ServerArgs {
+  std::string server = "127.0.0.1:50051";
+  bool json = false;
+  double timeout_s = 10.0;
+};
+
+struct ObjectsArgs : ServerArgs {
+  std::vector<std::string> classes;
+  double min_confidence = 0;
+  bool confirmed_only = false;
+};
+
+void SetDeadline(grpc::ClientContext* ctx, double timeout_s) {
+  ctx->set_deadline(std::chrono::system_clock::now() +
+                    std::chrono::milliseconds(static_cast<int64_t>(timeout_s * 1e3)));
+}
+
+std::unique_ptr<loci::v1::Query::Stub> Connect(const std::string& server) {
+  return loci::v1::Query::NewStub(grpc::CreateChannel(server, grpc::InsecureChannelCredentials()));
+}
+
+int Failed(const std::string& server, const grpc::Status& s) {
+  if (s.error_code() == grpc::StatusCode::UNAVAILABLE ||
+      s.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED) {
+    std::fprintf(stderr, "error: cannot reach loci-server at %s: %s\n", server.c_str(),
+                 s.error_message().c_str());
+  } else {
+    std::fprintf(stderr, "error: %s\n", s.error_message().c_str());
+  }
+  return 1;
+}
+
+// UTC wall time of a stamp, "2026-11-21 08:47:59" ("-" for 0).
+std::string Stamp(int64_t t_ns) {
+  if (t_ns <= 0) return "-";
+  const std::time_t t = static_cast<std::time_t>(t_ns / 1'000'000'000);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof(buf), "%Y-%m-%d %H:%M:%S", &tm);
+  return buf;
+}
+
+int RunObjects(const ObjectsArgs& a) {
+  auto stub = Connect(a.server);
+  grpc::ClientContext ctx;
+  SetDeadline(&ctx, a.timeout_s);
+  loci::v1::FindObjectsRequest req;
+  for (const std::string& c : a.classes) req.add_classes(c);
+  req.set_min_confidence(a.min_confidence);
+  req.set_confirmed_only(a.confirmed_only);
+  loci::v1::FindObjectsResponse resp;
+  const grpc::Status s = stub->FindObjects(&ctx, req, &resp);
+  if (!s.ok()) return Failed(a.server, s);
+  if (a.json) {
+    std::printf("%s\n", server::ProtoToJson(resp).c_str());
+    return 0;
+  }
+  std::printf("%6s  %-16s %5s  %-22s %-18s %-19s %s\n", "id", "class", "conf", "centroid (m)",
+              "extent (m)", "last seen (UTC)", "robots");
+  for (const auto& o : resp.objects()) {
+    const auto& lo = o.aabb().min_m();
+    const auto& hi = o.aabb().max_m();
+    std::string robots;
+    for (const auto& r : o.robots()) robots += (robots.empty() ? "" : ",") + r;
+    char centroid[64], extent[64];
+    std::snprintf(centroid, sizeof(centroid), "(%.2f, %.2f, %.2f)", o.centroid_m().x(),
+                  o.centroid_m().y(), o.centroid_m().z());
+    std::snprintf(extent, sizeof(extent), "%.2f x %.2f x %.2f", hi.x() - lo.x(), hi.y() - lo.y(),
+                  hi.z() - lo.z());
+    std::printf("%6lld  %-16s %5.2f  %-22s %-18s %-19s %s\n", static_cast<long long>(o.id()),
+                o.class_name().c_str(), o.confidence(), centroid, extent,
+                Stamp(o.last_seen_ns()).c_str(), robots.c_str());
+  }
+  std::printf("%d objects\n", resp.objects_size());
+  return 0;
+}
+
+int RunStats(const ServerArgs& a) {
+  auto stub = Connect(a.server);
+  grpc::ClientContext ctx;
+  SetDeadline(&ctx, a.timeout_s);
+  loci::v1::GetStatsResponse resp;
+  const grpc::Status s = stub->GetStats(&ctx, loci::v1::GetStatsRequest(), &resp);
+  if (!s.ok()) return Failed(a.server, s);
+  if (a.json) {
+    std::printf("%s\n", server::ProtoToJson(resp).c_str());
+    return 0;
+  }
+  std::printf("sessions           %llu\n", static_cast<unsigned long long>(resp.sessions()));
+  std::printf("keyframes          %llu\n", static_cast<unsigned long long>(resp.keyframes()));
+  std::printf("objects            %llu (%llu confirmed)\n",
+              static_cast<unsigned long long>(resp.objects()),
+              static_cast<unsigned long long>(resp.confirmed_objects()));
+  std::printf("cloud points       %llu\n", static_cast<unsigned long long>(resp.cloud_points()));
+  std::printf("octomap nodes      %llu\n", static_cast<unsigned long long>(resp.octomap_nodes()));
+  std::printf("database           %.1f MB\n", resp.db_bytes() / 1e6);
+  std::printf("queue depth        %llu\n", static_cast<unsigned long long>(resp.queue_depth()));
+  std::printf("mapping per kf     %.1f ms\n", resp.ingest_ms_mean());
+  return 0;
+}
+
+void AddServerOptions(CLI::App* c, ServerArgs* a) {
+  c->add_option("--server", a->server, "gRPC address HOST:PORT")->capture_default_str();
+  c->add_flag("--json", a->json, "print the response as proto JSON");
+  c->add_option("--timeout", a->timeout_s, "seconds to wait")->capture_default_str();
+}
+
+}  // namespace
+
+void RegisterObjectsCommands(CLI::App& app) {
+  auto oa = std::make_shared<ObjectsArgs>();
+  CLI::App* o = app.add_subcommand("objects", "list the objects of a running loci-server");
+  AddServerOptions(o, oa.get());
+  o->add_option("--class", oa->classes, "only these classes (repeatable)");
+  o->add_option("--min-confidence", oa->min_confidence, "smallest class confidence [0, 1]");
+  o->add_flag("--confirmed", oa->confirmed_only, "confirmed objects only");
+  o->callback([oa] { ExitCode() = RunObjects(*oa); });
+
+  auto sa = std::make_shared<ServerArgs>();
+  CLI::App* s = app.add_subcommand("stats", "counters of a running loci-server");
+  AddServerOptions(s, sa.get());
+  s->callback([sa] { ExitCode() = RunStats(*sa); });
+}
+
+}  // namespace loci::cli

@@ -1,0 +1,217 @@
+#include "server/http/http_api.h"
+
+#include <grpcpp/server_context.h>
+#include <httplib.h>
+
+#include <charconv>
+#include <cmath>
+
+#include "server/http/proto_json.h"
+
+namespace loci::server {
+namespace {
+
+constexpr const char* kJson = "application/json";
+
+const char* CodeName(int code) {
+  static const char* kNames[] = {"OK",
+                                 "CANCELLED",
+                                 "UNKNOWN",
+                                 "INVALID_ARGUMENT",
+                                 "DEADLINE_EXCEEDED",
+                                 "NOT_FOUND",
+                                 "ALREADY_EXISTS",
+                                 "PERMISSION_DENIED",
+                                 "RESOURCE_EXHAUSTED",
+                                 "FAILED_PRECONDITION",
+                                 "ABORTED",
+                                 "OUT_OF_RANGE",
+                                 "UNIMPLEMENTED",
+                                 "INTERNAL",
+                                 "UNAVAILABLE",
+                                 "DATA_LOSS",
+                                 "UNAUTHENTICATED"};
+  return code >= 0 && code <= 16 ? kNames[code] : "UNKNOWN";
+}
+
+int HttpStatus(int grpc_code) {
+  switch (grpc_code) {
+    case 0:
+      return 200;
+    case 3:
+    case 11:
+      return 400;
+    case 5:
+      return 404;
+    case 9:
+      return 409;
+    case 12:
+      return 501;
+    case 14:
+      return 503;
+    default:
+      return 500;
+  }
+}
+
+void SendError(httplib::Response& res, int grpc_code, const std::string& message) {
+  res.status = HttpStatus(grpc_code);
+  res.set_content(ErrorJson(CodeName(grpc_code), message), kJson);
+}
+
+void SendGrpc(httplib::Response& res, const grpc::Status& s,
+              const google::protobuf::Message& message) {
+  if (!s.ok()) return SendError(res, s.error_code(), s.error_message());
+  res.status = 200;
+  res.set_content(ProtoToJson(message), kJson);
+}
+
+bool ParseDouble(const std::string& s, double* out) {
+  try {
+    size_t used = 0;
+    *out = std::stod(s, &used);
+    return used == s.size() && std::isfinite(*out);
+  } catch (...) {
+    return false;
+  }
+}
+
+template <typename T>
+bool ParseInt(const std::string& s, T* out) {
+  const auto r = std::from_chars(s.data(), s.data() + s.size(), *out);
+  return r.ec == std::errc() && r.ptr == s.data() + s.size();
+}
+
+bool ParseBool(const std::string& s, bool* out) {
+  if (s == "1" || s == "true") return (*out = true), true;
+  if (s == "0" || s == "false") return (*out = false), true;
+  return false;
+}
+
+}  // namespace
+
+StatusOr<std::unique_ptr<HttpApi>> HttpApi::Start(QueryService* service,
+                                                  const std::string& listen) {
+  const size_t colon = listen.rfind(':');
+  int port = -1;
+  if (colon == std::string::npos || !ParseInt(listen.substr(colon + 1), &port) || port < 0 ||
+      port > 65535) {
+    return absl::InvalidArgumentError("--http wants HOST:PORT or off, got '" + listen + "'");
+  }
+  const std::string host = listen.substr(0, colon);
+  std::unique_ptr<HttpApi> api(new HttpApi());
+  api->service_ = service;
+  api->http_ = std::make_unique<httplib::Server>();
+  api->Route();
+  if (port == 0) {
+    api->port_ = api->http_->bind_to_any_port(host);
+  } else {
+    api->port_ = api->http_->bind_to_port(host, port) ? port : -1;
+  }
+  if (api->port_ <= 0) {
+    return absl::UnavailableError("HTTP API cannot listen on " + listen);
+  }
+  api->thread_ = std::thread([raw = api.get()] { raw->http_->listen_after_bind(); });
+  return api;
+}
+
+HttpApi::~HttpApi() { Shutdown(); }
+
+void HttpApi::Shutdown() {
+  if (http_) http_->stop();
+  if (thread_.joinable()) thread_.join();
+}
+
+void HttpApi::Route() {
+  http_->Get("/api/ask", [this](const httplib::Request& req, httplib::Response& res) {
+    if (!req.has_param("q")) {
+      return SendError(res, 3,
+                       "missing query parameter q (the question), e.g. /api/ask?q=where+"
+                       "is+the+book");
+    }
+    loci::v1::AskRequest ask;
+    ask.set_text(req.get_param_value("q"));
+    ask.set_robot_name(req.get_param_value("robot"));
+    loci::v1::AskResponse resp;
+    grpc::ServerContext ctx;
+    const grpc::Status s = service_->Ask(&ctx, &ask, &resp);
+    if (!s.ok()) return SendError(res, s.error_code(), s.error_message());
+    // The body is the AskResponse itself, so HTTP and gRPC carry the same JSON.
+    res.status = HttpStatus(resp.status().code());
+    res.set_content(ProtoToJson(resp), kJson);
+  });
+  http_->Get("/api/objects", [this](const httplib::Request& req, httplib::Response& res) {
+    loci::v1::FindObjectsRequest find;
+    for (size_t i = 0; i < req.get_param_value_count("class"); ++i) {
+      const std::string v = req.get_param_value("class", i);
+      for (size_t b = 0; b <= v.size();) {
+        size_t e = v.find(',', b);
+        if (e == std::string::npos) e = v.size();
+        if (e > b) find.add_classes(v.substr(b, e - b));
+        b = e + 1;
+      }
+    }
+    if (req.has_param("min_confidence")) {
+      double c = 0;
+      if (!ParseDouble(req.get_param_value("min_confidence"), &c) || c < 0 || c > 1) {
+        return SendError(res, 3, "min_confidence must be a number in [0, 1]");
+      }
+      find.set_min_confidence(c);
+    }
+    if (req.has_param("confirmed_only")) {
+      bool b = false;
+      if (!ParseBool(req.get_param_value("confirmed_only"), &b)) {
+        return SendError(res, 3, "confirmed_only must be 0, 1, true or false");
+      }
+      find.set_confirmed_only(b);
+    }
+    if (req.has_param("limit")) {
+      uint32_t limit = 0;
+      if (!ParseInt(req.get_param_value("limit"), &limit)) {
+        return SendError(res, 3, "limit must be a non-negative integer");
+      }
+      find.set_limit(limit);
+    }
+    loci::v1::FindObjectsResponse resp;
+    grpc::ServerContext ctx;
+    SendGrpc(res, service_->FindObjects(&ctx, &find, &resp), resp);
+  });
+  http_->Get(R"(/api/objects/([^/]+))", [this](const httplib::Request& req,
+                                               httplib::Response& res) {
+    loci::v1::GetObjectRequest get;
+    int64_t id = 0;
+    if (!ParseInt(req.matches[1].str(), &id)) {
+      return SendError(res, 3, "object id must be an integer, got '" + req.matches[1].str() + "'");
+    }
+    get.set_id(id);
+    if (req.has_param("with_cloud")) {
+      bool b = false;
+      if (!ParseBool(req.get_param_value("with_cloud"), &b)) {
+        return SendError(res, 3, "with_cloud must be 0, 1, true or false");
+      }
+      get.set_with_cloud(b);
+    }
+    loci::v1::GetObjectResponse resp;
+    grpc::ServerContext ctx;
+    SendGrpc(res, service_->GetObject(&ctx, &get, &resp), resp);
+  });
+  http_->Get("/api/stats", [this](const httplib::Request&, httplib::Response& res) {
+    loci::v1::GetStatsRequest stats;
+    loci::v1::GetStatsResponse resp;
+    grpc::ServerContext ctx;
+    SendGrpc(res, service_->GetStats(&ctx, &stats, &resp), resp);
+  });
+  // Unknown paths and methods: JSON 404 instead of httplib's empty body.
+  http_->set_error_handler([](const httplib::Request& req, httplib::Response& res) {
+    if (res.status == 404 && res.body.empty()) {
+      res.set_content(ErrorJson("NOT_FOUND", "no endpoint " + req.method + " " + req.path +
+                                                 "; known: /api/ask, /api/objects, "
+                                                 "/api/objects/{id}, /api/stats"),
+                      kJson);
+    }
+  });
+  http_->set_exception_handler([](const httplib::Request&, httplib::Response& res,
+                                  std::exception_ptr) { SendError(res, 13, "internal error"); });
+}
+
+}  // namespace loci::server

@@ -1,0 +1,47 @@
+// JSON over HTTP for the Query service (cpp-httplib), on its own port next to gRPC. Every
+// endpoint calls the same QueryService method as gRPC and prints its response message with the
+// proto3 JSON mapping (server/http/proto_json.h), so HTTP and gRPC answers agree.
+//
+//   GET /api/ask?q=QUESTION[&robot=NAME]   AskResponse (HTTP 400 when status is INVALID_ARGUMENT)
+//   GET /api/objects[?class=C[,C2]&min_confidence=X&confirmed_only=1&limit=N]
+//                                          FindObjectsResponse
+//   GET /api/objects/{id}[?with_cloud=1]   GetObjectResponse (404 when unknown)
+//   GET /api/stats                         GetStatsResponse
+// Errors: {"error":{"code":"INVALID_ARGUMENT","message":"..."}} with 400 / 404 / 500.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <thread>
+
+#include "common/status.h"
+#include "server/service/services.h"
+
+namespace httplib {
+class Server;
+}
+
+namespace loci::server {
+
+class HttpApi {
+ public:
+  // Binds `listen` (HOST:PORT, port 0 = any free port) and serves on a background thread.
+  static StatusOr<std::unique_ptr<HttpApi>> Start(QueryService* service, const std::string& listen);
+  ~HttpApi();  // stops serving
+  HttpApi(const HttpApi&) = delete;
+  HttpApi& operator=(const HttpApi&) = delete;
+
+  int port() const { return port_; }
+  void Shutdown();
+
+ private:
+  HttpApi() = default;
+  void Route();
+
+  QueryService* service_ = nullptr;
+  std::unique_ptr<httplib::Server> http_;
+  std::thread thread_;
+  int port_ = 0;
+};
+
+}  // namespace loci::server

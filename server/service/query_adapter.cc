@@ -1,0 +1,217 @@
+#include "server/service/query_adapter.h"
+
+#include <absl/strings/str_cat.h>
+#include <pcl/ModelCoefficients.h>
+#include <pcl/filters/extract_indices.h>
+#include <pcl/point_types.h>
+#include <pcl/sample_consensus/method_types.h>
+#include <pcl/sample_consensus/model_types.h>
+#include <pcl/segmentation/sac_segmentation.h>
+
+#include <cmath>
+#include <utility>
+
+#include "common/time.h"
+#include "server/service/map_server.h"
+#include "server/service/proto_convert.h"
+
+namespace loci::server {
+namespace {
+
+// True when `s` is well-formed UTF-8 (proto3 strings must be; answers echo question words).
+bool IsValidUtf8(const std::string& s) {
+  size_t i = 0;
+  while (i < s.size()) {
+    const unsigned char c = static_cast<unsigned char>(s[i]);
+    int n = 0;
+    if (c < 0x80) {
+      n = 0;
+    } else if ((c >> 5) == 0x6) {
+      n = 1;
+    } else if ((c >> 4) == 0xE) {
+      n = 2;
+    } else if ((c >> 3) == 0x1E) {
+      n = 3;
+    } else {
+      return false;
+    }
+    if (n > 0 && i + n >= s.size()) return false;
+    for (int k = 1; k <= n; ++k) {
+      if ((static_cast<unsigned char>(s[i + k]) >> 6) != 0x2) return false;
+    }
+    i += n + 1;
+  }
+  return true;
+}
+
+loci::v1::AskResponse Rejected(const Status& status) {
+  loci::v1::AskResponse out;
+  ToProto(status, out.mutable_status());
+  out.set_answer(std::string(status.message()));
+  return out;
+}
+
+}  // namespace
+
+std::vector<Eigen::Vector3f> MapperSource::CloudPoints(double voxel_m) const {
+  std::vector<Eigen::Vector3f> out;
+  for (const SemanticPoint& p : mapper_.Cloud(voxel_m, {})) out.push_back(p.p_m);
+  return out;
+}
+
+std::optional<Vec3d> EstimateUpFromPlanes(const std::vector<Eigen::Vector3f>& points_m,
+                                          const Vec3d& prior_up_m,
+                                          const QueryAdapterOptions& options) {
+  if (points_m.size() < 100 || prior_up_m.norm() < 1e-9) return std::nullopt;
+  const Vec3d prior = prior_up_m.normalized();
+  auto cloud = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+  cloud->reserve(points_m.size());
+  for (const auto& p : points_m) {
+    if (p.allFinite()) cloud->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+  }
+  const size_t total = cloud->size();
+  const double min_inliers = options.up_min_plane_fraction * static_cast<double>(total);
+  struct Plane {
+    Vec3d normal;
+    double inliers;
+  };
+  std::vector<Plane> horizontal;
+  pcl::SACSegmentation<pcl::PointXYZ> seg;
+  seg.setOptimizeCoefficients(true);
+  seg.setModelType(pcl::SACMODEL_PLANE);
+  seg.setMethodType(pcl::SAC_RANSAC);
+  seg.setDistanceThreshold(options.up_plane_distance_m);
+  seg.setMaxIterations(200);
+  const double cos_tilt = std::cos(options.up_max_tilt_deg * M_PI / 180.0);
+  for (int k = 0; k < options.up_max_planes && cloud->size() >= 100; ++k) {
+    pcl::ModelCoefficients coeffs;
+    pcl::PointIndices inliers;
+    seg.setInputCloud(cloud);
+    seg.segment(inliers, coeffs);
+    if (inliers.indices.size() < std::max(min_inliers, 50.0) || coeffs.values.size() < 4) break;
+    Vec3d n(coeffs.values[0], coeffs.values[1], coeffs.values[2]);
+    if (n.allFinite() && n.norm() > 1e-6) {
+      n.normalize();
+      if (n.dot(prior) < 0) n = -n;
+      if (n.dot(prior) >= cos_tilt) {
+        horizontal.push_back({n, static_cast<double>(inliers.indices.size())});
+      }
+    }
+    // Remove this plane's points and look for the next one.
+    pcl::ExtractIndices<pcl::PointXYZ> extract;
+    extract.setInputCloud(cloud);
+    extract.setIndices(std::make_shared<pcl::PointIndices>(inliers));
+    extract.setNegative(true);
+    auto rest = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
+    extract.filter(*rest);
+    cloud = rest;
+  }
+  if (horizontal.empty()) return std::nullopt;
+  // The normal that the largest supports agree on: group normals within up_cluster_deg.
+  const double cos_cluster = std::cos(options.up_cluster_deg * M_PI / 180.0);
+  double best_support = -1;
+  Vec3d best = prior;
+  for (const Plane& seed : horizontal) {
+    Vec3d sum = Vec3d::Zero();
+    double support = 0;
+    for (const Plane& p : horizontal) {
+      if (p.normal.dot(seed.normal) >= cos_cluster) {
+        sum += p.inliers * p.normal;
+        support += p.inliers;
+      }
+    }
+    if (support > best_support && sum.norm() > 1e-9) {
+      best_support = support;
+      best = sum.normalized();
+    }
+  }
+  return best;
+}
+
+loci::v1::AskResponse ToProto(const query::AskResult& result) {
+  loci::v1::AskResponse out;
+  ToProto(result.status, out.mutable_status());
+  out.set_answer(result.answer);
+  for (const MapObject& o : result.objects) ToProto(o, out.add_objects());
+  for (const query::RelationResult& r : result.relations) {
+    loci::v1::Relation* rel = out.add_relations();
+    rel->set_name(std::string(query::RelationName(r.kind)));
+    rel->set_subject_id(r.subject_id);
+    rel->set_anchor_id(r.anchor_id);
+    rel->set_confidence(r.confidence);
+    rel->set_evidence(r.evidence);
+  }
+  out.set_count(result.count);
+  out.set_intent(result.intent);
+  return out;
+}
+
+QueryAdapter::QueryAdapter(QueryAdapterOptions options)
+    : options_(std::move(options)), engine_(options_.query) {}
+
+loci::v1::AskResponse QueryAdapter::Ask(const loci::v1::AskRequest& request,
+                                        const MapServer& server) {
+  return Ask(request, MapperSource(server.mapper()));
+}
+
+loci::v1::AskResponse QueryAdapter::Ask(const loci::v1::AskRequest& request,
+                                        const QueryMapSource& source) {
+  const std::string& text = request.text();
+  if (text.size() > options_.max_question_bytes) {
+    return Rejected(absl::InvalidArgumentError(
+        absl::StrCat("question is ", text.size(), " bytes long; at most ",
+                     options_.max_question_bytes, " are accepted")));
+  }
+  if (!IsValidUtf8(text) || !IsValidUtf8(request.robot_name())) {
+    return Rejected(absl::InvalidArgumentError("question and robot name must be UTF-8 text"));
+  }
+  const std::shared_ptr<const query::MapIndex> index = IndexFor(source);
+  const int64_t now_ns = options_.now_ns ? options_.now_ns() : NowNs();
+  return ToProto(engine_.Ask(text, *index, query::AskContext{now_ns, request.robot_name()}));
+}
+
+std::shared_ptr<const query::MapIndex> QueryAdapter::IndexFor(const QueryMapSource& source) {
+  // Version key: every integrated keyframe moves its robot's latest pose stamp. Read before the
+  // snapshot, so a keyframe landing in between only makes the next Ask rebuild.
+  const std::map<std::string, RobotPose> poses = source.LatestPoses();
+  std::string key = absl::StrCat(source.VersionSalt(), "|");
+  for (const auto& [robot, pose] : poses) absl::StrAppend(&key, robot, "@", pose.t_ns, ";");
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (cached_index_ && cached_key_ == key) return cached_index_;
+  }
+  std::lock_guard<std::mutex> build_lock(build_mu_);
+  {
+    std::lock_guard<std::mutex> lock(mu_);  // another asker may have built it meanwhile
+    if (cached_index_ && cached_key_ == key) return cached_index_;
+  }
+  std::optional<Vec3d> up = source.GravityUp();
+  std::string up_source = "gravity";
+  if (!up) {
+    up = EstimateUpFromPlanes(source.CloudPoints(options_.up_voxel_m),
+                              options_.query.default_up_map, options_);
+    up_source = up ? "planes" : "config";
+    if (!up) up = options_.query.default_up_map;
+  }
+  std::vector<query::Viewpoint> viewpoints;
+  for (const auto& [robot, pose] : poses) viewpoints.push_back({robot, pose.T_map_cam, pose.t_ns});
+  auto index = engine_.Index(source.Objects(options_.confirmed_only), up, std::move(viewpoints));
+  std::lock_guard<std::mutex> lock(mu_);
+  cached_key_ = std::move(key);
+  cached_index_ = index;
+  up_source_ = up_source;
+  ++builds_;
+  return index;
+}
+
+std::string QueryAdapter::up_source() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return up_source_;
+}
+
+uint64_t QueryAdapter::index_builds() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return builds_;
+}
+
+}  // namespace loci::server

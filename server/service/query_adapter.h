@@ -1,0 +1,114 @@
+// The query engine (query/) behind the server's Ask rpc: reads the map (objects, up direction,
+// latest robot poses), indexes it once per map version and converts AskResult to AskResponse.
+//
+//   auto adapter = std::make_shared<QueryAdapter>(QueryAdapterOptions{});
+//   grpc_server->query_service().SetQueryEngine(adapter);
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/map_object.h"
+#include "common/status.h"
+#include "query/query_engine.h"
+#include "server/map/mapper.h"
+#include "server/service/query_engine.h"
+
+namespace loci::server {
+
+// What the adapter reads from a map. MapServer's mapper is one source; benchmarks and tests
+// supply fixed maps through the same path.
+class QueryMapSource {
+ public:
+  virtual ~QueryMapSource() = default;
+  // Latest camera pose per robot; changes with every integrated keyframe, so it also serves as
+  // the map's version (see QueryAdapter).
+  virtual std::map<std::string, RobotPose> LatestPoses() const = 0;
+  virtual std::vector<MapObject> Objects(bool confirmed_only) const = 0;
+  // Up from the clients' gravity (unit, map frame), if any client sent it.
+  virtual std::optional<Vec3d> GravityUp() const = 0;
+  // Map cloud at `voxel_m` for the plane-based up estimate (map frame, metres).
+  virtual std::vector<Eigen::Vector3f> CloudPoints(double voxel_m) const = 0;
+  // Extra version salt for sources whose poses do not change (0 for the mapper).
+  virtual uint64_t VersionSalt() const { return 0; }
+};
+
+// A source that reads the running server's Mapper.
+class MapperSource final : public QueryMapSource {
+ public:
+  explicit MapperSource(const Mapper& mapper) : mapper_(mapper) {}
+  std::map<std::string, RobotPose> LatestPoses() const override { return mapper_.LatestPoses(); }
+  std::vector<MapObject> Objects(bool confirmed_only) const override {
+    return mapper_.Snapshot(confirmed_only);
+  }
+  std::optional<Vec3d> GravityUp() const override { return mapper_.UpDirection(); }
+  std::vector<Eigen::Vector3f> CloudPoints(double voxel_m) const override;
+
+ private:
+  const Mapper& mapper_;
+};
+
+struct QueryAdapterOptions {
+  query::QueryOptions query = query::QueryOptions::Defaults();  // engine options
+  // Ask sees confirmed objects only (candidates seen in < 3 keyframes stay out). Default true.
+  bool confirmed_only = true;
+  // Longest accepted question, bytes (4096): longer text is INVALID_ARGUMENT before parsing.
+  size_t max_question_bytes = 4096;
+  // Plane-based up estimate (used when no client sent gravity): cloud voxel (m, 0.08), RANSAC
+  // inlier distance (m, 0.03), at most `up_max_planes` planes (6), each with at least
+  // `up_min_plane_fraction` of the cloud (0.05), normals within `up_max_tilt_deg` of the
+  // configured up (45) count as horizontal; normals within `up_cluster_deg` (10) agree.
+  double up_voxel_m = 0.08;
+  double up_plane_distance_m = 0.03;
+  int up_max_planes = 6;
+  double up_min_plane_fraction = 0.05;
+  double up_max_tilt_deg = 45.0;
+  double up_cluster_deg = 10.0;
+  // Clock for "last seen N s ago" (ns since the epoch); null = wall clock. Tests fix it.
+  std::function<int64_t()> now_ns;
+};
+
+// Up from the dominant horizontal planes of `points_m` (map frame): planes are extracted with
+// PCL RANSAC, their normals flipped towards `prior_up_m`, those within max tilt of the prior
+// grouped, and the group with the most inliers wins (inlier-weighted mean normal). nullopt when
+// no plane qualifies.
+std::optional<Vec3d> EstimateUpFromPlanes(const std::vector<Eigen::Vector3f>& points_m,
+                                          const Vec3d& prior_up_m,
+                                          const QueryAdapterOptions& options);
+
+class QueryAdapter final : public QueryEngine {
+ public:
+  explicit QueryAdapter(QueryAdapterOptions options);
+
+  loci::v1::AskResponse Ask(const loci::v1::AskRequest& request, const MapServer& server) override;
+  // Same on any map source. Thread-safe.
+  loci::v1::AskResponse Ask(const loci::v1::AskRequest& request, const QueryMapSource& source);
+
+  // Where the last index's up direction came from: "gravity", "planes" or "config".
+  std::string up_source() const;
+  // Index builds so far (tests: the cache holds per map version).
+  uint64_t index_builds() const;
+
+ private:
+  std::shared_ptr<const query::MapIndex> IndexFor(const QueryMapSource& source);
+
+  QueryAdapterOptions options_;
+  query::QueryEngine engine_;
+  mutable std::mutex mu_;  // guards the cache fields below
+  std::string cached_key_;
+  std::shared_ptr<const query::MapIndex> cached_index_;
+  std::string up_source_ = "config";
+  uint64_t builds_ = 0;
+  std::mutex build_mu_;  // one build at a time; concurrent askers wait and reuse it
+};
+
+// Converts an engine answer to the wire message (shared by gRPC and HTTP).
+loci::v1::AskResponse ToProto(const query::AskResult& result);
+
+}  // namespace loci::server
