@@ -11,6 +11,8 @@
 #include <numeric>
 #include <opencv2/imgproc.hpp>
 
+#include "server/map/grid_outlier_filter.h"
+
 namespace loci::server {
 
 double ThreadCpuMs() {
@@ -208,7 +210,7 @@ pcl::PointCloud<pcl::PointXYZRGB> ObjectCloud(const cv::Mat& bgr, const cv::Mat&
   const float leaf = static_cast<float>(voxel_m);
   grid.setLeafSize(leaf, leaf, leaf);
   grid.filter(voxelised);
-  return RemoveOutliers(voxelised, o.sor_mean_k, o.sor_stddev_mul);
+  return RemoveOutliersOnGrid(voxelised, o.sor_mean_k, o.sor_stddev_mul, voxel_m);
 }
 
 }  // namespace
@@ -239,7 +241,8 @@ KeyframeProducts BuildKeyframeProducts(const cv::Mat& bgr, const cv::Mat& depth_
     d.cloud = VoxelFilterLabelled(d.cloud, options.cloud.voxel_m);
     t0 = ThreadCpuMs();
     d.voxel_ms = t0 - t1;
-    d.cloud = RemoveOutliers(d.cloud, options.cloud.sor_mean_k, options.cloud.sor_stddev_mul);
+    d.cloud = RemoveOutliersOnGrid(d.cloud, options.cloud.sor_mean_k, options.cloud.sor_stddev_mul,
+                                   options.cloud.voxel_m);
     d.outlier_ms = ThreadCpuMs() - t0;
     return d;
   });

@@ -116,6 +116,12 @@ StageTimes Mapper::Integrate(const MapperKeyframe& kf) {
       ObjectEventOut e;
       e.kind = c.kind;
       e.merged_from_id = c.merged_from_id;
+      if (c.kind == ObjectChange::Kind::kRemoved) {  // gone: its last state, its own id
+        e.object = c.removed_state;
+        e.object.id = c.object_id;
+        events.push_back(std::move(e));
+        continue;
+      }
       const FusedObject* obj = objects_.Find(objects_.Resolve(c.object_id));
       if (obj != nullptr) e.object = obj->Snapshot();
       e.object.id = objects_.Resolve(c.object_id);

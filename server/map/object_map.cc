@@ -74,7 +74,7 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
     object.AddPoints(obs.points_m);
     object.Observe(obs.class_name, obs.score, obs.session_row, obs.track_id, obs.robot,
                    obs.keyframe_id, obs.t_ns, options_.confirm_observations);
-    changes->push_back({kind, best_id, 0});
+    changes->push_back({kind, best_id, 0, {}});
     ids.push_back(MergeDuplicates(best_id, changes));
   }
   for (int64_t& id : ids) id = Resolve(id);
@@ -101,9 +101,11 @@ int64_t ObjectMap::MergeDuplicates(int64_t id, std::vector<ObjectChange>* change
       // The older object survives, so ids handed out earlier stay valid where possible.
       const int64_t keep = std::min(id, other_id), drop = std::max(id, other_id);
       objects_.at(keep).Absorb(objects_.at(drop));
+      ObjectChange removed{ObjectChange::Kind::kRemoved, drop, 0, objects_.at(drop).Snapshot()};
       objects_.erase(drop);
       merged_into_[drop] = keep;
-      changes->push_back({ObjectChange::Kind::kMerged, keep, drop});
+      changes->push_back({ObjectChange::Kind::kMerged, keep, drop, {}});
+      changes->push_back(std::move(removed));
       id = keep;
       merged = true;
       break;

@@ -35,6 +35,9 @@ struct ObjectChange {
   Kind kind = Kind::kUpdated;
   int64_t object_id = 0;
   int64_t merged_from_id = 0;  // kMerged: the absorbed object
+  // kRemoved: the object's last state before it went (object_id = its id, which now resolves to
+  // the object that absorbed it).
+  MapObject removed_state;
 };
 
 // M = |A∩B| / (|A| + |B| - |A∩B|) of two voxel sets (0 when both are empty).
@@ -65,7 +68,8 @@ class ObjectMap {
   size_t confirmed_count() const;
 
  private:
-  // Merges duplicates of `id` into the older object; returns the surviving id.
+  // Merges duplicates of `id` into the older object (a kMerged change for the survivor, then a
+  // kRemoved one for the absorbed object); returns the surviving id.
   int64_t MergeDuplicates(int64_t id, std::vector<ObjectChange>* changes);
 
   FusionOptions options_;

@@ -2,8 +2,10 @@
 // label fusion, association and merging.
 #include <gtest/gtest.h>
 
+#include <numeric>
 #include <random>
 
+#include "server/map/grid_outlier_filter.h"
 #include "server/map/keyframe_products.h"
 #include "server/map/label_distribution.h"
 #include "server/map/object_eval.h"
@@ -81,6 +83,57 @@ TEST(Filters, VoxelFilterKeepsMajorityLabelAndOutlierRemovalDropsStrayPoints) {
   const auto filtered = RemoveOutliers(with_outliers, 8, 1.0);
   for (const auto& p : filtered) EXPECT_LT(p.x, 0.5f);
   EXPECT_GE(filtered.size(), voxelised.size() * 8 / 10);  // the plane itself survives
+}
+
+// A voxelised noisy surface (a wall and a box corner) with stray points around it.
+pcl::PointCloud<pcl::PointXYZRGBL> SurfaceWithStrays(double voxel_m) {
+  pcl::PointCloud<pcl::PointXYZRGBL> cloud;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  std::normal_distribution<float> noise(0.f, 0.003f);
+  for (int i = 0; i < 30000; ++i) {
+    pcl::PointXYZRGBL p;
+    p.x = u(rng) * 1.5f;
+    p.y = u(rng) * 1.0f;
+    p.z = (p.x > 1.0f ? 2.0f - 0.5f * (p.x - 1.0f) : 2.0f) + noise(rng);
+    cloud.push_back(p);
+  }
+  for (int i = 0; i < 60; ++i) {  // strays up to 0.6 m off the surface
+    pcl::PointXYZRGBL p;
+    p.x = u(rng) * 1.5f;
+    p.y = u(rng) * 1.0f;
+    p.z = 2.0f - 0.6f * u(rng);
+    cloud.push_back(p);
+  }
+  return VoxelFilterLabelled(cloud, voxel_m);
+}
+
+TEST(Filters, GridOutlierRemovalEqualsPclStatisticalOutlierRemoval) {
+  for (double voxel_m : {0.01, 0.04}) {
+    const auto cloud = SurfaceWithStrays(voxel_m);
+    ASSERT_GT(cloud.size(), 500u);
+    // Exact K nearest neighbours whatever the grid cell (a tenth or ten times the voxel).
+    const std::vector<float> d = MeanNeighbourDistances(cloud, 8, voxel_m);
+    for (double cell_m : {voxel_m * 0.1, voxel_m * 10}) {
+      const std::vector<float> other = MeanNeighbourDistances(cloud, 8, cell_m);
+      for (size_t i = 0; i < cloud.size(); i += 37) ASSERT_NEAR(other[i], d[i], 1e-6);
+    }
+    for (size_t i = 0; i < cloud.size(); i += 53) {  // brute force
+      std::vector<float> all;
+      for (size_t j = 0; j < cloud.size(); ++j) {
+        if (j != i) all.push_back((cloud[j].getVector3fMap() - cloud[i].getVector3fMap()).norm());
+      }
+      std::partial_sort(all.begin(), all.begin() + 8, all.end());
+      ASSERT_NEAR(d[i], std::accumulate(all.begin(), all.begin() + 8, 0.0) / 8, 1e-6);
+    }
+    const auto pcl_kept = RemoveOutliers(cloud, 8, 1.0);
+    const auto grid_kept = RemoveOutliersOnGrid(cloud, 8, 1.0, voxel_m);
+    ASSERT_LT(pcl_kept.size(), cloud.size());  // strays go
+    ASSERT_EQ(grid_kept.size(), pcl_kept.size());
+    for (size_t i = 0; i < grid_kept.size(); ++i) {
+      ASSERT_EQ(grid_kept[i].getVector3fMap(), pcl_kept[i].getVector3fMap()) << i;
+    }
+  }
 }
 
 std::unordered_set<VoxelKey> CubeKeys(double x0, int n) {
@@ -192,9 +245,18 @@ TEST(ObjectMap, MergesDuplicatesThatEndUpOverlapping) {
   const auto b = map.Integrate({Obs(2, {0.04, 0, 1}, 0.10, 2)}, &changes);
   EXPECT_EQ(b[0], a[0]);
   EXPECT_EQ(map.size(), 1u);
-  ASSERT_FALSE(changes.empty());
-  EXPECT_EQ(changes.back().kind, ObjectChange::Kind::kMerged);
-  EXPECT_EQ(map.Resolve(changes.back().merged_from_id), a[0]);
+  // A MERGED change for the survivor, then a REMOVED one with the absorbed object's last state.
+  ASSERT_GE(changes.size(), 2u);
+  const ObjectChange& merged = changes[changes.size() - 2];
+  const ObjectChange& removed = changes.back();
+  EXPECT_EQ(merged.kind, ObjectChange::Kind::kMerged);
+  EXPECT_EQ(merged.object_id, a[0]);
+  EXPECT_EQ(map.Resolve(merged.merged_from_id), a[0]);
+  EXPECT_EQ(removed.kind, ObjectChange::Kind::kRemoved);
+  EXPECT_EQ(removed.object_id, merged.merged_from_id);
+  EXPECT_EQ(removed.removed_state.id, merged.merged_from_id);
+  EXPECT_NEAR(removed.removed_state.centroid_m.x(), 0.04, 0.006);
+  EXPECT_EQ(map.Find(removed.object_id), nullptr);
   // A different class at the same place is not merged.
   map.Integrate({Obs(3, {0.0, 0, 1}, 0.10, 3, "book")}, &changes);
   EXPECT_EQ(map.size(), 2u);
