@@ -27,6 +27,9 @@ void RegisterExportCommand(CLI::App& app);
 void RegisterEvalObjectsCommand(CLI::App& app);
 void RegisterBenchIngestCommand(CLI::App& app);
 
+// `loci bench report` (cli/report/): evaluation report on a TUM folder.
+void RegisterBenchReportCommand(CLI::App& app);
+
 // `loci ask`, `loci objects`, `loci stats` (gRPC clients of a running loci-server).
 void RegisterAskCommand(CLI::App& app);
 void RegisterObjectsCommands(CLI::App& app);

@@ -29,6 +29,7 @@ int main(int argc, char** argv) {
   loci::cli::RegisterBenchQueryCommand(app);
   loci::cli::RegisterAskCommand(app);
   loci::cli::RegisterObjectsCommands(app);
+  loci::cli::RegisterBenchReportCommand(app);
 
   CLI11_PARSE(app, argc, argv);
   return loci::cli::ExitCode();
