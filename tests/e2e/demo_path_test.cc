@@ -1,0 +1,148 @@
+// End to end on the shipped real sample (issue 7): a real loci-server on a free loopback port,
+// loci-track with YOLOX-Nano streaming tests/data/tum_fr1_rpy_sample, then questions over gRPC.
+// The sample shows a desk with a keyboard and monitors.
+#include <grpcpp/create_channel.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <string>
+
+#include "common/tum_io.h"
+#include "loci/v1/query.grpc.pb.h"
+
+namespace loci {
+namespace {
+
+namespace fs = std::filesystem;
+const std::string kRoot = LOCI_SOURCE_DIR;
+
+// A loci-server child; its stdout tells the bound port.
+class ServerProcess {
+ public:
+  explicit ServerProcess(const std::string& db) {
+    int fds[2];
+    if (pipe(fds) != 0) return;
+    pid_ = fork();
+    if (pid_ == 0) {
+      dup2(fds[1], STDOUT_FILENO);
+      close(fds[0]);
+      const std::string config = kRoot + "/config/server.yaml";
+      execl(LOCI_SERVER_BIN, LOCI_SERVER_BIN, "--config", config.c_str(), "--db", db.c_str(),
+            "--listen", "127.0.0.1:0", "--log-level", "warn", static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    close(fds[1]);
+    out_ = fdopen(fds[0], "r");
+    char line[256] = {0};
+    while (fgets(line, sizeof(line), out_) != nullptr) {
+      if (std::sscanf(line, "listening on 127.0.0.1:%d", &port_) == 1) break;
+    }
+  }
+  ~ServerProcess() {
+    if (pid_ > 0) Stop(SIGKILL);
+    if (out_) fclose(out_);
+  }
+  // Sends `sig` and returns the wait status.
+  int Stop(int sig) {
+    kill(pid_, sig);
+    int status = 0;
+    waitpid(pid_, &status, 0);
+    pid_ = -1;
+    return status;
+  }
+  int port() const { return port_; }
+
+ private:
+  pid_t pid_ = -1;
+  int port_ = 0;
+  FILE* out_ = nullptr;
+};
+
+struct Bounds {
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e9), hi = Eigen::Vector3d::Constant(-1e9);
+  bool Contains(const v1::Vec3& p) const {
+    const Eigen::Vector3d v(p.x(), p.y(), p.z());
+    return (v.array() >= lo.array()).all() && (v.array() <= hi.array()).all();
+  }
+};
+
+TEST(DemoPath, TrackStreamDetectAskOnShippedSample) {
+  const std::string dir =
+      (fs::temp_directory_path() / ("loci_e2e_" + std::to_string(getpid()))).string();
+  fs::create_directories(dir);
+  ServerProcess server(dir + "/loci.db");
+  ASSERT_GT(server.port(), 0) << "loci-server did not print its port";
+  const std::string addr = "127.0.0.1:" + std::to_string(server.port());
+
+  const std::string traj_path = dir + "/trajectory.txt";
+  const std::string cmd = std::string(LOCI_TRACK_BIN) + " --tum " + kRoot +
+                          "/tests/data/tum_fr1_rpy_sample --server " + addr +
+                          " --robot e2e --no-progress --log-level warn --model " + kRoot +
+                          "/models/yolox_nano/yolox_nano.onnx --trajectory " + traj_path;
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+
+  // The scene: the camera positions of the run (map frame = the session's odometry frame)
+  // widened by 4 m.
+  auto traj = ReadTumTrajectory(traj_path);
+  ASSERT_TRUE(traj.ok());
+  ASSERT_GT(traj->size(), 50u);
+  Bounds scene;
+  for (const StampedPose& p : *traj) {
+    scene.lo = scene.lo.cwiseMin(p.T_world_cam.translation());
+    scene.hi = scene.hi.cwiseMax(p.T_world_cam.translation());
+  }
+  scene.lo.array() -= 4.0;
+  scene.hi.array() += 4.0;
+
+  auto channel = grpc::CreateChannel(addr, grpc::InsecureChannelCredentials());
+  auto query = v1::Query::NewStub(channel);
+
+  // The map holds a keyboard or a monitor (COCO "tv"), confirmed and inside the scene.
+  v1::FindObjectsRequest find;
+  find.add_classes("keyboard");
+  find.add_classes("tv");
+  find.set_confirmed_only(true);
+  v1::FindObjectsResponse found;
+  {
+    grpc::ClientContext ctx;
+    ASSERT_TRUE(query->FindObjects(&ctx, find, &found).ok());
+  }
+  ASSERT_GT(found.objects_size(), 0) << "no keyboard or tv in the map";
+  bool has_keyboard = false;
+  for (const v1::Object& o : found.objects()) {
+    EXPECT_TRUE(scene.Contains(o.centroid_m())) << o.class_name() << " #" << o.id();
+    has_keyboard |= o.class_name() == "keyboard";
+  }
+
+  // "where is the keyboard" (or the tv) names it with a position inside the scene.
+  const std::string target = has_keyboard ? "keyboard" : "tv";
+  v1::AskRequest ask;
+  ask.set_text("where is the " + target);
+  v1::AskResponse answer;
+  {
+    grpc::ClientContext ctx;
+    const grpc::Status st = query->Ask(&ctx, ask, &answer);
+    ASSERT_TRUE(st.ok()) << st.error_message();
+  }
+  ASSERT_EQ(answer.status().code(), 0) << answer.status().message();
+  std::cout << "? " << ask.text() << "\n" << answer.answer() << "\n";
+  EXPECT_EQ(answer.intent(), "where");
+  EXPECT_NE(answer.answer().find(target), std::string::npos) << answer.answer();
+  ASSERT_GT(answer.objects_size(), 0) << answer.answer();
+  EXPECT_EQ(answer.objects(0).class_name(), target);
+  EXPECT_TRUE(scene.Contains(answer.objects(0).centroid_m())) << answer.answer();
+
+  // SIGTERM: a clean shutdown with exit code 0.
+  const int status = server.Stop(SIGTERM);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "wait status " << status;
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace loci
