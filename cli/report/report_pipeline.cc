@@ -244,11 +244,16 @@ StatusOr<ReportResult> RunReport(const ReportOptions& o) {
   r.ingest_ms_per_keyframe = est.wall_ms / std::max<size_t>(1, est.integrated);
   r.ingest_cpu_ms_per_keyframe = est.cpu_ms / std::max<size_t>(1, est.integrated);
   r.objects_est = est.mapper->Snapshot(true);
-  r.cloud_points = est.mapper->Cloud(0, {}).size();
+  // Both counts on the dense cloud's voxel grid (the object clouds themselves use finer,
+  // adaptive voxels and are counted separately).
+  for (const server::SemanticPoint& p : est.mapper->Cloud(0, {})) {
+    ++r.cloud_points;
+    r.object_points += p.object_id != 0;
+  }
   for (const MapObject& obj : r.objects_est) {
     std::vector<server::ColoredPoint> pts;
     est.mapper->GetObject(obj.id, &pts, nullptr);
-    r.object_points += pts.size();
+    r.object_cloud_points += pts.size();
   }
   r.octomap_nodes = est.mapper->Stats().octomap_nodes;
   r.octomap_bytes = est.mapper->OctomapBt().size();

@@ -46,7 +46,9 @@ struct ReportResult {
   // Against a synthetic scene's true objects (est map aligned to GT frame; and the GT-pose map).
   std::optional<server::ObjectEvalResult> synth_est, synth_gt_poses;
   // Map size (estimated-pose map).
-  size_t cloud_points = 0, object_points = 0;
+  size_t cloud_points = 0;         // dense semantic cloud at the map's voxel
+  size_t object_points = 0;        // ... of which labelled with an object
+  size_t object_cloud_points = 0;  // the objects' own clouds (adaptive, finer voxels)
   uint64_t octomap_nodes = 0;
   size_t octomap_bytes = 0;
   double octomap_resolution_m = 0;
