@@ -81,6 +81,9 @@ std::vector<float> MeanNeighbourDistances(const pcl::PointCloud<PointT>& cloud, 
   const size_t n = cloud.size();
   std::vector<float> out(n, 0.0f);
   if (n < 2 || mean_k <= 0 || !(cell_m > 0)) return out;
+  // Cells of a few voxels: the K nearest neighbours of a surface point are then within the
+  // 3x3x3 block around it, so one ring settles almost every point.
+  cell_m *= 3.0;
   const double inv = 1.0 / cell_m;
   std::vector<Eigen::Vector3i> cell(n);
   std::vector<uint64_t> keys(n);
@@ -94,7 +97,7 @@ std::vector<float> MeanNeighbourDistances(const pcl::PointCloud<PointT>& cloud, 
   const CellIndex index(keys);
   const int k = std::min<int>(mean_k, static_cast<int>(n) - 1);
   // Beyond this ring a brute-force scan is cheaper than visiting (2r + 1)^3 cells.
-  constexpr int kMaxRing = 4;
+  constexpr int kMaxRing = 3;
   std::vector<float> best;  // squared distances, ascending, at most k
   best.reserve(k + 1);
   auto offer = [&](float d2) {
@@ -139,7 +142,8 @@ std::vector<float> MeanNeighbourDistances(const pcl::PointCloud<PointT>& cloud, 
 
 template <typename PointT>
 pcl::PointCloud<PointT> RemoveOutliersOnGrid(const pcl::PointCloud<PointT>& cloud, int mean_k,
-                                             double stddev_mul, double cell_m) {
+                                             double stddev_mul, double cell_m,
+                                             double min_threshold_m) {
   if (mean_k <= 0 || !(cell_m > 0) || static_cast<int>(cloud.size()) <= mean_k) return cloud;
   const std::vector<float> d = MeanNeighbourDistances(cloud, mean_k, cell_m);
   // Mean and sample standard deviation as pcl::StatisticalOutlierRemoval computes them.
@@ -151,7 +155,8 @@ pcl::PointCloud<PointT> RemoveOutliersOnGrid(const pcl::PointCloud<PointT>& clou
   const double n = static_cast<double>(d.size());
   const double mean = sum / n;
   const double variance = (sq_sum - sum * sum / n) / (n - 1);
-  const double threshold = mean + stddev_mul * std::sqrt(std::max(0.0, variance));
+  const double threshold =
+      std::max(min_threshold_m, mean + stddev_mul * std::sqrt(std::max(0.0, variance)));
   pcl::PointCloud<PointT> out;
   out.reserve(cloud.size());
   for (size_t i = 0; i < cloud.size(); ++i) {
@@ -165,8 +170,8 @@ template std::vector<float> MeanNeighbourDistances(const pcl::PointCloud<pcl::Po
 template std::vector<float> MeanNeighbourDistances(const pcl::PointCloud<pcl::PointXYZRGB>&, int,
                                                    double);
 template pcl::PointCloud<pcl::PointXYZRGBL> RemoveOutliersOnGrid(
-    const pcl::PointCloud<pcl::PointXYZRGBL>&, int, double, double);
+    const pcl::PointCloud<pcl::PointXYZRGBL>&, int, double, double, double);
 template pcl::PointCloud<pcl::PointXYZRGB> RemoveOutliersOnGrid(
-    const pcl::PointCloud<pcl::PointXYZRGB>&, int, double, double);
+    const pcl::PointCloud<pcl::PointXYZRGB>&, int, double, double, double);
 
 }  // namespace loci::server

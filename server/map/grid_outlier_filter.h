@@ -19,11 +19,14 @@ template <typename PointT>
 std::vector<float> MeanNeighbourDistances(const pcl::PointCloud<PointT>& cloud, int mean_k,
                                           double cell_m);
 
-// Keeps the points whose mean neighbour distance d satisfies d <= m + stddev_mul * s (m, s: mean
-// and sample standard deviation of d over the cloud). mean_k <= 0, cell_m <= 0 or at most mean_k
-// points: the cloud unchanged.
+// Keeps the points whose mean neighbour distance d satisfies d <= max(m + stddev_mul * s,
+// min_threshold_m) (m, s: mean and sample standard deviation of d over the cloud). The floor
+// keeps the rim of a clean surface: on a voxelised surface most points are interior, so m + s
+// falls below the distances of every edge point and eq. 18 alone trims one voxel off every
+// border in every view. mean_k <= 0, cell_m <= 0 or at most mean_k points: the cloud unchanged.
 template <typename PointT>
 pcl::PointCloud<PointT> RemoveOutliersOnGrid(const pcl::PointCloud<PointT>& cloud, int mean_k,
-                                             double stddev_mul, double cell_m);
+                                             double stddev_mul, double cell_m,
+                                             double min_threshold_m = 0.0);
 
 }  // namespace loci::server

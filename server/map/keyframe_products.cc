@@ -1,8 +1,6 @@
 #include "server/map/keyframe_products.h"
 
 #include <pcl/filters/statistical_outlier_removal.h>
-#include <pcl/filters/voxel_grid.h>
-#include <pcl/filters/voxel_grid_label.h>
 
 #include <algorithm>
 #include <cmath>
@@ -12,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "server/map/grid_outlier_filter.h"
+#include "server/map/voxel_filter.h"
 
 namespace loci::server {
 
@@ -131,14 +130,7 @@ pcl::PointCloud<pcl::PointXYZRGBL> BackProject(const cv::Mat& bgr, const cv::Mat
 
 pcl::PointCloud<pcl::PointXYZRGBL> VoxelFilterLabelled(
     const pcl::PointCloud<pcl::PointXYZRGBL>& cloud, double voxel_m) {
-  pcl::PointCloud<pcl::PointXYZRGBL> out;
-  if (cloud.empty()) return out;
-  pcl::VoxelGridLabel grid;
-  grid.setInputCloud(cloud.makeShared());
-  const float leaf = static_cast<float>(voxel_m);
-  grid.setLeafSize(leaf, leaf, leaf);
-  grid.filter(out);
-  return out;
+  return VoxelAverage(cloud, voxel_m);
 }
 
 template <typename PointT>
@@ -204,13 +196,9 @@ pcl::PointCloud<pcl::PointXYZRGB> ObjectCloud(const cv::Mat& bgr, const cv::Mat&
       raw.push_back(q);
     }
   }
-  pcl::PointCloud<pcl::PointXYZRGB> voxelised;
-  pcl::VoxelGrid<pcl::PointXYZRGB> grid;
-  grid.setInputCloud(raw.makeShared());
-  const float leaf = static_cast<float>(voxel_m);
-  grid.setLeafSize(leaf, leaf, leaf);
-  grid.filter(voxelised);
-  return RemoveOutliersOnGrid(voxelised, o.sor_mean_k, o.sor_stddev_mul, voxel_m);
+  const pcl::PointCloud<pcl::PointXYZRGB> voxelised = VoxelAverage(raw, voxel_m);
+  return RemoveOutliersOnGrid(voxelised, o.sor_mean_k, o.sor_stddev_mul, voxel_m,
+                              o.sor_min_voxels * voxel_m);
 }
 
 }  // namespace

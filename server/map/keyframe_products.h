@@ -62,7 +62,7 @@ pcl::PointCloud<pcl::PointXYZRGBL> BackProject(const cv::Mat& bgr, const cv::Mat
                                                const cv::Mat& labels, const PinholeCamera& camera,
                                                int stride, double min_depth_m, double max_depth_m);
 
-// Voxel filter keeping the majority label per voxel (pcl::VoxelGridLabel).
+// Voxel filter keeping the majority label per voxel (as pcl::VoxelGridLabel; VoxelAverage).
 pcl::PointCloud<pcl::PointXYZRGBL> VoxelFilterLabelled(
     const pcl::PointCloud<pcl::PointXYZRGBL>& cloud, double voxel_m);
 // Statistical outlier removal, eq. 18: drop points whose mean distance to their K nearest

@@ -28,6 +28,7 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_points", &observation.max_points));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "sor_mean_k", &observation.sor_mean_k));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "sor_stddev_mul", &observation.sor_stddev_mul));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "sor_min_voxels", &observation.sor_min_voxels));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_points", &observation.min_points));
   }
   if (const YAML::Node n = node["fusion"]) {
@@ -81,6 +82,7 @@ Status MapOptions::Validate() const {
     return bad("voxel sizes must be > 1 mm");
   }
   if (cloud.sor_mean_k < 0 || observation.sor_mean_k < 0) return bad("sor_mean_k >= 0 (0 = off)");
+  if (!(observation.sor_min_voxels >= 0)) return bad("observation.sor_min_voxels >= 0");
   if (!(fusion.min_likelihood > 0 && fusion.min_likelihood < 0.5)) {
     return bad("fusion.min_likelihood in (0, 0.5)");
   }

@@ -34,7 +34,11 @@ namespace fs = std::filesystem;
 
 synth::SceneOptions SceneOpts() {
   synth::SceneOptions o;
-  o.seed = 3;
+  // Seed 1 puts the tv on the table and everything the camera counts (>= 3 keyframes) where
+  // the arc around the table sees it from above and several sides. Seed 3, the former scene,
+  // counts a chair at the room's edge in 6 keyframes whose backrest never enters the view:
+  // its box top is 43 cm short and its centre 21 cm off, which no estimator can recover.
+  o.seed = 1;
   o.num_frames = 45;
   o.fps_hz = 5.0;  // 9 s of the camera path: many viewpoints from few frames
   o.num_objects = 8;
@@ -150,7 +154,7 @@ TEST_F(Integration, SyntheticSceneObjectsAndNoPersonInTheMap) {
     if (!server->options().map.IsDynamic(c)) eo.classes.push_back(c);
   }
   // Ground truth the robot could map: objects detected in at least 3 keyframes (synth's track
-  // id is the object id). This scene's teddy bear never enters the view.
+  // id is the object id). This scene's chair stands at the room's edge, out of view.
   std::map<int64_t, int> detected_in;
   for (const auto& kf : *keyframes_) {
     for (const auto& d : kf.detections()) ++detected_in[d.track_id()];
@@ -163,21 +167,19 @@ TEST_F(Integration, SyntheticSceneObjectsAndNoPersonInTheMap) {
   EXPECT_TRUE(r.missed_gt_ids.empty());
   EXPECT_TRUE(r.false_positive_ids.empty());
   EXPECT_GE(r.gt_count, 7);
-  // The camera circles the table and looks at its top: the table and everything on it are seen
-  // from above and several sides, so their boxes (and centres) are measured completely. Objects
-  // on the wall shelf or at the room's edge show one side only (a TV's back, a chair's backrest
-  // out of view): their centres are off by up to the hidden extent, bounded loosely.
-  int on_table = 0;
+  // Every counted object is seen from above and several sides, so its box (and centre) is
+  // measured: the table, the objects on it and the laptop on the floor within 3 mm, the teddy
+  // bear on the floor within 1.2 cm (the bottom of its body, a sphere resting on the floor, is
+  // never in view: its box bottom comes out 1.3 cm high).
   for (const ObjectMatch& m : r.matches) {
     const auto it = std::find_if(gt->objects.begin(), gt->objects.end(),
                                  [&](const GroundTruthObject& o) { return o.id == m.gt_id; });
     ASSERT_NE(it, gt->objects.end());
-    const bool fully_seen = it->id == 1 || it->on_id == 1;  // object 1 is the table
-    on_table += fully_seen;
-    EXPECT_LT(m.centroid_error_m, fully_seen ? 0.02 : 0.25)
-        << m.class_name << " (gt " << m.gt_id << ")";
+    // The per-object figures, for the log.
+    std::printf("  %-12s gt %2lld in %2d keyframes: centroid error %.1f mm\n", m.class_name.c_str(),
+                static_cast<long long>(m.gt_id), detected_in[m.gt_id], 1e3 * m.centroid_error_m);
+    EXPECT_LT(m.centroid_error_m, 0.02) << m.class_name << " (gt " << m.gt_id << ")";
   }
-  EXPECT_GE(on_table, 5);
 
   // The person's box at every keyframe, shrunk so that floor contact and rounding stay out.
   auto scene = synth::MakeScene(SceneOpts());

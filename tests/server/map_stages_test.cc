@@ -1,15 +1,18 @@
 // Unit tests of the map stages: back-projection, depth clustering, filters, overlap,
 // label fusion, association and merging.
 #include <gtest/gtest.h>
+#include <pcl/filters/voxel_grid.h>
 
 #include <numeric>
 #include <random>
+#include <unordered_map>
 
 #include "server/map/grid_outlier_filter.h"
 #include "server/map/keyframe_products.h"
 #include "server/map/label_distribution.h"
 #include "server/map/object_eval.h"
 #include "server/map/object_map.h"
+#include "server/map/voxel_filter.h"
 
 namespace loci::server {
 namespace {
@@ -133,6 +136,74 @@ TEST(Filters, GridOutlierRemovalEqualsPclStatisticalOutlierRemoval) {
     for (size_t i = 0; i < grid_kept.size(); ++i) {
       ASSERT_EQ(grid_kept[i].getVector3fMap(), pcl_kept[i].getVector3fMap()) << i;
     }
+  }
+}
+
+TEST(Filters, OutlierFloorKeepsTheRimOfACleanSurfaceAndDropsStrays) {
+  // A 20 x 20 cm square at 1 cm voxels plus two strays 10 cm off it.
+  pcl::PointCloud<pcl::PointXYZRGB> cloud;
+  for (int i = 0; i < 20; ++i) {
+    for (int j = 0; j < 20; ++j) {
+      pcl::PointXYZRGB p;
+      p.x = 0.005f + 0.01f * i;
+      p.y = 0.005f + 0.01f * j;
+      p.z = 1.0f;
+      cloud.push_back(p);
+    }
+  }
+  for (float x : {-0.1f, 0.3f}) {
+    pcl::PointXYZRGB p;
+    p.x = x;
+    p.y = 0.1f;
+    p.z = 1.1f;
+    cloud.push_back(p);
+  }
+  // Eq. 18 alone trims the rim of the clean square (its points have fewer close neighbours)...
+  pcl::PointCloud<pcl::PointXYZRGB> square;
+  for (int i = 0; i < 400; ++i) square.push_back(cloud[i]);
+  const auto plain = RemoveOutliersOnGrid(square, 10, 1.0, 0.01);
+  float plain_max_x = 0;
+  for (const auto& p : plain) plain_max_x = std::max(plain_max_x, p.x);
+  EXPECT_LT(plain_max_x, 0.19f);
+  EXPECT_EQ(RemoveOutliersOnGrid(square, 10, 1.0, 0.01, 0.03).size(), 400u);
+  // ... with the floor of 3 voxels the whole square stays and only the strays go.
+  const auto kept = RemoveOutliersOnGrid(cloud, 10, 1.0, 0.01, 0.03);
+  EXPECT_EQ(kept.size(), 400u);
+  for (const auto& p : kept) EXPECT_FLOAT_EQ(p.z, 1.0f);
+}
+
+TEST(Filters, VoxelAverageEqualsPclVoxelGrid) {
+  pcl::PointCloud<pcl::PointXYZRGB> cloud;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-0.3f, 0.5f);
+  std::uniform_int_distribution<int> c(0, 255);
+  for (int i = 0; i < 20000; ++i) {
+    pcl::PointXYZRGB p(static_cast<uint8_t>(c(rng)), static_cast<uint8_t>(c(rng)),
+                       static_cast<uint8_t>(c(rng)));
+    p.x = u(rng);
+    p.y = u(rng);
+    p.z = 1.0f + 0.1f * u(rng);
+    cloud.push_back(p);
+  }
+  pcl::PointCloud<pcl::PointXYZRGB> expected;
+  pcl::VoxelGrid<pcl::PointXYZRGB> grid;
+  grid.setInputCloud(cloud.makeShared());
+  grid.setLeafSize(0.03f, 0.03f, 0.03f);
+  grid.filter(expected);
+  const auto got = VoxelAverage(cloud, 0.03);
+  ASSERT_EQ(got.size(), expected.size());
+  auto key = [](const pcl::PointXYZRGB& p) {
+    return KeyOf(p.getVector3fMap().cast<double>(), 0.03);
+  };
+  std::unordered_map<VoxelKey, pcl::PointXYZRGB> by_voxel;
+  for (const auto& p : expected) by_voxel[key(p)] = p;
+  for (const auto& p : got) {
+    ASSERT_EQ(by_voxel.count(key(p)), 1u);
+    const auto& e = by_voxel[key(p)];
+    EXPECT_LT((p.getVector3fMap() - e.getVector3fMap()).norm(), 1e-5);
+    EXPECT_NEAR(p.r, e.r, 1);  // PCL averages colour in float and rounds down too
+    EXPECT_NEAR(p.g, e.g, 1);
+    EXPECT_NEAR(p.b, e.b, 1);
   }
 }
 
