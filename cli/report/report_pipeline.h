@@ -49,6 +49,7 @@ struct ReportResult {
   size_t cloud_points = 0;         // dense semantic cloud at the map's voxel
   size_t object_points = 0;        // ... of which labelled with an object
   size_t object_cloud_points = 0;  // the objects' own clouds (adaptive, finer voxels)
+  size_t object_voxel_points = 0;  // the objects' clouds re-voxelised at the dense voxel
   uint64_t octomap_nodes = 0;
   size_t octomap_bytes = 0;
   double octomap_resolution_m = 0;
