@@ -70,6 +70,12 @@ struct QueryAdapterOptions {
   double up_min_plane_fraction = 0.05;
   double up_max_tilt_deg = 45.0;
   double up_cluster_deg = 10.0;
+  // When clients sent gravity, the plane estimate replaces it if within this angle (deg, 5).
+  double up_refine_max_deg = 5.0;
+  // An up within this angle of the map's +z is taken as +z (deg, 1): sub-degree tilts are
+  // accelerometer bias and the robots' own accelerations, and only an exactly vertical up lets
+  // the engine use the mapper's axis-aligned boxes (tilted PCA boxes otherwise; see .cc).
+  double up_snap_deg = 1.0;
   // Clock for "last seen N s ago" (ns since the epoch); null = wall clock. Tests fix it.
   std::function<int64_t()> now_ns;
 };
@@ -90,7 +96,8 @@ class QueryAdapter final : public QueryEngine {
   // Same on any map source. Thread-safe.
   loci::v1::AskResponse Ask(const loci::v1::AskRequest& request, const QueryMapSource& source);
 
-  // Where the last index's up direction came from: "gravity", "planes" or "config".
+  // Where the last index's up direction came from: "gravity+planes" (gravity refined by the
+  // horizontal planes), "gravity", "planes" or "config".
   std::string up_source() const;
   // Index builds so far (tests: the cache holds per map version).
   uint64_t index_builds() const;
