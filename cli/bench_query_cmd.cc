@@ -1,7 +1,8 @@
 // `loci bench query [--objects 10000] [--queries 20000] [--threads 2] [--seed 1]`: in-process
 // Ask latency (p50 / p99 per question form and overall) and throughput of the query engine on a
-// synthetic office map (query/synthetic_map.h), plus the time to index the snapshot. The gRPC
-// loopback figures come with the server's Ask service.
+// synthetic office map (query/synthetic_map.h), plus the time to index the snapshot; then Ask
+// over gRPC on loopback against an in-process server answering from the same map
+// (cli/bench_query_grpc.h; `--grpc-queries 0` skips it).
 #include <stdlib.h>
 #include <time.h>
 
@@ -14,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include "cli/bench_query_grpc.h"
 #include "cli/commands.h"
 #include "common/config.h"
 #include "query/query_engine.h"
@@ -30,6 +32,7 @@ struct BenchQueryArgs {
   int threads = 2;
   uint64_t seed = 1;
   std::string config;
+  size_t grpc_queries = 5000;  // questions asked over gRPC (0 = skip)
 };
 
 double Percentile(std::vector<double> v, double q) {
@@ -198,6 +201,28 @@ int RunBenchQuery(const BenchQueryArgs& a) {
   std::printf("  throughput 1 thread  %.0f Ask/s\n", questions.size() / single_s);
   std::printf("  throughput %d threads %.0f Ask/s\n", a.threads, questions.size() / mt_s);
   if (failures > 0) std::printf("  %zu questions failed to parse\n", failures);
+
+  if (a.grpc_queries > 0) {
+    std::vector<std::string> texts;
+    for (size_t i = 0; i < std::min(a.grpc_queries, questions.size()); ++i) {
+      texts.push_back(questions[i].second);
+    }
+    auto g = RunGrpcAskBench(objects, view, now_ns, texts, a.threads);
+    if (!g.ok()) {
+      std::fprintf(stderr, "error: gRPC bench: %s\n", std::string(g.status().message()).c_str());
+      return 1;
+    }
+    std::printf(
+        "loci bench query: gRPC Ask on loopback (in-process server, same map), %zu "
+        "questions\n",
+        texts.size());
+    std::printf("  latency (wall ms, 1 client)  p50 %.3f  p99 %.3f  max %.3f\n", g->p50_ms,
+                g->p99_ms, g->max_ms);
+    std::printf("  throughput 1 client   %.0f Ask/s\n", g->qps_1);
+    std::printf("  throughput %d clients %.0f Ask/s\n", a.threads, g->qps_n);
+    if (g->failures > 0) std::printf("  %zu gRPC asks failed\n", g->failures);
+    failures += g->failures;
+  }
   return failures > 0 ? 1 : 0;
 }
 
@@ -220,6 +245,9 @@ void RegisterBenchQueryCommand(CLI::App& app) {
       ->capture_default_str();
   c->add_option("--seed", args->seed, "random seed of map and questions")->capture_default_str();
   c->add_option("--config", args->config, "query YAML (default: built-in defaults)");
+  c->add_option("--grpc-queries", args->grpc_queries,
+                "questions asked over gRPC on loopback (0 = in-process only)")
+      ->capture_default_str();
   c->callback([args] { ExitCode() = RunBenchQuery(*args); });
 }
 
