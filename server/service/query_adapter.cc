@@ -166,7 +166,14 @@ loci::v1::AskResponse QueryAdapter::Ask(const loci::v1::AskRequest& request,
     return Rejected(absl::InvalidArgumentError("question and robot name must be UTF-8 text"));
   }
   const std::shared_ptr<const query::MapIndex> index = IndexFor(source);
-  const int64_t now_ns = options_.now_ns ? options_.now_ns() : NowNs();
+  int64_t now_ns = options_.now_ns ? options_.now_ns() : NowNs();
+  int64_t newest_kf_ns = 0;
+  for (const auto& [robot, pose] : source.LatestPoses()) {
+    newest_kf_ns = std::max(newest_kf_ns, pose.t_ns);
+  }
+  if (newest_kf_ns > 0 && now_ns - newest_kf_ns > SecondsToNs(options_.replay_age_s)) {
+    now_ns = newest_kf_ns;
+  }
   return ToProto(engine_.Ask(text, *index, query::AskContext{now_ns, request.robot_name()}));
 }
 

@@ -78,6 +78,10 @@ struct QueryAdapterOptions {
   double up_snap_deg = 1.0;
   // Clock for "last seen N s ago" (ns since the epoch); null = wall clock. Tests fix it.
   std::function<int64_t()> now_ns;
+  // Recorded data: when the newest keyframe of the map is older than this (s, 3600) on that
+  // clock, ages are told relative to the newest keyframe ("map time") instead, so a replayed
+  // 2011 TUM sequence reads "last seen 12 s ago", not "5673 days ago".
+  double replay_age_s = 3600.0;
 };
 
 // Up from the dominant horizontal planes of `points_m` (map frame): planes are extracted with

@@ -137,6 +137,10 @@ TEST(DemoPath, TrackStreamDetectAskOnShippedSample) {
   ASSERT_GT(answer.objects_size(), 0) << answer.answer();
   EXPECT_EQ(answer.objects(0).class_name(), target);
   EXPECT_TRUE(scene.Contains(answer.objects(0).centroid_m())) << answer.answer();
+  // The sample was recorded in 2011: ages are told in map time (relative to the newest
+  // keyframe), so the object seen during these 2 s was seen seconds ago, not years.
+  EXPECT_EQ(answer.answer().find("days ago"), std::string::npos) << answer.answer();
+  EXPECT_NE(answer.answer().find(" s ago"), std::string::npos) << answer.answer();
 
   // SIGTERM: a clean shutdown with exit code 0.
   const int status = server.Stop(SIGTERM);
