@@ -131,14 +131,7 @@ int RunBenchDetect(const BenchDetectArgs& a) {
 }  // namespace
 
 void RegisterBenchDetectCommand(CLI::App& app) {
-  CLI::App* bench = nullptr;
-  for (CLI::App* s : app.get_subcommands([](CLI::App* s) { return s->get_name() == "bench"; })) {
-    bench = s;
-  }
-  if (!bench) {
-    bench = app.add_subcommand("bench", "benchmarks that print their figures");
-    bench->require_subcommand(1);
-  }
+  CLI::App* bench = BenchGroup(app);
   auto args = std::make_shared<BenchDetectArgs>();
   CLI::App* c = bench->add_subcommand(
       "detect", "detector ms/frame at 1 and 2 threads, masks and tracker time on a TUM folder");

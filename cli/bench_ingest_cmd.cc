@@ -224,14 +224,7 @@ int RunBenchIngest(const BenchIngestArgs& a) {
 }  // namespace
 
 void RegisterBenchIngestCommand(CLI::App& app) {
-  CLI::App* bench = nullptr;
-  for (CLI::App* s : app.get_subcommands([](CLI::App* s) { return s->get_name() == "bench"; })) {
-    bench = s;
-  }
-  if (!bench) {
-    bench = app.add_subcommand("bench", "benchmarks that print their figures");
-    bench->require_subcommand(1);
-  }
+  CLI::App* bench = BenchGroup(app);
   auto args = std::make_shared<BenchIngestArgs>();
   CLI::App* c = bench->add_subcommand(
       "ingest", "mapping server ingest throughput on loopback gRPC (synthetic 640x480 keyframes)");

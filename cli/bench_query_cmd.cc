@@ -229,14 +229,7 @@ int RunBenchQuery(const BenchQueryArgs& a) {
 }  // namespace
 
 void RegisterBenchQueryCommand(CLI::App& app) {
-  CLI::App* bench = nullptr;
-  for (CLI::App* s : app.get_subcommands([](CLI::App* s) { return s->get_name() == "bench"; })) {
-    bench = s;
-  }
-  if (!bench) {
-    bench = app.add_subcommand("bench", "benchmarks that print their figures");
-    bench->require_subcommand(1);
-  }
+  CLI::App* bench = BenchGroup(app);
   auto args = std::make_shared<BenchQueryArgs>();
   CLI::App* c = bench->add_subcommand("query", "query engine Ask latency and throughput");
   c->add_option("--objects", args->objects, "objects in the synthetic map")->capture_default_str();

@@ -39,14 +39,7 @@ int RunBenchReport(const BenchReportArgs& a) {
 }  // namespace
 
 void RegisterBenchReportCommand(CLI::App& app) {
-  CLI::App* bench = nullptr;
-  for (CLI::App* s : app.get_subcommands([](CLI::App* s) { return s->get_name() == "bench"; })) {
-    bench = s;
-  }
-  if (!bench) {
-    bench = app.add_subcommand("bench", "benchmarks that print their figures");
-    bench->require_subcommand(1);
-  }
+  CLI::App* bench = BenchGroup(app);
   auto a = std::make_shared<BenchReportArgs>();
   CLI::App* c = bench->add_subcommand(
       "report", "evaluation report on a TUM folder: trajectory, objects, map size, timing");

@@ -126,14 +126,7 @@ int RunBenchTrack(const BenchTrackArgs& a) {
 }  // namespace
 
 void RegisterBenchTrackCommand(CLI::App& app) {
-  CLI::App* bench = nullptr;
-  for (CLI::App* s : app.get_subcommands([](CLI::App* s) { return s->get_name() == "bench"; })) {
-    bench = s;
-  }
-  if (!bench) {
-    bench = app.add_subcommand("bench", "benchmarks that print their figures");
-    bench->require_subcommand(1);
-  }
+  CLI::App* bench = BenchGroup(app);
   auto args = std::make_shared<BenchTrackArgs>();
   CLI::App* c =
       bench->add_subcommand("track", "visual odometry speed and accuracy on a TUM folder");

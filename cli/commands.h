@@ -9,6 +9,9 @@ namespace loci::cli {
 // Exit code of the command that ran (set by the command's callback).
 int& ExitCode();
 
+// The `loci bench` group: created on first use, shared by every benchmark command.
+CLI::App* BenchGroup(CLI::App& app);
+
 void RegisterEvalCommands(CLI::App& app);
 // `loci synth` (synth/): synthetic RGB-D sequences with ground truth.
 void RegisterSynthCommands(CLI::App& app);

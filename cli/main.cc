@@ -9,6 +9,15 @@ int& ExitCode() {
   static int code = 0;
   return code;
 }
+
+CLI::App* BenchGroup(CLI::App& app) {
+  for (CLI::App* s : app.get_subcommands([](CLI::App* s) { return s->get_name() == "bench"; })) {
+    return s;
+  }
+  CLI::App* bench = app.add_subcommand("bench", "Benchmarks that print their figures");
+  bench->require_subcommand(1);
+  return bench;
+}
 }  // namespace loci::cli
 
 int main(int argc, char** argv) {
