@@ -18,6 +18,7 @@
 #include "common/image_codec.h"
 #include "common/tum_io.h"
 #include "loci/v1/mapping.grpc.pb.h"
+#include "proto/convert.h"
 #include "server/service/grpc_server.h"
 #include "server/service/map_server.h"
 #include "synth/sequence_writer.h"
@@ -56,29 +57,10 @@ StatusOr<std::vector<loci::v1::Keyframe>> LoadViews(const std::string& dir) {
         T = p.T_world_cam;
       }
     }
-    const Quatd q = QuatOf(T);
-    auto* pose = kf.mutable_t_odom_cam();
-    pose->mutable_t_m()->set_x(T.translation().x());
-    pose->mutable_t_m()->set_y(T.translation().y());
-    pose->mutable_t_m()->set_z(T.translation().z());
-    pose->set_qw(q.w());
-    pose->set_qx(q.x());
-    pose->set_qy(q.y());
-    pose->set_qz(q.z());
+    ToProto(T, kf.mutable_t_odom_cam());
     if (const FrameDetections* fd = FindDetections(detections, f.rgb_t_ns)) {
       for (const Detection2D& d : fd->detections) {
-        auto* o = kf.add_detections();
-        o->set_class_id(d.class_id);
-        o->set_class_name(d.class_name);
-        o->set_score(d.score);
-        o->mutable_box()->set_x(d.box_px.x);
-        o->mutable_box()->set_y(d.box_px.y);
-        o->mutable_box()->set_width(d.box_px.width);
-        o->mutable_box()->set_height(d.box_px.height);
-        o->set_track_id(d.track_id);
-        if (!d.mask.empty()) {
-          LOCI_ASSIGN_OR_RETURN(*o->mutable_mask_png(), EncodeMaskPng(d.mask));
-        }
+        LOCI_RETURN_IF_ERROR(ToProto(d, kf.add_detections()));
       }
     }
     kf.set_t_ns(f.rgb_t_ns);

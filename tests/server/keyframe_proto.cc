@@ -1,6 +1,9 @@
 #include "tests/server/keyframe_proto.h"
 
+#include <gtest/gtest.h>
+
 #include "common/image_codec.h"
+#include "proto/convert.h"
 
 namespace loci::server::testing {
 
@@ -29,34 +32,16 @@ loci::v1::Keyframe MakeKeyframeFromBytes(const std::string& session_id, int64_t 
   kf.set_session_id(session_id);
   kf.set_seq(seq);
   kf.set_t_ns(t_ns);
-  auto* p = kf.mutable_t_odom_cam();
-  p->mutable_t_m()->set_x(T.translation().x());
-  p->mutable_t_m()->set_y(T.translation().y());
-  p->mutable_t_m()->set_z(T.translation().z());
-  const Quatd q = QuatOf(T);
-  p->set_qw(q.w());
-  p->set_qx(q.x());
-  p->set_qy(q.y());
-  p->set_qz(q.z());
+  ToProto(T, kf.mutable_t_odom_cam());
   kf.set_rgb_jpeg(std::move(rgb_jpeg));
   kf.set_depth_png(std::move(depth_png));
   if (gravity_cam) {
     kf.set_has_gravity(true);
-    kf.mutable_gravity_cam()->set_x(gravity_cam->x());
-    kf.mutable_gravity_cam()->set_y(gravity_cam->y());
-    kf.mutable_gravity_cam()->set_z(gravity_cam->z());
+    ToProto(*gravity_cam, kf.mutable_gravity_cam());
   }
   for (const Detection2D& d : detections) {
-    auto* o = kf.add_detections();
-    o->set_class_id(d.class_id);
-    o->set_class_name(d.class_name);
-    o->set_score(d.score);
-    o->mutable_box()->set_x(d.box_px.x);
-    o->mutable_box()->set_y(d.box_px.y);
-    o->mutable_box()->set_width(d.box_px.width);
-    o->mutable_box()->set_height(d.box_px.height);
-    o->set_track_id(d.track_id);
-    if (!d.mask.empty()) o->set_mask_png(*EncodeMaskPng(d.mask));
+    const Status st = ToProto(d, kf.add_detections());
+    if (!st.ok()) ADD_FAILURE() << st;  // test inputs are well-formed masks
   }
   return kf;
 }

@@ -1,0 +1,37 @@
+#include "proto/convert.h"
+
+#include "common/image_codec.h"
+
+namespace loci {
+
+void ToProto(const SE3d& T_a_b, v1::Pose* out) {
+  ToProto(Eigen::Vector3d(T_a_b.translation()), out->mutable_t_m());
+  const Quatd q = QuatOf(T_a_b);
+  out->set_qw(q.w());
+  out->set_qx(q.x());
+  out->set_qy(q.y());
+  out->set_qz(q.z());
+}
+
+void ToProto(const Eigen::Vector3d& v, v1::Vec3* out) {
+  out->set_x(v.x());
+  out->set_y(v.y());
+  out->set_z(v.z());
+}
+
+Status ToProto(const Detection2D& d, v1::Detection* out) {
+  out->set_class_id(d.class_id);
+  out->set_class_name(d.class_name);
+  out->set_score(d.score);
+  out->mutable_box()->set_x(d.box_px.x);
+  out->mutable_box()->set_y(d.box_px.y);
+  out->mutable_box()->set_width(d.box_px.width);
+  out->mutable_box()->set_height(d.box_px.height);
+  out->set_track_id(d.track_id);
+  if (!d.mask.empty()) {
+    LOCI_ASSIGN_OR_RETURN(*out->mutable_mask_png(), EncodeMaskPng(d.mask));
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace loci
