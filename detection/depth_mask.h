@@ -4,9 +4,13 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <Eigen/Core>
 #include <opencv2/core.hpp>
+#include <optional>
+#include <string>
 #include <vector>
 
+#include "common/camera.h"
 #include "common/detections_io.h"
 #include "common/status.h"
 
@@ -37,18 +41,52 @@ struct MaskOptions {
   // the mask, pixels; 0 or 1 = no morphology. Default 3.
   int morph_kernel_px = 3;
 
-  // Support-plane removal: a plane fitted (RANSAC on inverse depth, which is affine in the
-  // pixel coordinates for any plane) to the mask pixels near the box border is removed when
-  // it does not also cover the box centre: the table under a keyboard, the floor behind a
-  // chair. Default true.
+  // Background-plane removal before clustering (background_planes.h): planes found by
+  // sequential RANSAC in the box that continue outside it (the table under a keyboard, the floor
+  // under a table, the wall behind a cup) are left out of the mask. Default true.
   bool remove_support_plane = true;
   // Plane inlier tolerance: max(plane_tolerance_m, plane_tolerance_sigma * sigma(z)) with the
   // Kinect noise sigma(z) = 0.0015 z^2 m. Defaults 0.008 m and 2.5.
   float plane_tolerance_m = 0.008f;
   float plane_tolerance_sigma = 2.5f;
+  // At most this many planes are tried per box; a plane needs at least min_plane_support of the
+  // box's valid pixels. Defaults 3 and 0.1.
+  int max_background_planes = 3;
+  float min_plane_support = 0.1f;
+  // A plane is background when at least this fraction of the valid pixels in a ring just
+  // outside the box lie on it. Default 0.25.
+  float min_outside_fraction = 0.25f;
+  // ... and when it holds less than this fraction of the valid pixels in the central 40 % x 40 %
+  // of the box (else it is the object's own face, or an object too thin to tell from its
+  // support). Default 0.5.
+  float max_centre_fraction = 0.5f;
+  // Planes are kept (not removed) when removing them would leave less than this fraction of
+  // the box's valid pixels. Default 0.05.
+  float min_object_fraction = 0.05f;
+  // With gravity and intrinsics (MaskContext): a horizontal plane (normal within
+  // horizontal_max_deg of gravity) with nothing of the box below it is the support the object
+  // stands on and is removed, even where the box is cut by the image border so that the ring
+  // test cannot see it continue. Furniture that is itself a support (support_classes) keeps
+  // its top: only a horizontal plane with such a top at least support_min_rise_m above it is
+  // removed (the floor under a table). Defaults 20 deg, 0.2 m, the COCO support furniture.
+  float horizontal_max_deg = 20.f;
+  float support_min_rise_m = 0.2f;
+  std::vector<std::string> support_classes = {"dining table", "bed", "couch", "bench"};
+  // Support furniture whose top is its highest part: what rises above the top is other objects
+  // standing on it (the cups on a table), left out of its mask. Default: dining table, bench.
+  std::vector<std::string> flat_top_classes = {"dining table", "bench"};
 
+  bool IsSupportClass(const std::string& class_name) const;
+  bool IsFlatTopClass(const std::string& class_name) const;
   static StatusOr<MaskOptions> FromYaml(const YAML::Node& node);
   Status Validate() const;
+};
+
+// What is known about the frame and the object besides its box; every field is optional.
+struct MaskContext {
+  std::string class_name;
+  std::optional<PinholeCamera> camera;         // intrinsics of the depth image
+  std::optional<Eigen::Vector3d> gravity_cam;  // unit, pointing down, camera frame
 };
 
 // Mask (CV_8UC1, 255 = object) covering MaskRect(box_px, depth.cols, depth.rows), for depth
@@ -56,11 +94,13 @@ struct MaskOptions {
 // All zeros when the box has too little valid depth; empty Mat when the box misses the image
 // or the depth type is unsupported.
 cv::Mat SegmentObjectDepth(const cv::Mat& depth, const cv::Rect2f& box_px,
-                           const MaskOptions& options);
+                           const MaskOptions& options, const MaskContext& context = {});
 
 // Sets Detection2D::mask on each detection with a non-empty segmentation; the others keep no
-// mask (box only).
+// mask (box only). camera and gravity_cam (optional) as in MaskContext.
 void AttachDepthMasks(const cv::Mat& depth, std::vector<Detection2D>* detections,
-                      const MaskOptions& options);
+                      const MaskOptions& options,
+                      const std::optional<PinholeCamera>& camera = std::nullopt,
+                      const std::optional<Eigen::Vector3d>& gravity_cam = std::nullopt);
 
 }  // namespace loci::detection

@@ -1,6 +1,7 @@
 // SegmentObjectDepth on hand-rendered depth images: objects in front of a wall and a floor,
 // with depth noise and missing readings. (The `loci synth` scenes are used in synth_test.cc.)
 #include "detection/depth_mask.h"
+#include "detection/background_planes.h"
 
 #include <gtest/gtest.h>
 
@@ -116,12 +117,43 @@ TEST(SegmentObjectDepth, MetresInputAndEdgeCases) {
   EXPECT_TRUE(dets[1].mask.empty());
 }
 
+TEST(InverseDepthPlane, FitsAnyPlaneWithoutIntrinsics) {
+  // Floor 0.8 m below a camera tilted down by 20 deg, seen with fr1 intrinsics.
+  const PinholeCamera cam = PinholeCamera::TumFr1();
+  const double tilt = 20.0 * M_PI / 180.0;
+  const Eigen::Vector3d up_cam(0, -std::cos(tilt), -std::sin(tilt));  // y down, z forward
+  std::vector<cv::Point3d> points;
+  std::mt19937 rng(1);
+  std::normal_distribution<double> noise(0.0, 0.002);
+  for (int v = 300; v < 480; v += 9) {
+    for (int u = 0; u < 640; u += 13) {
+      const Eigen::Vector3d ray = cam.BackProject(u, v, 1.0);
+      const double z = -0.8 / up_cam.dot(ray);  // up . (z ray) = -0.8
+      if (z > 0) points.emplace_back(u, v, z + noise(rng));
+    }
+  }
+  ASSERT_GE(points.size(), 200u);
+  InverseDepthPlane p;
+  ASSERT_TRUE(p.Fit3(points[0], points[points.size() / 2], points.back()));
+  ASSERT_TRUE(p.Refit(points));
+  const Eigen::Vector3d ray = cam.BackProject(400, 420, 1.0);
+  EXPECT_NEAR(p.DepthAt(400, 420), -0.8 / up_cam.dot(ray), 0.003);
+  EXPECT_FALSE(p.Fit3({0, 0, 1}, {1, 1, 1}, {2, 2, 1}));  // collinear pixels
+  EXPECT_LE(p.DepthAt(320, 0), 0.0);                       // above the horizon: no floor
+}
+
 TEST(MaskOptions, YamlAndValidation) {
   auto o = MaskOptions::FromYaml(YAML::Load("{depth_scale: 1000, bin_width_rel: 0.03}"));
   ASSERT_TRUE(o.ok()) << o.status();
   EXPECT_FLOAT_EQ(o->depth_scale, 1000.f);
   EXPECT_FALSE(MaskOptions::FromYaml(YAML::Load("{depth_scale: 0}")).ok());
   EXPECT_FALSE(MaskOptions::FromYaml(YAML::Load("{min_depth_m: 5, max_depth_m: 1}")).ok());
+  EXPECT_FALSE(MaskOptions::FromYaml(YAML::Load("{min_outside_fraction: 0}")).ok());
+  EXPECT_FALSE(MaskOptions::FromYaml(YAML::Load("{horizontal_max_deg: 95}")).ok());
+  auto c = MaskOptions::FromYaml(YAML::Load("{support_classes: [bed], flat_top_classes: [bed]}"));
+  ASSERT_TRUE(c.ok()) << c.status();
+  EXPECT_TRUE(c->IsFlatTopClass("bed"));
+  EXPECT_FALSE(c->IsSupportClass("dining table"));
 }
 
 }  // namespace

@@ -78,16 +78,18 @@ TEST(SynthTracker, KeyframesWithNoiseAndDrops) {
   }
 }
 
-TEST(SynthMasks, DepthClusterMatchesInstanceMasks) {
-  // Noisy depth (Kinect-like noise, quantisation, edge dropouts); boxes are the ground-truth
-  // boxes of the visible pixels; masks compared with the instance-id masks. The dining table
-  // is reported apart: its box holds the floor, which is depth-continuous with the table
-  // through its legs, so a depth cluster cannot separate them (a known limit of paper 002's
-  // box + depth segmentation; support surfaces need a plane model instead).
-  MaskOptions mo;
+// Mean IoU of SegmentObjectDepth against the instance-id masks over seeds 3, 4, 7 (every 12th of
+// 60 frames), per class and over all boxes; with or without intrinsics and gravity.
+struct MaskScores {
   std::map<std::string, std::pair<double, int>> by_class;
-  double sum = 0.0, sum_all = 0.0;
-  int count = 0, count_all = 0;
+  double sum = 0.0;
+  int count = 0;
+  double Mean() const { return count > 0 ? sum / count : 0.0; }
+};
+
+MaskScores ScoreSynthMasks(bool with_gravity) {
+  MaskOptions mo;
+  MaskScores s;
   for (uint64_t seed : {3u, 4u, 7u}) {
     synth::SceneOptions so;
     so.seed = seed;
@@ -95,34 +97,57 @@ TEST(SynthMasks, DepthClusterMatchesInstanceMasks) {
     so.depth_noise = true;
     so.num_threads = 2;
     auto scene = synth::MakeScene(so);
-    ASSERT_TRUE(scene.ok()) << scene.status();
+    EXPECT_TRUE(scene.ok()) << scene.status();
+    if (!scene.ok()) return s;
     for (int i = 0; i < so.num_frames; i += 12) {
       const int64_t t = synth::FrameStampNs(so, i);
-      const synth::RenderedFrame f =
-          synth::Render(*scene, synth::CameraPoseAt(*scene, t), scene->camera, t);
+      const SE3d T_world_cam = synth::CameraPoseAt(*scene, t);
+      const synth::RenderedFrame f = synth::Render(*scene, T_world_cam, scene->camera, t);
+      // World z is up in synth scenes.
+      const Vec3d gravity_cam = T_world_cam.rotation().transpose() * Vec3d(0, 0, -1);
       for (const Detection2D& d : synth::DetectionsFromInstances(*scene, f.instance_id)) {
-        const cv::Mat m = SegmentObjectDepth(f.depth_u16, d.box_px, mo);
-        ASSERT_EQ(m.size(), d.mask.size());
+        MaskContext context{d.class_name, std::nullopt, std::nullopt};
+        if (with_gravity) {
+          context.camera = scene->camera;
+          context.gravity_cam = gravity_cam;
+        }
+        const cv::Mat m = SegmentObjectDepth(f.depth_u16, d.box_px, mo, context);
+        EXPECT_EQ(m.size(), d.mask.size());
+        if (m.size() != d.mask.size()) continue;
         const double iou = MaskIou(m, d.mask);
-        by_class[d.class_name].first += iou;
-        by_class[d.class_name].second += 1;
-        sum_all += iou;
-        ++count_all;
-        if (d.class_name == "dining table") continue;
-        sum += iou;
-        ++count;
+        s.by_class[d.class_name].first += iou;
+        s.by_class[d.class_name].second += 1;
+        s.sum += iou;
+        ++s.count;
       }
     }
   }
-  for (const auto& [name, s] : by_class) {
-    std::printf("  mask IoU %-14s %.3f (%d boxes)\n", name.c_str(), s.first / s.second, s.second);
+  return s;
+}
+
+TEST(SynthMasks, DepthClusterMatchesInstanceMasks) {
+  // Noisy depth (Kinect-like noise, disparity quantisation, edge dropouts); boxes are the
+  // ground-truth boxes of the visible pixels; masks compared with the instance-id masks over
+  // every object, the dining table included. Reached: 0.847 over 111 boxes with gravity
+  // (table 0.857: the floor between its legs and the cups on it are left out), 0.804 from
+  // depth alone (table 0.54: without gravity the floor seen between the legs, cut by the image
+  // border, cannot be told from the table's own surfaces).
+  const MaskScores with = ScoreSynthMasks(true);
+  const MaskScores without = ScoreSynthMasks(false);
+  for (const auto& [name, s] : with.by_class) {
+    const auto& w = without.by_class.at(name);
+    std::printf("  mask IoU %-14s %.3f with gravity, %.3f depth only (%d boxes)\n", name.c_str(),
+                s.first / s.second, w.first / w.second, s.second);
   }
-  ASSERT_GT(count, 40);
-  std::printf("mean mask IoU: objects %.3f (%d boxes), all incl. dining table %.3f (%d boxes)\n",
-              sum / count, count, sum_all / count_all, count_all);
-  EXPECT_GE(sum / count, 0.8);
-  const auto& table = by_class["dining table"];
-  if (table.second > 0) EXPECT_GE(table.first / table.second, 0.3);
+  std::printf("mean mask IoU over %d boxes: %.3f with gravity, %.3f depth only\n", with.count,
+              with.Mean(), without.Mean());
+  ASSERT_GT(with.count, 100);
+  ASSERT_TRUE(with.by_class.count("dining table"));
+  EXPECT_GE(with.Mean(), 0.8);
+  EXPECT_GE(without.Mean(), 0.78);
+  // Support furniture: its mask leaves out the floor and what stands on it.
+  const auto& table = with.by_class.at("dining table");
+  EXPECT_GE(table.first / table.second, 0.75);
 }
 
 }  // namespace
