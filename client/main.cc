@@ -108,12 +108,23 @@ int Run(const Args& a) {
     }
     client = std::move(*c);
   }
+  // Object masks from box + depth go with the detections (config/detection.yaml `mask`).
+  std::optional<KeyframeMasking> masking;
+  if (a.detections != "none") {
+    auto dc = detection::LoadDetectionConfig(detection::DefaultDetectionConfigPath());
+    if (!dc.ok()) {
+      std::cerr << "error: " << dc.status().message() << "\n";
+      return 2;
+    }
+    masking = KeyframeMasking{dc->mask, topt.camera};
+    masking->options.depth_scale = static_cast<float>(topt.depth_scale);
+  }
   KeyframeStage stage(std::move(detector), std::move(mot),
                       client ? KeyframeStage::Sink([&](KeyframeData kf) {
                         return client->Send(std::move(kf)).status();
                       })
                              : KeyframeStage::Sink(),
-                      4);
+                      4, masking);
 
   std::unique_ptr<Tracker> tracker;
   std::unique_ptr<PoseSource> pose_source;
@@ -202,6 +213,9 @@ int Run(const Args& a) {
   if (stage.detected_keyframes() > 0) {
     std::printf("detection: %d keyframes, %.1f ms each\n", stage.detected_keyframes(),
                 stage.detect_ms_total() / stage.detected_keyframes());
+  }
+  if (masking && keyframes > 0) {
+    std::printf("object masks: %.1f ms per keyframe\n", stage.mask_ms_total() / keyframes);
   }
   if (client) {
     Status s = client->Close();

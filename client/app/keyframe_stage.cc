@@ -8,9 +8,10 @@ namespace loci {
 
 KeyframeStage::KeyframeStage(std::unique_ptr<detection::Detector> detector,
                              std::unique_ptr<detection::MultiObjectTracker> mot, Sink sink,
-                             size_t capacity)
+                             size_t capacity, std::optional<KeyframeMasking> masking)
     : detector_(std::move(detector)),
       mot_(std::move(mot)),
+      masking_(std::move(masking)),
       sink_(std::move(sink)),
       capacity_(std::max<size_t>(1, capacity)) {
   thread_ = std::thread([this] { Loop(); });
@@ -66,6 +67,20 @@ void KeyframeStage::Loop() {
       detect_ms_total_ +=
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       ++detected_;
+    }
+    if (masking_ && !kf.detections.empty() && !kf.depth_u16.empty()) {
+      const auto t0 = std::chrono::steady_clock::now();
+      std::vector<Detection2D> unmasked;
+      for (const Detection2D& d : kf.detections) {
+        if (d.mask.empty()) unmasked.push_back(d);
+      }
+      detection::AttachDepthMasks(kf.depth_u16, &unmasked, masking_->options, masking_->camera,
+                                  kf.gravity_cam);
+      for (size_t i = 0, j = 0; i < kf.detections.size(); ++i) {
+        if (kf.detections[i].mask.empty()) kf.detections[i].mask = unmasked[j++].mask;
+      }
+      mask_ms_total_ +=
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     }
     if (sink_) {
       Status s = sink_(std::move(kf));

@@ -9,21 +9,32 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "client/streaming/map_client.h"
 #include "common/detections_io.h"
+#include "detection/depth_mask.h"
 #include "detection/detector.h"
 #include "detection/multi_object_tracker.h"
 
 namespace loci {
 
+// Object masks for the keyframes' detections (detection::AttachDepthMasks, with the keyframe's
+// gravity when it has one): depth_scale must be the sequence's.
+struct KeyframeMasking {
+  detection::MaskOptions options;
+  PinholeCamera camera;
+};
+
 class KeyframeStage {
  public:
   using Sink = std::function<Status(KeyframeData)>;
-  // detector may be null (detections already attached, or none). capacity >= 1.
+  // detector may be null (detections already attached, or none). capacity >= 1. With masking,
+  // every detection that comes without a mask (from the detector or a file) gets one.
   KeyframeStage(std::unique_ptr<detection::Detector> detector,
-                std::unique_ptr<detection::MultiObjectTracker> mot, Sink sink, size_t capacity);
+                std::unique_ptr<detection::MultiObjectTracker> mot, Sink sink, size_t capacity,
+                std::optional<KeyframeMasking> masking = std::nullopt);
   ~KeyframeStage();
 
   void Push(KeyframeData kf);
@@ -35,6 +46,7 @@ class KeyframeStage {
   FrameDetections LatestDetections() const;
 
   double detect_ms_total() const { return detect_ms_total_; }
+  double mask_ms_total() const { return mask_ms_total_; }
   int detected_keyframes() const { return detected_; }
 
  private:
@@ -42,6 +54,7 @@ class KeyframeStage {
 
   std::unique_ptr<detection::Detector> detector_;
   std::unique_ptr<detection::MultiObjectTracker> mot_;
+  std::optional<KeyframeMasking> masking_;
   Sink sink_;
   size_t capacity_;
   mutable std::mutex mu_;
@@ -51,6 +64,7 @@ class KeyframeStage {
   bool done_ = false;
   Status first_error_;
   double detect_ms_total_ = 0;
+  double mask_ms_total_ = 0;
   int detected_ = 0;
   std::thread thread_;
 };

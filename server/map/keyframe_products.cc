@@ -9,6 +9,7 @@
 #include <numeric>
 #include <opencv2/imgproc.hpp>
 
+#include "detection/depth_mask.h"
 #include "server/map/grid_outlier_filter.h"
 #include "server/map/voxel_filter.h"
 
@@ -20,52 +21,9 @@ double ThreadCpuMs() {
   return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
 
-cv::Mat DominantDepthCluster(const cv::Mat& depth_m, const cv::Rect& box,
-                             const ObservationOptions& o, double min_depth_m, double max_depth_m) {
-  cv::Mat mask = cv::Mat::zeros(box.size(), CV_8UC1);
-  const int nbins =
-      std::max(1, static_cast<int>(std::ceil((max_depth_m - min_depth_m) / o.depth_bin_m)));
-  std::vector<double> hist(nbins, 0.0);
-  const int sx = static_cast<int>(box.width * o.box_shrink);
-  const int sy = static_cast<int>(box.height * o.box_shrink);
-  for (int v = box.y + sy; v < box.y + box.height - sy; ++v) {
-    const float* row = depth_m.ptr<float>(v);
-    for (int u = box.x + sx; u < box.x + box.width - sx; ++u) {
-      const float d = row[u];
-      if (d < min_depth_m || d > max_depth_m) continue;
-      hist[std::min(nbins - 1, static_cast<int>((d - min_depth_m) / o.depth_bin_m))] += 1;
-    }
-  }
-  // Smoothed peak so a surface split across two bins still wins.
-  std::vector<double> smooth(nbins, 0.0);
-  for (int i = 0; i < nbins; ++i) {
-    smooth[i] = 2 * hist[i] + (i > 0 ? hist[i - 1] : 0) + (i + 1 < nbins ? hist[i + 1] : 0);
-  }
-  const int peak =
-      static_cast<int>(std::max_element(smooth.begin(), smooth.end()) - smooth.begin());
-  if (hist[peak] + (peak > 0 ? hist[peak - 1] : 0) + (peak + 1 < nbins ? hist[peak + 1] : 0) <= 0) {
-    return mask;
-  }
-  const double floor_count = o.cluster_bin_fraction * std::max(hist[peak], smooth[peak] / 4);
-  const int max_half_bins = static_cast<int>(o.cluster_max_half_m / o.depth_bin_m);
-  int lo = peak, hi = peak;
-  while (lo > 0 && peak - (lo - 1) <= max_half_bins && hist[lo - 1] >= floor_count) --lo;
-  while (hi + 1 < nbins && (hi + 1) - peak <= max_half_bins && hist[hi + 1] >= floor_count) ++hi;
-  const double d_lo = min_depth_m + lo * o.depth_bin_m - o.cluster_tolerance_m;
-  const double d_hi = min_depth_m + (hi + 1) * o.depth_bin_m + o.cluster_tolerance_m;
-  for (int v = 0; v < box.height; ++v) {
-    const float* row = depth_m.ptr<float>(box.y + v);
-    uint8_t* out = mask.ptr<uint8_t>(v);
-    for (int u = 0; u < box.width; ++u) {
-      const float d = row[box.x + u];
-      if (d >= min_depth_m && d <= max_depth_m && d >= d_lo && d <= d_hi) out[u] = 255;
-    }
-  }
-  return mask;
-}
-
 cv::Mat LabelPixels(const cv::Mat& depth_m, const std::vector<Detection2D>& detections,
-                    const MapOptions& options) {
+                    const MapOptions& options, const PinholeCamera& camera,
+                    const std::optional<Vec3d>& gravity_cam) {
   cv::Mat labels(depth_m.size(), CV_16SC1, cv::Scalar(kBackgroundLabel));
   std::vector<int> objects, dynamic;
   for (int i = 0; i < static_cast<int>(detections.size()); ++i) {
@@ -89,8 +47,9 @@ cv::Mat LabelPixels(const cv::Mat& depth_m, const std::vector<Detection2D>& dete
       mask = d.mask;
       if (mask.size() != r.size()) cv::resize(mask, mask, r.size(), 0, 0, cv::INTER_NEAREST);
     } else if (use_cluster) {
-      mask = DominantDepthCluster(depth_m, r, options.observation, options.cloud.min_depth_m,
-                                  options.cloud.max_depth_m);
+      const detection::MaskContext context{d.class_name, camera, gravity_cam};
+      mask = detection::SegmentObjectDepth(depth_m, d.box_px, options.observation.mask, context);
+      if (mask.size() != r.size()) return;
     } else {
       mask = cv::Mat(r.size(), CV_8UC1, cv::Scalar(255));  // no mask: drop the whole box
     }
@@ -206,10 +165,11 @@ pcl::PointCloud<pcl::PointXYZRGB> ObjectCloud(const cv::Mat& bgr, const cv::Mat&
 KeyframeProducts BuildKeyframeProducts(const cv::Mat& bgr, const cv::Mat& depth_m,
                                        const PinholeCamera& camera,
                                        const std::vector<Detection2D>& detections,
-                                       const MapOptions& options) {
+                                       const MapOptions& options,
+                                       const std::optional<Vec3d>& gravity_cam) {
   KeyframeProducts products;
   double t = ThreadCpuMs();
-  const cv::Mat labels = LabelPixels(depth_m, detections, options);
+  const cv::Mat labels = LabelPixels(depth_m, detections, options, camera, gravity_cam);
   products.excluded_pixels = static_cast<uint64_t>(cv::countNonZero(labels < 0));
   products.labels_ms = ThreadCpuMs() - t;
 

@@ -9,11 +9,13 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "common/camera.h"
 #include "common/detections_io.h"
+#include "common/se3.h"
 #include "server/map/map_options.h"
 
 namespace loci::server {
@@ -44,17 +46,13 @@ struct KeyframeProducts {
 // Thread CPU time in milliseconds (CLOCK_THREAD_CPUTIME_ID), for stage timing.
 double ThreadCpuMs();
 
-// Pixels of a detection that belong to the object, as a CV_8UC1 mask over `box` (whole pixels,
-// inside the image): the dominant depth cluster (histogram mode +- tolerance) of the box shrunk
-// by options.box_shrink. depth_m is CV_32FC1 metres, 0 = invalid.
-cv::Mat DominantDepthCluster(const cv::Mat& depth_m, const cv::Rect& box,
-                             const ObservationOptions& options, double min_depth_m,
-                             double max_depth_m);
-
-// Label image (CV_16SC1) of a keyframe: object pixels from masks or depth clusters, dynamic
-// classes kExcludedLabel. Smaller boxes win over larger ones they overlap (a book on a table).
+// Label image (CV_16SC1) of a keyframe: object pixels from the detections' masks, else from
+// detection::SegmentObjectDepth on the box (with camera and gravity when known); dynamic classes
+// kExcludedLabel over their whole mask or box. Smaller boxes win over larger ones they overlap
+// (a book on a table). depth_m is CV_32FC1 metres, 0 = invalid.
 cv::Mat LabelPixels(const cv::Mat& depth_m, const std::vector<Detection2D>& detections,
-                    const MapOptions& options);
+                    const MapOptions& options, const PinholeCamera& camera,
+                    const std::optional<Vec3d>& gravity_cam);
 
 // Back-projects pixels with valid depth in [min, max] (every `stride`-th pixel) into the cam
 // frame; labels from `labels` (excluded pixels skipped). Colours from bgr (CV_8UC3).
@@ -75,6 +73,7 @@ pcl::PointCloud<PointT> RemoveOutliers(const pcl::PointCloud<PointT>& cloud, int
 KeyframeProducts BuildKeyframeProducts(const cv::Mat& bgr, const cv::Mat& depth_m,
                                        const PinholeCamera& camera,
                                        const std::vector<Detection2D>& detections,
-                                       const MapOptions& options);
+                                       const MapOptions& options,
+                                       const std::optional<Vec3d>& gravity_cam = std::nullopt);
 
 }  // namespace loci::server

@@ -18,12 +18,9 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
   }
   if (const YAML::Node n = node["observation"]) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_score", &observation.min_score));
-    LOCI_RETURN_IF_ERROR(ReadOptional(n, "box_shrink", &observation.box_shrink));
-    LOCI_RETURN_IF_ERROR(ReadOptional(n, "depth_bin_m", &observation.depth_bin_m));
-    LOCI_RETURN_IF_ERROR(ReadOptional(n, "cluster_tolerance_m", &observation.cluster_tolerance_m));
-    LOCI_RETURN_IF_ERROR(
-        ReadOptional(n, "cluster_bin_fraction", &observation.cluster_bin_fraction));
-    LOCI_RETURN_IF_ERROR(ReadOptional(n, "cluster_max_half_m", &observation.cluster_max_half_m));
+    if (n["mask"]) {
+      LOCI_ASSIGN_OR_RETURN(observation.mask, detection::MaskOptions::FromYaml(n["mask"]));
+    }
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "voxel_m", &observation.voxel_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_points", &observation.max_points));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "sor_mean_k", &observation.sor_mean_k));

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "common/status.h"
+#include "detection/depth_mask.h"
 
 namespace loci::server {
 
@@ -24,15 +25,9 @@ struct CloudOptions {
 // Object observations in a keyframe (paper 002 3.3: box + depth segmentation, or the mask).
 struct ObservationOptions {
   double min_score = 0.3;     // detections below this score are ignored (0.3)
-  double box_shrink = 0.1;    // box pixels within this fraction of the box size of its border
-                              // are skipped when no mask is given (0.1)
-  double depth_bin_m = 0.02;  // histogram bin of the dominant-depth search, m (0.02)
-  // The cluster is the histogram peak grown over neighbouring bins holding at least
-  // cluster_bin_fraction (0.1) of the peak, widened by cluster_tolerance_m (0.04) on each side
-  // and at most cluster_max_half_m (0.5) from the peak.
-  double cluster_tolerance_m = 0.04;
-  double cluster_bin_fraction = 0.1;
-  double cluster_max_half_m = 0.5;
+  // Object pixels of a detection that comes without a mask (detection::SegmentObjectDepth;
+  // depth_scale is unused: the server works in metres).
+  detection::MaskOptions mask;
   double voxel_m = 0.01;  // voxel filter edge of object clouds, m (0.01)
   // Large objects (tables) are voxelised coarser so that one view gives at most about this many
   // voxels: edge = max(voxel_m, sqrt(visible area / max_points)) (2000).

@@ -60,8 +60,12 @@ void Mapper::SetEventListener(std::function<void(const std::vector<ObjectEventOu
 
 StageTimes Mapper::Integrate(const MapperKeyframe& kf) {
   StageTimes times;
+  std::optional<Vec3d> gravity_cam;
+  if (kf.has_gravity && kf.gravity_cam.allFinite() && kf.gravity_cam.norm() > 0.5) {
+    gravity_cam = kf.gravity_cam.normalized();
+  }
   const KeyframeProducts products =
-      BuildKeyframeProducts(kf.bgr, kf.depth_m, kf.camera, kf.detections, options_);
+      BuildKeyframeProducts(kf.bgr, kf.depth_m, kf.camera, kf.detections, options_, gravity_cam);
   // CPU of both threads of the products stage (the dense cloud runs on a second thread).
   times.products_ms = products.labels_ms + products.objects_ms + products.backproject_ms +
                       products.voxel_ms + products.outlier_ms;

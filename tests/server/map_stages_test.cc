@@ -1,9 +1,10 @@
-// Unit tests of the map stages: back-projection, depth clustering, filters, overlap,
+// Unit tests of the map stages: back-projection, pixel labels, filters, overlap,
 // label fusion, association and merging.
 #include <gtest/gtest.h>
 #include <pcl/filters/voxel_grid.h>
 
 #include <numeric>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <unordered_map>
 
@@ -41,22 +42,67 @@ TEST(BackProject, PlaneAtKnownDepthLandsOnThePlane) {
   EXPECT_EQ(BackProject(bgr, depth, labels, cam, 2, 0.1, 4.0).size(), 320u * 240u - 50u - 25u);
 }
 
-TEST(DominantDepthCluster, KeepsTheObjectNotTheWallBehind) {
-  cv::Mat depth(100, 100, CV_32FC1, cv::Scalar(3.0f));  // wall
-  depth(cv::Rect(30, 30, 40, 40)).setTo(1.5f);          // object filling most of the box
-  const cv::Rect box(20, 20, 60, 60);
-  const cv::Mat mask = DominantDepthCluster(depth, box, ObservationOptions{}, 0.1, 4.0);
-  EXPECT_EQ(cv::countNonZero(mask), 40 * 40);
-  EXPECT_EQ(mask.at<uint8_t>(15, 15), 255);  // (35, 35) in the image
-  EXPECT_EQ(mask.at<uint8_t>(2, 2), 0);
+Detection2D Det(const std::string& class_name, cv::Rect2f box) {
+  Detection2D d;
+  d.class_name = class_name;
+  d.score = 0.9f;
+  d.box_px = box;
+  return d;
 }
 
-TEST(DominantDepthCluster, FollowsASlantedSurface) {
-  cv::Mat depth(100, 100, CV_32FC1);
-  for (int v = 0; v < 100; ++v) depth.row(v).setTo(1.0f + 0.004f * v);  // 1.0 .. 1.4 m ramp
-  const cv::Mat mask =
-      DominantDepthCluster(depth, cv::Rect(0, 0, 100, 100), ObservationOptions{}, 0.1, 4.0);
-  EXPECT_EQ(cv::countNonZero(mask), 100 * 100);
+TEST(LabelPixels, SegmentsBoxesWithoutMaskAndExcludesDynamicBoxes) {
+  const PinholeCamera cam = PinholeCamera::TumFr1();
+  cv::Mat depth(cam.height_px, cam.width_px, CV_32FC1, cv::Scalar(3.0f));  // wall
+  depth(cv::Rect(100, 100, 80, 60)).setTo(1.5f);                           // a monitor
+  const std::vector<Detection2D> dets = {Det("tv", {90, 90, 100, 80}),
+                                         Det("person", {400, 100, 50, 200})};
+  MapOptions options;
+  const cv::Mat labels = LabelPixels(depth, dets, options, cam, std::nullopt);
+  EXPECT_EQ(cv::countNonZero(labels == 1), 80 * 60);  // the monitor, not the wall around it
+  EXPECT_EQ(labels.at<int16_t>(130, 140), 1);
+  EXPECT_EQ(labels.at<int16_t>(95, 95), kBackgroundLabel);
+  EXPECT_EQ(cv::countNonZero(labels == kExcludedLabel), 50 * 200);  // dynamic: whole box
+}
+
+TEST(LabelPixels, LeavesOutTheSupportUnderAnObjectWithGravity) {
+  // Camera 0.6 m above a table, looking down 40 deg; a 3 cm slab (a keyboard) on the table.
+  const PinholeCamera cam = PinholeCamera::TumFr1();
+  const double tilt = 40.0 * M_PI / 180.0;
+  const Vec3d up(0, -std::cos(tilt), -std::sin(tilt));  // cam frame: y down, z forward
+  cv::Mat depth(cam.height_px, cam.width_px, CV_32FC1, cv::Scalar(0.0f));
+  cv::Mat truth = cv::Mat::zeros(depth.size(), CV_8UC1);
+  for (int v = 0; v < cam.height_px; ++v) {
+    for (int u = 0; u < cam.width_px; ++u) {
+      const Vec3d ray = cam.BackProject(u, v, 1.0);
+      const double table_z = -0.6 / up.dot(ray);
+      if (!(table_z > 0)) continue;
+      depth.at<float>(v, u) = static_cast<float>(table_z);
+      const Vec3d p = table_z * ray;  // on the table; the slab spans 40 x 20 cm around (0, 0.5)
+      const Vec3d right(1, 0, 0), fwd = up.cross(right);  // horizontal, away from the camera
+      const Vec3d d = p - (-0.6 * up + 0.8 * fwd);        // from the slab centre
+      if (std::abs(d.dot(right)) < 0.2 && std::abs(d.dot(fwd)) < 0.1) {
+        depth.at<float>(v, u) = static_cast<float>(-0.57 / up.dot(ray));  // slab top, 3 cm up
+        truth.at<uint8_t>(v, u) = 255;
+      }
+    }
+  }
+  const cv::Rect object = cv::boundingRect(truth);
+  ASSERT_GT(object.area(), 2000);
+  const cv::Rect2f box(object.x - 12, object.y - 12, object.width + 24, object.height + 24);
+  MapOptions options;
+  const cv::Mat with = LabelPixels(depth, {Det("keyboard", box)}, options, cam, -up);
+  const cv::Mat without = LabelPixels(depth, {Det("keyboard", box)}, options, cam, std::nullopt);
+  options.observation.mask.remove_support_plane = false;
+  const cv::Mat no_planes = LabelPixels(depth, {Det("keyboard", box)}, options, cam, -up);
+  const auto iou = [&](const cv::Mat& labels) {
+    return static_cast<double>(cv::countNonZero((labels == 1) & truth)) /
+           cv::countNonZero((labels == 1) | truth);
+  };
+  std::printf("keyboard on a table: IoU %.3f with gravity, %.3f without, %.3f no plane removal\n",
+              iou(with), iou(without), iou(no_planes));
+  EXPECT_GT(iou(with), 0.9);  // the table plane continues past the box: left out
+  EXPECT_GT(iou(without), 0.9);
+  EXPECT_LT(iou(no_planes), iou(with));
 }
 
 TEST(Filters, VoxelFilterKeepsMajorityLabelAndOutlierRemovalDropsStrayPoints) {
