@@ -11,10 +11,12 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <opencv2/core.hpp>
 #include <string>
 
 #include "common/tum_io.h"
 #include "loci/v1/query.grpc.pb.h"
+#include "server/storage/sqlite_store.h"
 
 namespace loci {
 namespace {
@@ -145,6 +147,34 @@ TEST(DemoPath, TrackStreamDetectAskOnShippedSample) {
   // SIGTERM: a clean shutdown with exit code 0.
   const int status = server.Stop(SIGTERM);
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "wait status " << status;
+
+  // The detections were stored with loci-track's depth masks: one mask per detection, the size
+  // of its box, covering part of the box (the object without the background).
+  {
+    auto store = server::SqliteStore::Open(dir + "/loci.db");
+    ASSERT_TRUE(store.ok()) << store.status();
+    int detections = 0, masked = 0, partial = 0;
+    ASSERT_TRUE((*store)
+                    ->ForEachKeyframe(0,
+                                      [&](server::KeyframeRecord kf) {
+                                        for (const Detection2D& d : kf.detections) {
+                                          ++detections;
+                                          if (d.mask.empty()) continue;
+                                          ++masked;
+                                          const cv::Rect r = MaskRect(d.box_px, kf.camera.width_px,
+                                                                      kf.camera.height_px);
+                                          EXPECT_EQ(d.mask.size(), r.size());
+                                          partial += cv::countNonZero(d.mask) < 0.95 * r.area();
+                                        }
+                                        return absl::OkStatus();
+                                      })
+                    .ok());
+    std::cout << "stored detections " << detections << ", with mask " << masked
+              << ", mask leaves out part of the box " << partial << "\n";
+    ASSERT_GT(detections, 0);
+    EXPECT_GE(masked, detections * 9 / 10);
+    EXPECT_GE(partial, masked / 2);
+  }
   fs::remove_all(dir);
 }
 
