@@ -2,13 +2,20 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 namespace loci::server {
 
 void FusedObject::AddPoints(const std::vector<ColoredPoint>& points_m) {
+  ++point_observations_;
   for (const ColoredPoint& cp : points_m) {
     const Eigen::Vector3d p = cp.p_m.cast<double>();
+    Cell& cell = cells_[KeyOf(p, support_.cell_m)];
+    if (cell.last != point_observations_) {
+      cell.last = point_observations_;
+      ++cell.observations;
+    }
     Voxel& v = voxels_[KeyOf(p, voxel_m_)];
     v.sum_m += p;
     v.rgb_sum += Eigen::Vector3d((cp.rgb >> 16) & 0xff, (cp.rgb >> 8) & 0xff, cp.rgb & 0xff);
@@ -24,6 +31,8 @@ void FusedObject::Absorb(const FusedObject& other) {
     v.rgb_sum += ov.rgb_sum;
     v.count += ov.count;
   }
+  for (const auto& [key, oc] : other.cells_) cells_[key].observations += oc.observations;
+  point_observations_ += other.point_observations_;
   labels_.Merge(other.labels_);
   first_seen_ns_ = std::min(first_seen_ns_, other.first_seen_ns_);
   if (other.last_seen_ns_ > last_seen_ns_) {
@@ -65,10 +74,25 @@ std::unordered_set<VoxelKey> FusedObject::KeysAt(double voxel_m) const {
   return keys;
 }
 
+uint32_t FusedObject::MinSupport() const {
+  if (point_observations_ < 3 || support_.min_fraction <= 0) return 1;
+  return std::max<uint32_t>(
+      2, static_cast<uint32_t>(std::ceil(support_.min_fraction * point_observations_)));
+}
+
+bool FusedObject::Supported(const Eigen::Vector3d& p) const {
+  const uint32_t min_support = MinSupport();
+  if (min_support <= 1) return true;
+  const auto it = cells_.find(KeyOf(p, support_.cell_m));
+  return it != cells_.end() && it->second.observations >= min_support;
+}
+
 std::vector<ColoredPoint> FusedObject::Cloud() const {
   std::vector<ColoredPoint> out;
   out.reserve(voxels_.size());
+  const bool any_supported = supported_voxels_ > 0;
   for (const auto& [key, v] : voxels_) {
+    if (any_supported && !Supported(v.sum_m / v.count)) continue;
     const Eigen::Vector3d rgb = v.rgb_sum / v.count;
     out.push_back({(v.sum_m / v.count).cast<float>(), (static_cast<uint32_t>(rgb.x()) << 16) |
                                                           (static_cast<uint32_t>(rgb.y()) << 8) |
@@ -85,10 +109,16 @@ void FusedObject::RecomputeGeometry() {
   std::vector<Eigen::Vector3d> pts;
   pts.reserve(voxels_.size());
   for (const auto& [key, v] : voxels_) {
-    pts.push_back(v.sum_m / v.count);
-    sum += pts.back();
-    aabb_min_m_ = aabb_min_m_.cwiseMin(pts.back());
-    aabb_max_m_ = aabb_max_m_.cwiseMax(pts.back());
+    if (Supported(v.sum_m / v.count)) pts.push_back(v.sum_m / v.count);
+  }
+  supported_voxels_ = pts.size();
+  if (pts.empty()) {  // no cell has the support yet: every voxel counts
+    for (const auto& [key, v] : voxels_) pts.push_back(v.sum_m / v.count);
+  }
+  for (const Eigen::Vector3d& p : pts) {
+    sum += p;
+    aabb_min_m_ = aabb_min_m_.cwiseMin(p);
+    aabb_max_m_ = aabb_max_m_.cwiseMax(p);
   }
   const Eigen::Vector3d mean = sum / static_cast<double>(pts.size());
   centroid_m_ = centroid_from_box_ ? Eigen::Vector3d(0.5 * (aabb_min_m_ + aabb_max_m_)) : mean;
@@ -127,7 +157,7 @@ MapObject FusedObject::Snapshot() const {
   o.robots.assign(robots_.begin(), robots_.end());
   o.last_robot = last_robot_;
   o.observation_count = observation_count();
-  o.point_count = static_cast<uint32_t>(voxels_.size());
+  o.point_count = static_cast<uint32_t>(supported_voxels_ > 0 ? supported_voxels_ : voxels_.size());
   o.confirmed = confirmed_;
   return o;
 }

@@ -23,11 +23,26 @@ struct ColoredPoint {
   uint32_t rgb = 0;  // 0xRRGGBB
 };
 
+// Evidence for the object's shape: the fused cloud keeps every observation's voxels, but its
+// geometry (centroid, boxes) and exported cloud use only voxels in support cells (edge cell_m)
+// that at least max(2, ceil(min_fraction * observations)) observations put points in, once the
+// object has 3 observations or more. One bad mask (the wall behind a cup) or a misaligned view
+// then no longer stretches the object. min_fraction 0 = every voxel counts.
+struct SupportOptions {
+  double cell_m = 0.05;
+  double min_fraction = 0.1;
+};
+
 class FusedObject {
  public:
   // centroid_from_box: see FusionOptions::centroid_from_box.
-  FusedObject(int64_t id, double voxel_m, bool centroid_from_box, const LabelDistribution& labels)
-      : id_(id), voxel_m_(voxel_m), centroid_from_box_(centroid_from_box), labels_(labels) {}
+  FusedObject(int64_t id, double voxel_m, bool centroid_from_box, const LabelDistribution& labels,
+              SupportOptions support = {})
+      : id_(id),
+        voxel_m_(voxel_m),
+        centroid_from_box_(centroid_from_box),
+        support_(support),
+        labels_(labels) {}
 
   // Adds one observation's points (map frame); each voxel keeps the mean of its points.
   void AddPoints(const std::vector<ColoredPoint>& points_m);
@@ -52,7 +67,7 @@ class FusedObject {
   const std::vector<int64_t>& keyframes() const { return keyframes_; }
   size_t voxel_count() const { return voxels_.size(); }
 
-  // Fused cloud (one point per voxel) in the map frame.
+  // Fused cloud (one point per supported voxel, see SupportOptions) in the map frame.
   std::vector<ColoredPoint> Cloud() const;
   MapObject Snapshot() const;
 
@@ -63,12 +78,23 @@ class FusedObject {
     uint32_t count = 0;
   };
   void RecomputeGeometry();
+  // Whether a voxel (mean point p) lies in a cell with enough observations.
+  bool Supported(const Eigen::Vector3d& p) const;
+  uint32_t MinSupport() const;
+  struct Cell {
+    uint32_t observations = 0;  // observations with points in the cell
+    uint32_t last = 0;          // index of the last observation counted
+  };
 
   int64_t id_;
   double voxel_m_;
   bool centroid_from_box_;
+  SupportOptions support_;
   LabelDistribution labels_;
   std::unordered_map<VoxelKey, Voxel> voxels_;
+  std::unordered_map<VoxelKey, Cell> cells_;
+  uint32_t point_observations_ = 0;  // AddPoints calls (absorbed objects' included)
+  size_t supported_voxels_ = 0;      // voxels the geometry used at the last recompute
   Eigen::Vector3d centroid_m_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d aabb_min_m_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d aabb_max_m_ = Eigen::Vector3d::Zero();

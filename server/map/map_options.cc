@@ -33,6 +33,8 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
         ReadOptional(n, "max_centroid_distance_m", &fusion.max_centroid_distance_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "centroid_from_box", &fusion.centroid_from_box));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_overlap", &fusion.min_overlap));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "support_cell_m", &fusion.support_cell_m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_support_fraction", &fusion.min_support_fraction));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "overlap_voxel_m", &fusion.overlap_voxel_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "weight_track", &fusion.weight_track));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "weight_centroid", &fusion.weight_centroid));
@@ -85,6 +87,10 @@ Status MapOptions::Validate() const {
   }
   if (observation.max_points < 10) return bad("observation.max_points >= 10");
   if (fusion.confirm_observations < 1) return bad("fusion.confirm_observations >= 1");
+  if (!(fusion.support_cell_m > 0.001) ||
+      !(fusion.min_support_fraction >= 0 && fusion.min_support_fraction <= 1)) {
+    return bad("fusion.support_cell_m > 0.001 and fusion.min_support_fraction in [0, 1]");
+  }
   if (fusion.label_universe < 2) return bad("fusion.label_universe >= 2");
   if (octomap.enabled && !(octomap.resolution_m >= 0.005))
     return bad("octomap.resolution_m >= 0.005");

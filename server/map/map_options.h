@@ -61,6 +61,11 @@ struct FusionOptions {
   // merge_centroid_m (0.1) or when |A∩B| / min(|A|, |B|) exceeds merge_containment (0.5).
   double merge_centroid_m = 0.1;
   double merge_containment = 0.5;
+  // Object geometry from voxels in support_cell_m (0.05) cells that at least
+  // max(2, ceil(min_support_fraction * observations)) observations saw, from 3 observations on
+  // (FusedObject SupportOptions); min_support_fraction 0 = every voxel (0.1).
+  double support_cell_m = 0.05;
+  double min_support_fraction = 0.1;
   int label_universe = 13;       // K, classes the detector can report (mapped classes) (13)
   double min_likelihood = 0.05;  // detection scores are clamped to [this, 1 - this] (0.05)
 };

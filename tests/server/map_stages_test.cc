@@ -8,6 +8,7 @@
 #include <random>
 #include <unordered_map>
 
+#include "server/map/fused_object.h"
 #include "server/map/grid_outlier_filter.h"
 #include "server/map/keyframe_products.h"
 #include "server/map/label_distribution.h"
@@ -377,6 +378,41 @@ TEST(ObjectMap, MergesDuplicatesThatEndUpOverlapping) {
   // A different class at the same place is not merged.
   map.Integrate({Obs(3, {0.0, 0, 1}, 0.10, 3, "book")}, &changes);
   EXPECT_EQ(map.size(), 2u);
+}
+
+TEST(FusedObject, OneStrayObservationDoesNotStretchTheObject) {
+  // Ten views of a 10 cm cup (1 cm noise) and one view whose mask also held 40 cm of the wall
+  // 0.5 m behind it.
+  std::mt19937 rng(4);
+  std::normal_distribution<float> noise(0.f, 0.01f);
+  std::uniform_real_distribution<float> u(-0.05f, 0.05f);
+  const auto view = [&](bool with_wall) {
+    std::vector<ColoredPoint> pts;
+    for (int i = 0; i < 400; ++i) {
+      pts.push_back({Eigen::Vector3f(1.f + u(rng) + noise(rng), u(rng) + noise(rng),
+                                     0.8f + u(rng) + noise(rng)),
+                     0x808080});
+    }
+    for (int i = 0; with_wall && i < 400; ++i) {
+      pts.push_back({Eigen::Vector3f(1.5f, 4 * u(rng), 0.8f + 4 * u(rng)), 0xffffff});
+    }
+    return pts;
+  };
+  for (double min_fraction : {0.1, 0.0}) {
+    FusedObject cup(1, 0.01, true, LabelDistribution(13, 0.05), {0.05, min_fraction});
+    for (int k = 0; k < 11; ++k) cup.AddPoints(view(k == 5));
+    const MapObject o = cup.Snapshot();
+    const Eigen::Vector3d extent = o.aabb_max_m - o.aabb_min_m;
+    std::printf("min_support_fraction %.1f: extent (%.2f, %.2f, %.2f) m, centroid x %.2f m\n",
+                min_fraction, extent.x(), extent.y(), extent.z(), o.centroid_m.x());
+    if (min_fraction > 0) {
+      EXPECT_LT(extent.maxCoeff(), 0.2);
+      EXPECT_NEAR(o.centroid_m.x(), 1.0, 0.03);
+      EXPECT_LT(cup.Cloud().size(), cup.voxel_count());  // the wall is not exported either
+    } else {
+      EXPECT_GT(extent.x(), 0.5);  // every voxel counts: the wall stretches the box
+    }
+  }
 }
 
 TEST(ObjectEval, CountErrorMatchingFalsePositivesAndMisses) {
