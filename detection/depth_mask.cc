@@ -235,6 +235,7 @@ void AttachDepthMasks(const cv::Mat& depth, std::vector<Detection2D>* detections
                       const std::optional<Eigen::Vector3d>& gravity_cam) {
   MaskContext context{"", camera, gravity_cam};
   for (Detection2D& d : *detections) {
+    if (!d.mask.empty()) continue;  // an external detector's own mask wins
     context.class_name = d.class_name;
     cv::Mat m = SegmentObjectDepth(depth, d.box_px, options, context);
     if (!m.empty() && cv::countNonZero(m) > 0) d.mask = m;

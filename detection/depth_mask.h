@@ -96,8 +96,9 @@ struct MaskContext {
 cv::Mat SegmentObjectDepth(const cv::Mat& depth, const cv::Rect2f& box_px,
                            const MaskOptions& options, const MaskContext& context = {});
 
-// Sets Detection2D::mask on each detection with a non-empty segmentation; the others keep no
-// mask (box only). camera and gravity_cam (optional) as in MaskContext.
+// Sets Detection2D::mask on each detection that has none and gets a non-empty segmentation;
+// the others keep what they had (their own mask, or none: box only). camera and gravity_cam
+// (optional) as in MaskContext.
 void AttachDepthMasks(const cv::Mat& depth, std::vector<Detection2D>* detections,
                       const MaskOptions& options,
                       const std::optional<PinholeCamera>& camera = std::nullopt,

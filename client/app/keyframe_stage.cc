@@ -70,15 +70,8 @@ void KeyframeStage::Loop() {
     }
     if (masking_ && !kf.detections.empty() && !kf.depth_u16.empty()) {
       const auto t0 = std::chrono::steady_clock::now();
-      std::vector<Detection2D> unmasked;
-      for (const Detection2D& d : kf.detections) {
-        if (d.mask.empty()) unmasked.push_back(d);
-      }
-      detection::AttachDepthMasks(kf.depth_u16, &unmasked, masking_->options, masking_->camera,
-                                  kf.gravity_cam);
-      for (size_t i = 0, j = 0; i < kf.detections.size(); ++i) {
-        if (kf.detections[i].mask.empty()) kf.detections[i].mask = unmasked[j++].mask;
-      }
+      detection::AttachDepthMasks(kf.depth_u16, &kf.detections, masking_->options,
+                                  masking_->camera, kf.gravity_cam);
       mask_ms_total_ +=
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     }

@@ -108,13 +108,16 @@ TEST(SegmentObjectDepth, MetresInputAndEdgeCases) {
   cv::Mat z = SegmentObjectDepth(zeros, cv::Rect2f(10, 10, 20, 20), o);
   ASSERT_EQ(z.size(), cv::Size(20, 20));
   EXPECT_EQ(cv::countNonZero(z), 0);
-  // AttachDepthMasks: masks only where depth says something.
-  std::vector<Detection2D> dets(2);
+  // AttachDepthMasks: masks only where depth says something; a mask already given is kept.
+  std::vector<Detection2D> dets(3);
   dets[0].box_px = {25, 25, 50, 50};
   dets[1].box_px = {500, 500, 5, 5};
+  dets[2].box_px = {25, 25, 50, 50};
+  dets[2].mask = cv::Mat(50, 50, CV_8UC1, cv::Scalar(255));
   AttachDepthMasks(depth_m, &dets, o);
-  EXPECT_FALSE(dets[0].mask.empty());
+  EXPECT_EQ(cv::countNonZero(dets[0].mask), 40 * 40);
   EXPECT_TRUE(dets[1].mask.empty());
+  EXPECT_EQ(cv::countNonZero(dets[2].mask), 50 * 50);
 }
 
 TEST(InverseDepthPlane, FitsAnyPlaneWithoutIntrinsics) {
