@@ -1,8 +1,8 @@
 #include "detection/background_planes.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
-#include <Eigen/Geometry>
 #include <random>
 
 namespace loci::detection {
@@ -66,9 +66,9 @@ double FractionOutsideOnPlane(const cv::Mat& depth, const cv::Rect& roi,
   const int size = std::max(roi.width, roi.height);
   const int near_px = std::max(3, size / 20), far_px = std::max(8, size / 6);
   const cv::Rect image(0, 0, depth.cols, depth.rows);
-  const cv::Rect outer = cv::Rect(roi.x - far_px, roi.y - far_px, roi.width + 2 * far_px,
-                                  roi.height + 2 * far_px) &
-                         image;
+  const cv::Rect outer =
+      cv::Rect(roi.x - far_px, roi.y - far_px, roi.width + 2 * far_px, roi.height + 2 * far_px) &
+      image;
   const cv::Rect inner(roi.x - near_px, roi.y - near_px, roi.width + 2 * near_px,
                        roi.height + 2 * near_px);
   const int step = std::max(1, size / 100);
@@ -106,8 +106,7 @@ double FractionCentreOnPlane(const cv::Mat& depth_m, const InverseDepthPlane& pl
 
 // Up to max_background_planes planes, by sequential RANSAC (each refitted by least squares on
 // its inliers) over at most ~4000 sampled pixels of the box.
-std::vector<InverseDepthPlane> FindPlanes(const cv::Mat& depth_m, int valid,
-                                          const MaskOptions& o) {
+std::vector<InverseDepthPlane> FindPlanes(const cv::Mat& depth_m, int valid, const MaskOptions& o) {
   const int stride =
       std::max(1, static_cast<int>(std::floor(std::sqrt(static_cast<double>(valid) / 4000.0))));
   std::vector<cv::Point3d> remaining;
@@ -186,7 +185,10 @@ Supports FindSupports(const cv::Rect& roi, const cv::Mat& depth_m, const cv::Mat
   Supports out;
   out.support.assign(planes.size(), false);
   std::vector<bool>& support = out.support;
-  if (!context.camera || !context.gravity_cam || context.gravity_cam->norm() < 0.5) return out;
+  if (!context.camera || !context.gravity_cam || !context.gravity_cam->allFinite() ||
+      context.gravity_cam->norm() < 0.5) {
+    return out;
+  }
   const PinholeCamera& cam = *context.camera;
   const Eigen::Vector3d up = -context.gravity_cam->normalized();
   const double cos_max = std::cos(o.horizontal_max_deg * M_PI / 180.0);
@@ -217,8 +219,8 @@ Supports FindSupports(const cv::Rect& roi, const cv::Mat& depth_m, const cv::Mat
     const InverseDepthPlane& p = planes[k];
     const double c_image = p.c - p.a * roi.x - p.b * roi.y;
     const Eigen::Vector3d n(p.a * cam.fx, p.b * cam.fy, p.a * cam.cx + p.b * cam.cy + c_image);
-    horizontal[k] = n.norm() > 0 && std::abs(n.normalized().dot(up)) >= cos_max &&
-                    plane_count[k] >= 10;
+    horizontal[k] =
+        n.norm() > 0 && std::abs(n.normalized().dot(up)) >= cos_max && plane_count[k] >= 10;
     if (plane_count[k] > 0) plane_height[k] = plane_height_sum[k] / plane_count[k];
   }
   const bool support_class = o.IsSupportClass(context.class_name);
@@ -268,17 +270,17 @@ cv::Mat BackgroundPlaneMask(const cv::Mat& depth, const cv::Rect& roi, const cv:
     const double outside = FractionOutsideOnPlane(depth, roi, planes[k], o);
     const double centre = FractionCentreOnPlane(depth_m, planes[k], o);
     // A support under furniture may hold the box centre (the floor seen between table legs).
-    is_background[k] =
-        (support[k] && (support_class || centre < o.max_centre_fraction)) ||
-        (outside >= o.min_outside_fraction && centre < o.max_centre_fraction);
+    is_background[k] = (support[k] && (support_class || centre < o.max_centre_fraction)) ||
+                       (outside >= o.min_outside_fraction && centre < o.max_centre_fraction);
   }
   // Furniture with a flat top: what stands on the top is other objects.
   std::optional<double> max_height;
   if (supports.top_height && o.IsFlatTopClass(context.class_name)) {
     max_height = *supports.top_height + 0.03;
   }
-  const Eigen::Vector3d up = context.gravity_cam ? Eigen::Vector3d(-context.gravity_cam->normalized())
-                                                 : Eigen::Vector3d::Zero();
+  // (top_height is only set with camera and a valid gravity.)
+  const Eigen::Vector3d up =
+      max_height ? Eigen::Vector3d(-context.gravity_cam->normalized()) : Eigen::Vector3d::Zero();
   int removed = 0;
   for (int v = 0; v < depth_m.rows; ++v) {
     const int* l = labels.ptr<int>(v);

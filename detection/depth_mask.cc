@@ -52,8 +52,8 @@ Status MaskOptions::Validate() const {
       morph_kernel_px < 0) {
     return absl::InvalidArgumentError("mask: invalid cluster or morphology parameter");
   }
-  if (!(plane_tolerance_m > 0.f) || !(plane_tolerance_sigma >= 0.f) ||
-      max_background_planes < 0 || !(min_plane_support > 0.f && min_plane_support <= 1.f) ||
+  if (!(plane_tolerance_m > 0.f) || !(plane_tolerance_sigma >= 0.f) || max_background_planes < 0 ||
+      !(min_plane_support > 0.f && min_plane_support <= 1.f) ||
       !(min_outside_fraction > 0.f && min_outside_fraction <= 1.f) ||
       !(min_object_fraction >= 0.f && min_object_fraction < 1.f) ||
       !(max_centre_fraction > 0.f && max_centre_fraction <= 1.f) ||
@@ -69,9 +69,8 @@ bool MaskOptions::IsSupportClass(const std::string& class_name) const {
 }
 
 bool MaskOptions::IsFlatTopClass(const std::string& class_name) const {
-  return IsSupportClass(class_name) &&
-         std::find(flat_top_classes.begin(), flat_top_classes.end(), class_name) !=
-             flat_top_classes.end();
+  return IsSupportClass(class_name) && std::find(flat_top_classes.begin(), flat_top_classes.end(),
+                                                 class_name) != flat_top_classes.end();
 }
 
 namespace {

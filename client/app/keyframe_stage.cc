@@ -70,8 +70,8 @@ void KeyframeStage::Loop() {
     }
     if (masking_ && !kf.detections.empty() && !kf.depth_u16.empty()) {
       const auto t0 = std::chrono::steady_clock::now();
-      detection::AttachDepthMasks(kf.depth_u16, &kf.detections, masking_->options,
-                                  masking_->camera, kf.gravity_cam);
+      detection::AttachDepthMasks(kf.depth_u16, &kf.detections, masking_->options, masking_->camera,
+                                  kf.gravity_cam);
       mask_ms_total_ +=
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     }

@@ -24,7 +24,7 @@ struct CloudOptions {
 
 // Object observations in a keyframe (paper 002 3.3: box + depth segmentation, or the mask).
 struct ObservationOptions {
-  double min_score = 0.3;     // detections below this score are ignored (0.3)
+  double min_score = 0.3;  // detections below this score are ignored (0.3)
   // Object pixels of a detection that comes without a mask (detection::SegmentObjectDepth;
   // depth_scale is unused: the server works in metres).
   detection::MaskOptions mask;

@@ -65,11 +65,10 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
     ObjectChange::Kind kind = ObjectChange::Kind::kUpdated;
     if (best_id == 0) {
       best_id = next_id_++;
-      objects_.emplace(best_id, FusedObject(best_id, voxel_m_, options_.centroid_from_box,
-                                            LabelDistribution(options_.label_universe,
-                                                              options_.min_likelihood),
-                                            {options_.support_cell_m,
-                                             options_.min_support_fraction}));
+      objects_.emplace(
+          best_id, FusedObject(best_id, voxel_m_, options_.centroid_from_box,
+                               LabelDistribution(options_.label_universe, options_.min_likelihood),
+                               {options_.support_cell_m, options_.min_support_fraction}));
       kind = ObjectChange::Kind::kCreated;
     }
     FusedObject& object = objects_.at(best_id);

@@ -1,13 +1,14 @@
 // SegmentObjectDepth on hand-rendered depth images: objects in front of a wall and a floor,
 // with depth noise and missing readings. (The `loci synth` scenes are used in synth_test.cc.)
 #include "detection/depth_mask.h"
-#include "detection/background_planes.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <random>
+
+#include "detection/background_planes.h"
 
 namespace loci::detection {
 namespace {
@@ -142,7 +143,7 @@ TEST(InverseDepthPlane, FitsAnyPlaneWithoutIntrinsics) {
   const Eigen::Vector3d ray = cam.BackProject(400, 420, 1.0);
   EXPECT_NEAR(p.DepthAt(400, 420), -0.8 / up_cam.dot(ray), 0.003);
   EXPECT_FALSE(p.Fit3({0, 0, 1}, {1, 1, 1}, {2, 2, 1}));  // collinear pixels
-  EXPECT_LE(p.DepthAt(320, 0), 0.0);                       // above the horizon: no floor
+  EXPECT_LE(p.DepthAt(320, 0), 0.0);                      // above the horizon: no floor
 }
 
 TEST(MaskOptions, YamlAndValidation) {
