@@ -109,6 +109,12 @@ TEST(SegmentObjectDepth, MetresInputAndEdgeCases) {
   cv::Mat z = SegmentObjectDepth(zeros, cv::Rect2f(10, 10, 20, 20), o);
   ASSERT_EQ(z.size(), cv::Size(20, 20));
   EXPECT_EQ(cv::countNonZero(z), 0);
+  // Non-finite gravity (a bad accelerometer reading) is ignored, not trusted.
+  const MaskContext bad_gravity{"cup", PinholeCamera::TumFr1(),
+                                Eigen::Vector3d(std::nan(""), 0.0, 1.0)};
+  EXPECT_EQ(
+      cv::countNonZero(SegmentObjectDepth(depth_m, cv::Rect2f(25, 25, 50, 50), o, bad_gravity)),
+      40 * 40);
   // AttachDepthMasks: masks only where depth says something; a mask already given is kept.
   std::vector<Detection2D> dets(3);
   dets[0].box_px = {25, 25, 50, 50};
