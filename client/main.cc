@@ -72,6 +72,16 @@ int Run(const Args& a) {
   std::vector<FrameDetections> file_dets;
   std::unique_ptr<detection::Detector> detector;
   std::unique_ptr<detection::MultiObjectTracker> mot;
+  // config/detection.yaml: detector and tracker (no --detections), masks (any detections).
+  std::optional<detection::DetectionConfig> dc;
+  if (a.detections != "none") {
+    auto c = detection::LoadDetectionConfig(detection::DefaultDetectionConfigPath());
+    if (!c.ok()) {
+      std::cerr << "error: " << c.status().message() << "\n";
+      return 2;
+    }
+    dc = std::move(*c);
+  }
   if (!a.detections.empty() && a.detections != "none") {
     auto d = ReadDetectionsJsonl(a.detections);
     if (!d.ok()) {
@@ -80,11 +90,6 @@ int Run(const Args& a) {
     }
     file_dets = std::move(*d);
   } else if (a.detections.empty()) {
-    auto dc = detection::LoadDetectionConfig(detection::DefaultDetectionConfigPath());
-    if (!dc.ok()) {
-      std::cerr << "error: " << dc.status().message() << "\n";
-      return 2;
-    }
     if (!a.model.empty()) dc->detector.model_path = a.model;
     auto det = detection::MakeDetector(dc->detector);
     if (!det.ok()) {
@@ -110,12 +115,7 @@ int Run(const Args& a) {
   }
   // Object masks from box + depth go with the detections (config/detection.yaml `mask`).
   std::optional<KeyframeMasking> masking;
-  if (a.detections != "none") {
-    auto dc = detection::LoadDetectionConfig(detection::DefaultDetectionConfigPath());
-    if (!dc.ok()) {
-      std::cerr << "error: " << dc.status().message() << "\n";
-      return 2;
-    }
+  if (dc) {
     masking = KeyframeMasking{dc->mask, topt.camera};
     masking->options.depth_scale = static_cast<float>(topt.depth_scale);
   }
