@@ -1,6 +1,7 @@
 // `loci bench report --tum DIR [--out FILE.md] [--detections FILE] [--synth-objects objects.json]
 //  [--max-frames N] [--title T]`: runs client + mapper in one process on a TUM folder (and the
 // mapping again with ground-truth poses) and prints / writes the markdown evaluation report.
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 
@@ -15,7 +16,11 @@ struct BenchReportArgs {
   std::string out, title;
 };
 
-int RunBenchReport(const BenchReportArgs& a) {
+int RunBenchReport(BenchReportArgs a) {
+  const std::string beside = a.options.tum_dir + "/objects_gt.json";
+  if (a.options.objects_gt.empty() && std::filesystem::exists(beside)) {
+    a.options.objects_gt = beside;
+  }
   auto r = report::RunReport(a.options);
   if (!r.ok()) {
     std::cerr << "error: " << r.status().message() << "\n";
@@ -53,6 +58,10 @@ void RegisterBenchReportCommand(CLI::App& app) {
       ->check(CLI::ExistingFile);
   c->add_option("--synth-objects", a->options.synth_objects,
                 "objects.json of a loci synth scene: true object count and centroid errors")
+      ->check(CLI::ExistingFile);
+  c->add_option("--objects-gt", a->options.objects_gt,
+                 "hand-made object ground truth (objects_gt.json): precision, recall, count "
+                 "error, X-on-Y answers; default: DIR/objects_gt.json when present")
       ->check(CLI::ExistingFile);
   c->add_option("--client-config", a->options.client_config, "client YAML")
       ->check(CLI::ExistingFile);

@@ -1,6 +1,8 @@
-// `loci eval objects --gt objects.json (--db FILE | --server HOST:PORT) [--json]`: object-map
-// accuracy against ground truth: count error |D - GT| / GT (paper 000 eq. 24), centroid errors
-// after matching by class and nearest centroid, false positives and misses.
+// `loci eval objects --gt objects.json --groundtruth groundtruth.txt (--db FILE | --server H:P)
+// [--json]`: the object map against ground truth (cli/report/gt_eval.h): the map frame aligned
+// to the ground-truth world with the keyframe trajectory, per-class Hungarian matching,
+// precision, recall, F1, the count error (paper 000 eq. 24), centroid errors, and "where is the
+// X on the Y" asked through the server's own Ask for every ground-truth X-on-Y pair.
 #include <grpcpp/create_channel.h>
 
 #include <cstdio>
@@ -8,10 +10,13 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/commands.h"
+#include "cli/report/gt_eval.h"
+#include "common/config.h"
 #include "loci/v1/query.grpc.pb.h"
+#include "proto/convert.h"
 #include "server/map/mapper.h"
-#include "server/map/object_eval.h"
 #include "server/service/proto_convert.h"
+#include "server/service/query_adapter.h"
 #include "server/service/replay.h"
 #include "server/service/server_options.h"
 #include "server/storage/sqlite_store.h"
@@ -20,104 +25,165 @@ namespace loci::cli {
 namespace {
 
 struct EvalObjectsArgs {
-  std::string gt, db, server, config;
+  std::string gt, groundtruth, db, server, config;
   std::vector<std::string> classes;
   double max_match_m = 0.3;
-  bool json = false;
+  bool json = false, no_ask = false;
 };
 
-StatusOr<std::vector<MapObject>> ObjectsFromDb(const EvalObjectsArgs& a,
-                                               const server::ServerOptions& options) {
+// The map to evaluate and a way to ask it.
+struct MapUnderTest {
+  std::vector<MapObject> objects;
+  std::vector<Trajectory> keyframes;
+  std::function<loci::v1::AskResponse(const std::string&)> ask;
+  // Owners for the in-process path.
+  std::shared_ptr<server::Mapper> mapper;
+  std::shared_ptr<server::QueryAdapter> adapter;
+  std::shared_ptr<server::MapperSource> source;
+};
+
+StatusOr<MapUnderTest> FromDb(const std::string& db, const server::ServerOptions& options) {
   server::SqliteStoreOptions so;
   so.read_only = true;
-  LOCI_ASSIGN_OR_RETURN(auto store, server::SqliteStore::Open(a.db, so));
-  server::Mapper mapper(options.map);
-  LOCI_RETURN_IF_ERROR(server::ReplayStore(*store, mapper, nullptr).status());
-  return mapper.Snapshot(/*confirmed_only=*/true);
+  LOCI_ASSIGN_OR_RETURN(auto store, server::SqliteStore::Open(db, so));
+  MapUnderTest m;
+  m.mapper = std::make_shared<server::Mapper>(options.map);
+  LOCI_RETURN_IF_ERROR(server::ReplayStore(*store, *m.mapper, nullptr).status());
+  m.objects = m.mapper->Snapshot(/*confirmed_only=*/true);
+  for (auto& [robot, traj] : m.mapper->Trajectories()) m.keyframes.push_back(traj);
+  m.adapter = std::make_shared<server::QueryAdapter>(server::QueryAdapterOptions{});
+  m.source = std::make_shared<server::MapperSource>(*m.mapper);
+  m.ask = [adapter = m.adapter, source = m.source](const std::string& q) {
+    loci::v1::AskRequest req;
+    req.set_text(q);
+    return adapter->Ask(req, *source);
+  };
+  return m;
 }
 
-StatusOr<std::vector<MapObject>> ObjectsFromServer(const std::string& address) {
+StatusOr<MapUnderTest> FromServer(const std::string& address) {
   grpc::ChannelArguments args;
   args.SetMaxReceiveMessageSize(-1);
-  auto stub = loci::v1::Query::NewStub(
+  std::shared_ptr<loci::v1::Query::Stub> stub = loci::v1::Query::NewStub(
       grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args));
-  grpc::ClientContext ctx;
-  ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
-  loci::v1::FindObjectsRequest req;
-  req.set_confirmed_only(true);
-  loci::v1::FindObjectsResponse resp;
-  const grpc::Status s = stub->FindObjects(&ctx, req, &resp);
-  if (!s.ok()) {
-    return absl::UnavailableError(absl::StrCat(address, ": ", s.error_message()));
+  auto deadline = [](grpc::ClientContext* ctx) {
+    ctx->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+  };
+  MapUnderTest m;
+  {
+    grpc::ClientContext ctx;
+    deadline(&ctx);
+    loci::v1::FindObjectsRequest req;
+    req.set_confirmed_only(true);
+    loci::v1::FindObjectsResponse resp;
+    const grpc::Status s = stub->FindObjects(&ctx, req, &resp);
+    if (!s.ok()) return absl::UnavailableError(absl::StrCat(address, ": ", s.error_message()));
+    for (const auto& o : resp.objects()) m.objects.push_back(server::FromProto(o));
   }
-  std::vector<MapObject> out;
-  for (const auto& o : resp.objects()) out.push_back(server::FromProto(o));
-  return out;
+  {
+    grpc::ClientContext ctx;
+    deadline(&ctx);
+    loci::v1::GetTrajectoriesResponse resp;
+    const grpc::Status s = stub->GetTrajectories(&ctx, {}, &resp);
+    if (!s.ok()) return absl::UnavailableError(absl::StrCat(address, ": ", s.error_message()));
+    for (const auto& t : resp.trajectories()) {
+      Trajectory traj;
+      for (const auto& p : t.poses()) traj.push_back({p.t_ns(), PoseFromProto(p.t_map_cam())});
+      m.keyframes.push_back(std::move(traj));
+    }
+  }
+  m.ask = [stub, deadline](const std::string& q) {
+    grpc::ClientContext ctx;
+    deadline(&ctx);
+    loci::v1::AskRequest req;
+    req.set_text(q);
+    loci::v1::AskResponse resp;
+    const grpc::Status s = stub->Ask(&ctx, req, &resp);
+    if (!s.ok()) resp.set_answer(absl::StrCat("(error: ", s.error_message(), ")"));
+    return resp;
+  };
+  return m;
+}
+
+nlohmann::json ToJson(const report::GroundTruthEval& e) {
+  const server::ObjectEvalResult& r = e.objects;
+  nlohmann::json classes = nlohmann::json::array(), matches = nlohmann::json::array(),
+                 pairs = nlohmann::json::array();
+  for (const auto& c : r.classes) {
+    classes.push_back({{"class_name", c.class_name}, {"gt", c.gt}, {"gt_low", c.gt_low},
+                       {"mapped", c.mapped}, {"tp", c.tp}, {"fp", c.fp}, {"fn", c.fn},
+                       {"neutral", c.neutral}});
+  }
+  for (const auto& m : r.matches) {
+    matches.push_back({{"gt_id", m.gt_name}, {"object_id", m.object_id},
+                       {"class_name", m.class_name}, {"centroid_error_m", m.centroid_error_m},
+                       {"neutral", m.neutral}});
+  }
+  for (const auto& p : e.on_pairs) {
+    pairs.push_back({{"subject", p.gt_subject}, {"support", p.gt_support},
+                     {"question", p.question}, {"answer", p.answer},
+                     {"subject_id", p.subject_id}, {"support_id", p.support_id},
+                     {"right", p.right}});
+  }
+  return {{"metric", "objects"},
+          {"alignment_ate_rmse_m", e.alignment.trans_m.rmse},
+          {"alignment_pairs", e.alignment.pairs},
+          {"precision", r.precision},
+          {"recall", r.recall},
+          {"f1", r.f1},
+          {"gt_count", r.gt_count},
+          {"detected_count", r.detected_count},
+          {"count_error", r.count_error},
+          {"mean_centroid_error_m", r.mean_centroid_error_m},
+          {"median_centroid_error_m", r.median_centroid_error_m},
+          {"max_centroid_error_m", r.max_centroid_error_m},
+          {"false_positive_ids", r.false_positive_ids},
+          {"missed", r.missed_gt_names},
+          {"classes", classes},
+          {"matches", matches},
+          {"on_pairs", pairs},
+          {"on_right", e.on_right},
+          {"on_share", e.on_share}};
+}
+
+int Fail(int code, absl::string_view message) {
+  std::cerr << "error: " << message << "\n";
+  return code;
 }
 
 int RunEvalObjects(const EvalObjectsArgs& a) {
-  if (a.db.empty() == a.server.empty()) {
-    std::cerr << "error: give exactly one of --db and --server\n";
-    return 2;
-  }
+  if (a.db.empty() == a.server.empty()) return Fail(2, "give exactly one of --db and --server");
   auto gt = ReadObjectsJson(a.gt);
-  if (!gt.ok()) {
-    std::cerr << "error: " << gt.status().message() << "\n";
-    return 1;
-  }
+  if (!gt.ok()) return Fail(1, gt.status().message());
+  auto groundtruth = ReadTumTrajectory(a.groundtruth);
+  if (!groundtruth.ok()) return Fail(1, groundtruth.status().message());
   server::ServerOptions options;
-  Status st = a.config.empty() ? options.LoadClasses() : options.FromYamlFile(a.config);
-  if (!st.ok()) {
-    std::cerr << "error: " << st.message() << "\n";
-    return 2;
-  }
-  auto objects = a.db.empty() ? ObjectsFromServer(a.server) : ObjectsFromDb(a, options);
-  if (!objects.ok()) {
-    std::cerr << "error: " << objects.status().message() << "\n";
-    return 1;
-  }
-  server::ObjectEvalOptions eo;
-  eo.max_match_m = a.max_match_m;
+  // The server's own map options by default, so a database is rebuilt as the server built it.
+  Status st = options.FromYamlFile(a.config.empty() ? SourceDir() + "/config/server.yaml"
+                                                    : a.config);
+  if (!st.ok()) return Fail(2, st.message());
+  auto map = a.db.empty() ? FromServer(a.server) : FromDb(a.db, options);
+  if (!map.ok()) return Fail(1, map.status().message());
+  report::GroundTruthEvalInput in;
+  in.objects = map->objects;
+  in.keyframes = map->keyframes;
+  in.groundtruth = *groundtruth;
+  in.gt = *gt;
+  in.options.max_match_m = a.max_match_m;
   // Only classes the map keeps can be found: by default the mapped, non-dynamic classes.
-  eo.classes = a.classes;
-  if (eo.classes.empty()) {
+  in.options.classes = a.classes;
+  if (in.options.classes.empty()) {
     for (const auto& c : options.map.mapped_classes) {
-      if (!options.map.IsDynamic(c)) eo.classes.push_back(c);
+      if (!options.map.IsDynamic(c)) in.options.classes.push_back(c);
     }
   }
-  const server::ObjectEvalResult r = server::EvaluateObjects(*objects, *gt, eo);
+  if (!a.no_ask) in.ask = map->ask;
+  auto e = report::EvaluateAgainstGroundTruth(in);
+  if (!e.ok()) return Fail(1, e.status().message());
   if (a.json) {
-    nlohmann::json matches = nlohmann::json::array();
-    for (const auto& m : r.matches) {
-      matches.push_back({{"gt_id", m.gt_id},
-                         {"object_id", m.object_id},
-                         {"class_name", m.class_name},
-                         {"centroid_error_m", m.centroid_error_m}});
-    }
-    std::cout << nlohmann::json{{"metric", "objects"},
-                                {"gt_count", r.gt_count},
-                                {"detected_count", r.detected_count},
-                                {"count_error", r.count_error},
-                                {"mean_centroid_error_m", r.mean_centroid_error_m},
-                                {"max_centroid_error_m", r.max_centroid_error_m},
-                                {"false_positive_ids", r.false_positive_ids},
-                                {"missed_gt_ids", r.missed_gt_ids},
-                                {"matches", matches}}
-                     .dump(2)
-              << "\n";
-    return 0;
-  }
-  std::printf("objects: detected %d, ground truth %d, count error %.1f %%\n", r.detected_count,
-              r.gt_count, 100.0 * r.count_error);
-  std::printf(
-      "matched %zu: centroid error mean %.4f m, max %.4f m; false positives %zu, "
-      "misses %zu\n",
-      r.matches.size(), r.mean_centroid_error_m, r.max_centroid_error_m,
-      r.false_positive_ids.size(), r.missed_gt_ids.size());
-  for (const auto& m : r.matches) {
-    std::printf("  %-14s gt %3lld -> object %3lld  %.4f m\n", m.class_name.c_str(),
-                static_cast<long long>(m.gt_id), static_cast<long long>(m.object_id),
-                m.centroid_error_m);
+    std::cout << ToJson(*e).dump(2) << "\n";
+  } else {
+    std::cout << report::FormatGroundTruthEval(*e);
   }
   return 0;
 }
@@ -135,8 +201,14 @@ void RegisterEvalObjectsCommand(CLI::App& app) {
   }
   auto args = std::make_shared<EvalObjectsArgs>();
   CLI::App* c = eval->add_subcommand(
-      "objects", "Object map vs ground truth: count error (eq. 24), centroid errors, FP, misses");
-  c->add_option("--gt", args->gt, "ground-truth objects.json (loci synth)")
+      "objects",
+      "Object map vs ground truth: precision, recall, F1, count error (eq. 24), centroid "
+      "errors, X-on-Y answers");
+  c->add_option("--gt", args->gt, "ground-truth objects (objects.json of loci synth, objects_gt.json)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  c->add_option("--groundtruth", args->groundtruth,
+                "groundtruth.txt (TUM): the map is aligned to its world frame with the keyframes")
       ->required()
       ->check(CLI::ExistingFile);
   c->add_option("--db", args->db, "evaluate a loci-server database (rebuilt offline)")
@@ -145,9 +217,9 @@ void RegisterEvalObjectsCommand(CLI::App& app) {
   c->add_option("--config", args->config, "server YAML (map options, class lists)")
       ->check(CLI::ExistingFile);
   c->add_option("--classes", args->classes,
-                "GT classes to evaluate (default: mapped, non-dynamic classes)");
-  c->add_option("--max-match", args->max_match_m, "largest centroid distance of a match, m")
-      ->capture_default_str();
+                "classes to evaluate (default: mapped, non-dynamic classes)");
+  c->add_option("--radius", args->max_match_m, "matching radius, m")->capture_default_str();
+  c->add_flag("--no-ask", args->no_ask, "skip the X-on-Y questions");
   c->add_flag("--json", args->json, "print JSON");
   c->callback([args] { ExitCode() = RunEvalObjects(*args); });
 }

@@ -1,12 +1,15 @@
 // `loci export --db FILE [--config server.yaml] [--cloud out.ply] [--objects out.json]
-//  [--object-clouds DIR] [--octomap out.bt] [--voxel M] [--all]`: rebuilds the map offline from a
-// loci-server database (read-only) and writes its products.
+//  [--object-clouds DIR] [--octomap out.bt] [--trajectories DIR] [--voxel M] [--all]`: rebuilds
+// the map offline from a loci-server database (read-only) and writes its products, all in the
+// map frame.
 #include <algorithm>
+#include <cctype>
 #include <filesystem>
 #include <iostream>
 
 #include "cli/commands.h"
 #include "common/image_codec.h"
+#include "common/tum_io.h"
 #include "server/map/map_export.h"
 #include "server/map/mapper.h"
 #include "server/service/replay.h"
@@ -17,7 +20,7 @@ namespace loci::cli {
 namespace {
 
 struct ExportArgs {
-  std::string db, config, cloud, objects, object_clouds, octomap;
+  std::string db, config, cloud, objects, object_clouds, octomap, trajectories;
   double voxel_m = 0;
   bool all = false;
 };
@@ -27,6 +30,23 @@ StatusOr<server::ServerOptions> LoadServerOptions(const std::string& config) {
   server::ServerOptions o;
   LOCI_RETURN_IF_ERROR(config.empty() ? o.LoadClasses() : o.FromYamlFile(config));
   return o;
+}
+
+// One TUM file per robot (DIR/ROBOT.tum) with its keyframe camera poses in the map frame.
+Status ExportTrajectories(const server::Mapper& mapper, const std::string& dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) return absl::PermissionDeniedError(absl::StrCat("cannot create ", dir, ": ", ec.message()));
+  for (const auto& [robot, traj] : mapper.Trajectories()) {
+    std::string name = robot;
+    for (char& c : name) {
+      if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_') c = '_';
+    }
+    const std::string path = absl::StrCat(dir, "/", name, ".tum");
+    LOCI_RETURN_IF_ERROR(WriteTumTrajectory(path, traj));
+    std::cout << "trajectory: " << robot << ", " << traj.size() << " keyframes -> " << path << "\n";
+  }
+  return absl::OkStatus();
 }
 
 int RunExport(const ExportArgs& a) {
@@ -79,6 +99,7 @@ int RunExport(const ExportArgs& a) {
     }
     std::cout << "object clouds: " << objects.size() << " files -> " << a.object_clouds << "\n";
   }
+  if (!a.trajectories.empty()) st.Update(ExportTrajectories(mapper, a.trajectories));
   if (!a.octomap.empty()) {
     const std::string bt = mapper.OctomapBt();
     st.Update(WriteFileBytes(a.octomap, bt));
@@ -106,6 +127,8 @@ void RegisterExportCommand(CLI::App& app) {
   c->add_option("--objects", args->objects, "objects JSON (superset of objects.json)");
   c->add_option("--object-clouds", args->object_clouds, "directory for one PLY per object");
   c->add_option("--octomap", args->octomap, "OctoMap .bt file");
+  c->add_option("--trajectories", args->trajectories,
+                "directory for one TUM trajectory per robot (keyframe poses, map frame)");
   c->add_option("--voxel", args->voxel_m, "cloud voxel size, m (0 = the map's)");
   c->add_flag("--all", args->all, "include unconfirmed candidate objects");
   c->callback([args] { ExitCode() = RunExport(*args); });

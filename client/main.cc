@@ -7,11 +7,10 @@
 #include <cstdio>
 #include <iostream>
 #include <memory>
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "client/app/keyframe_stage.h"
 #include "client/app/pose_source.h"
+#include "client/app/track_pipeline.h"
 #include "client/streaming/map_client.h"
 #include "client/tracking/tracker.h"
 #include "common/config.h"
@@ -26,86 +25,118 @@ namespace {
 struct Args {
   std::string tum_dir, server = "127.0.0.1:50051", robot = "robot", config, trajectory, keyframes;
   std::string poses, detections, model;
-  bool offline = false, no_progress = false;
+  bool offline = false, no_progress = false, live = false;
   int max_frames = 0;
 };
 
-void Progress(size_t i, size_t n, int kfs, const FrameResult& r) {
-  const int width = 30;
-  const int filled = n ? static_cast<int>(width * (i + 1) / n) : width;
-  std::fprintf(stderr, "\r[%s%s] %zu/%zu  kf %d  inliers %d  %.1f ms   ",
-               std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(), i + 1, n,
-               kfs, r.num_inliers, r.track_ms);
+// A failure with its exit code (2: bad input or config, 3: no server, 1: run failed).
+struct Failure {
+  int code;
+  std::string message;
+};
+
+// Detections: a file (also the odometry's dynamic prior), none, or the configured detector and
+// tracker on keyframes; masks from config/detection.yaml for any detections.
+struct DetectionSetup {
+  std::vector<FrameDetections> file_dets;
+  std::unique_ptr<detection::Detector> detector;
+  std::unique_ptr<detection::MultiObjectTracker> mot;
+  std::optional<KeyframeMasking> masking;
+};
+
+std::optional<Failure> SetUpDetection(const Args& a, const TrackerOptions& topt,
+                                      DetectionSetup* out) {
+  if (a.detections == "none") return std::nullopt;
+  auto dc = detection::LoadDetectionConfig(detection::DefaultDetectionConfigPath());
+  if (!dc.ok()) return Failure{2, std::string(dc.status().message())};
+  out->masking = KeyframeMasking{dc->mask, topt.camera};
+  out->masking->options.depth_scale = static_cast<float>(topt.depth_scale);
+  if (!a.detections.empty()) {
+    auto d = ReadDetectionsJsonl(a.detections);
+    if (!d.ok()) return Failure{2, std::string(d.status().message())};
+    out->file_dets = std::move(*d);
+    return std::nullopt;
+  }
+  if (!a.model.empty()) dc->detector.model_path = a.model;
+  auto det = detection::MakeDetector(dc->detector);
+  if (!det.ok()) {
+    return Failure{2, absl::StrCat("detector: ", det.status().message(),
+                                   " (use --detections FILE or --detections none)")};
+  }
+  out->detector = std::move(*det);
+  out->mot = std::make_unique<detection::MultiObjectTracker>(dc->tracker);
+  return std::nullopt;
 }
 
-int Run(const Args& a) {
-  TrackerOptions topt;
+StatusOr<MapClientOptions> LoadStreamingOptions(const Args& a) {
   MapClientOptions mopt;
   mopt.server = a.server;
   mopt.robot_name = a.robot;
   const std::string cfg = a.config.empty() ? SourceDir() + "/config/client.yaml" : a.config;
-  if (auto node = LoadYamlFile(cfg); node.ok()) {
-    if (Status s = topt.FromYaml((*node)["tracker"]); !s.ok()) {
-      std::cerr << "error: " << cfg << ": " << s.message() << "\n";
-      return 2;
+  auto node = LoadYamlFile(cfg);
+  if (!node.ok()) return a.config.empty() ? StatusOr<MapClientOptions>(mopt) : node.status();
+  LOCI_RETURN_IF_ERROR(ReadOptional((*node)["streaming"], "max_unacked", &mopt.max_unacked));
+  LOCI_RETURN_IF_ERROR(ReadOptional((*node)["streaming"], "jpeg_quality", &mopt.jpeg_quality));
+  return mopt;
+}
+
+int WriteTrajectories(const Args& a, const TrackPipelineResult& r) {
+  int rc = 0;
+  for (const auto& [path, traj] : {std::pair{a.trajectory, &r.trajectory},
+                                   std::pair{a.keyframes, &r.keyframe_trajectory}}) {
+    if (path.empty()) continue;
+    if (Status s = WriteTumTrajectory(path, *traj); !s.ok()) {
+      std::cerr << "error: " << s.message() << "\n";
+      rc = 1;
     }
-    (void)ReadOptional((*node)["streaming"], "max_unacked", &mopt.max_unacked);
-    (void)ReadOptional((*node)["streaming"], "jpeg_quality", &mopt.jpeg_quality);
-  } else if (!a.config.empty()) {
-    std::cerr << "error: " << node.status().message() << "\n";
-    return 2;
   }
-  if (auto classes = LoadYamlFile(SourceDir() + "/config/classes.yaml"); classes.ok()) {
-    (void)topt.ClassWeightsFromYaml(*classes);
+  return rc;
+}
+
+void PrintSummary(const TrackPipelineResult& r, const KeyframeStage& stage, bool masks) {
+  std::printf("frames %zu, tracked %zu, lost %zu, keyframes %zu\n", r.frames, r.tracked, r.lost,
+              r.keyframes);
+  if (stage.detected_keyframes() > 0) {
+    std::printf("detection: %d keyframes, %.1f ms each\n", stage.detected_keyframes(),
+                stage.detect_ms_total() / stage.detected_keyframes());
   }
+  if (masks && r.keyframes > 0) {
+    std::printf("object masks: %.1f ms per keyframe\n", stage.mask_ms_total() / r.keyframes);
+  }
+}
+
+int CloseStream(const Args& a, MapClient& client, const Status& stage_status) {
+  Status s = client.Close();
+  const MapClientStats st = client.stats();
+  std::printf(
+      "streamed to %s: session %s, queued %ld, acked %ld (duplicates %ld), "
+      "rejected %ld, reconnects %ld, %.1f MB sent\n",
+      a.server.c_str(), client.session_id().c_str(), st.queued, st.acked, st.duplicates,
+      st.rejected, st.reconnects, st.bytes_sent / 1e6);
+  if (s.ok() && stage_status.ok() && st.rejected == 0) return 0;
+  std::cerr << "error: " << (!s.ok() ? s.message() : stage_status.message()) << " "
+            << st.last_error << "\n";
+  return 1;
+}
+
+int Run(const Args& a) {
+  auto topt = LoadTrackerOptions(a.config, a.tum_dir);
+  auto mopt = LoadStreamingOptions(a);
   auto seq = LoadTumSequence(a.tum_dir);
-  if (!seq.ok()) {
-    std::cerr << "error: " << seq.status().message() << "\n";
-    return 2;
-  }
-  if (auto cam = LoadYamlFile(a.tum_dir + "/camera.yaml"); cam.ok()) {
-    if (auto c = CameraFromYaml(*cam); c.ok()) topt.camera = *c;
-  }
-
-  // Detections: a file (also used by the odometry's dynamic prior), none, or a detector run on
-  // keyframes in the keyframe stage's thread.
-  std::vector<FrameDetections> file_dets;
-  std::unique_ptr<detection::Detector> detector;
-  std::unique_ptr<detection::MultiObjectTracker> mot;
-  // config/detection.yaml: detector and tracker (no --detections), masks (any detections).
-  std::optional<detection::DetectionConfig> dc;
-  if (a.detections != "none") {
-    auto c = detection::LoadDetectionConfig(detection::DefaultDetectionConfigPath());
-    if (!c.ok()) {
-      std::cerr << "error: " << c.status().message() << "\n";
+  for (const Status& s : {topt.status(), mopt.status(), seq.status()}) {
+    if (!s.ok()) {
+      std::cerr << "error: " << s.message() << "\n";
       return 2;
     }
-    dc = std::move(*c);
   }
-  if (!a.detections.empty() && a.detections != "none") {
-    auto d = ReadDetectionsJsonl(a.detections);
-    if (!d.ok()) {
-      std::cerr << "error: " << d.status().message() << "\n";
-      return 2;
-    }
-    file_dets = std::move(*d);
-  } else if (a.detections.empty()) {
-    if (!a.model.empty()) dc->detector.model_path = a.model;
-    auto det = detection::MakeDetector(dc->detector);
-    if (!det.ok()) {
-      std::cerr << "error: detector: " << det.status().message()
-                << " (use --detections FILE or --detections none)\n";
-      return 2;
-    }
-    detector = std::move(*det);
-    mot = std::make_unique<detection::MultiObjectTracker>(dc->tracker);
+  DetectionSetup det;
+  if (auto f = SetUpDetection(a, *topt, &det)) {
+    std::cerr << "error: " << f->message << "\n";
+    return f->code;
   }
-  const bool has_detector = detector != nullptr;
-  constexpr int64_t kMaxBoxAgeNs = 300'000'000;
-
   std::unique_ptr<MapClient> client;
   if (!a.offline) {
-    auto c = MapClient::Connect(mopt, topt.camera, topt.depth_scale);
+    auto c = MapClient::Connect(*mopt, topt->camera, topt->depth_scale);
     if (!c.ok()) {
       std::cerr << "error: " << a.server << ": " << c.status().message()
                 << " (start loci-server or use --offline)\n";
@@ -113,124 +144,39 @@ int Run(const Args& a) {
     }
     client = std::move(*c);
   }
-  // Object masks from box + depth go with the detections (config/detection.yaml `mask`).
-  std::optional<KeyframeMasking> masking;
-  if (dc) {
-    masking = KeyframeMasking{dc->mask, topt.camera};
-    masking->options.depth_scale = static_cast<float>(topt.depth_scale);
-  }
-  KeyframeStage stage(std::move(detector), std::move(mot),
-                      client ? KeyframeStage::Sink([&](KeyframeData kf) {
-                        return client->Send(std::move(kf)).status();
-                      })
-                             : KeyframeStage::Sink(),
-                      4, masking);
-
+  const bool masks = det.masking.has_value();
+  KeyframeStage::Sink sink;
+  if (client) sink = [&](KeyframeData kf) { return client->Send(std::move(kf)).status(); };
+  KeyframeStage stage(std::move(det.detector), std::move(det.mot), std::move(sink),
+                      a.live ? 4 : 0, std::move(det.masking));
   std::unique_ptr<Tracker> tracker;
   std::unique_ptr<PoseSource> pose_source;
+  Status made = absl::OkStatus();
   if (!a.poses.empty()) {
-    auto p = PoseSource::FromFile(a.poses, topt.keyframes);
-    if (!p.ok()) {
-      std::cerr << "error: " << p.status().message() << "\n";
-      return 2;
-    }
-    pose_source = std::move(*p);
+    auto p = PoseSource::FromFile(a.poses, topt->keyframes);
+    made = p.status();
+    if (p.ok()) pose_source = std::move(*p);
   } else {
-    auto t = Tracker::Create(topt);
-    if (!t.ok()) {
-      std::cerr << "error: " << t.status().message() << "\n";
-      return 2;
-    }
-    tracker = std::move(*t);
+    auto t = Tracker::Create(*topt);
+    made = t.status();
+    if (t.ok()) tracker = std::move(*t);
   }
-
-  Trajectory traj, kf_traj;
-  const size_t n =
-      a.max_frames > 0 ? std::min<size_t>(a.max_frames, seq->frames.size()) : seq->frames.size();
-  int keyframes = 0, lost = 0;
-  for (size_t i = 0; i < n; ++i) {
-    const TumFrame& f = seq->frames[i];
-    cv::Mat bgr = cv::imread(f.rgb_path, cv::IMREAD_COLOR);
-    cv::Mat depth = cv::imread(f.depth_path, cv::IMREAD_UNCHANGED);
-    if (bgr.empty() || depth.empty()) {
-      spdlog::warn("frame {}: unreadable image, skipped", i);
-      continue;
-    }
-    std::vector<Detection2D> dets;
-    bool dets_from_keyframe = false;
-    if (const FrameDetections* fd = FindDetections(file_dets, f.rgb_t_ns)) {
-      dets = fd->detections;
-    } else if (has_detector) {
-      // The detector runs asynchronously on keyframes: its latest boxes (at most
-      // kMaxBoxAgeNs old) serve as the dynamic prior; the geometric test still decides.
-      FrameDetections latest = stage.LatestDetections();
-      if (latest.t_ns > 0 && f.rgb_t_ns - latest.t_ns <= kMaxBoxAgeNs) {
-        dets = std::move(latest.detections);
-        dets_from_keyframe = true;
-      }
-    }
-    StatusOr<FrameResult> r =
-        tracker ? tracker->Track(bgr, depth, f.rgb_t_ns, &dets) : pose_source->At(f.rgb_t_ns);
-    if (!r.ok()) {
-      spdlog::warn("frame {}: {}", i, std::string(r.status().message()));
-      continue;
-    }
-    if (!a.no_progress) Progress(i, n, keyframes, *r);
-    if (!r->tracked) {
-      ++lost;
-      continue;
-    }
-    traj.push_back({f.rgb_t_ns, r->T_odom_cam});
-    if (!r->keyframe) continue;
-    ++keyframes;
-    kf_traj.push_back({f.rgb_t_ns, r->T_odom_cam});
-    KeyframeData kf;
-    kf.t_ns = f.rgb_t_ns;
-    kf.T_odom_cam = r->T_odom_cam;
-    kf.bgr = bgr;
-    kf.depth_u16 = depth;
-    if (!dets_from_keyframe) kf.detections = std::move(dets);  // else: the detector fills them
-    kf.segment = r->segment;
-    if (auto g = GravityInCamAt(seq->accel, f.rgb_t_ns); g.ok()) kf.gravity_cam = *g;
-    stage.Push(std::move(kf));
+  if (!made.ok()) {
+    std::cerr << "error: " << made.message() << "\n";
+    return 2;
   }
-  if (!a.no_progress) std::fprintf(stderr, "\n");
-  Status stage_status = stage.Finish();
-  int rc = 0;
-  if (!a.trajectory.empty()) {
-    if (Status s = WriteTumTrajectory(a.trajectory, traj); !s.ok()) {
-      std::cerr << "error: " << s.message() << "\n";
-      rc = 1;
-    }
+  TrackPipelineOptions po;
+  po.max_frames = a.max_frames > 0 ? static_cast<size_t>(a.max_frames) : 0;
+  po.progress = !a.no_progress;
+  auto r = RunTrackPipeline(*seq, tracker.get(), pose_source.get(), det.file_dets, stage, po);
+  const Status stage_status = stage.Finish();
+  if (!r.ok()) {
+    std::cerr << "error: " << r.status().message() << "\n";
+    return 1;
   }
-  if (!a.keyframes.empty()) {
-    if (Status s = WriteTumTrajectory(a.keyframes, kf_traj); !s.ok()) {
-      std::cerr << "error: " << s.message() << "\n";
-      rc = 1;
-    }
-  }
-  std::printf("frames %zu, tracked %zu, lost %d, keyframes %d\n", n, traj.size(), lost, keyframes);
-  if (stage.detected_keyframes() > 0) {
-    std::printf("detection: %d keyframes, %.1f ms each\n", stage.detected_keyframes(),
-                stage.detect_ms_total() / stage.detected_keyframes());
-  }
-  if (masking && keyframes > 0) {
-    std::printf("object masks: %.1f ms per keyframe\n", stage.mask_ms_total() / keyframes);
-  }
-  if (client) {
-    Status s = client->Close();
-    const MapClientStats st = client->stats();
-    std::printf(
-        "streamed to %s: session %s, queued %ld, acked %ld (duplicates %ld), "
-        "rejected %ld, reconnects %ld, %.1f MB sent\n",
-        a.server.c_str(), client->session_id().c_str(), st.queued, st.acked, st.duplicates,
-        st.rejected, st.reconnects, st.bytes_sent / 1e6);
-    if (!s.ok() || !stage_status.ok() || st.rejected > 0) {
-      std::cerr << "error: " << (!s.ok() ? s.message() : stage_status.message()) << " "
-                << st.last_error << "\n";
-      rc = 1;
-    }
-  }
+  int rc = WriteTrajectories(a, *r);
+  PrintSummary(*r, stage, masks);
+  if (client) rc = std::max(rc, CloseStream(a, *client, stage_status));
   return rc;
 }
 
@@ -245,6 +191,10 @@ int main(int argc, char** argv) {
   app.add_option("--server", a.server, "loci-server HOST:PORT")->capture_default_str();
   app.add_option("--robot", a.robot, "robot name")->capture_default_str();
   app.add_flag("--offline", a.offline, "do not stream (trajectory files only)");
+  app.add_flag("--live", a.live,
+               "run the detector on its own thread as on a robot (tracking keeps its rate; the "
+               "map then depends on timing); default: each keyframe is detected before the next "
+               "frame is tracked, so the same data gives the same map");
   app.add_option("--trajectory", a.trajectory, "write the TUM trajectory of every frame");
   app.add_option("--keyframes", a.keyframes, "write the TUM trajectory of the keyframes");
   app.add_option("--poses", a.poses, "take poses from this TUM trajectory instead of odometry");
@@ -253,7 +203,7 @@ int main(int argc, char** argv) {
   app.add_option("--model", a.model, "detector ONNX model (overrides config/detection.yaml)");
   app.add_option("--config", a.config, "client YAML (default: config/client.yaml)");
   app.add_option("--max-frames", a.max_frames, "stop after N frames (0 = all)");
-  app.add_flag("--no-progress", a.no_progress, "no progress bar on stderr");
+  app.add_flag("--no-progress", a.no_progress, "no progress on stderr");
   app.add_option("--log-level", log_level, "trace|debug|info|warn|error");
   CLI11_PARSE(app, argc, argv);
   spdlog::set_level(spdlog::level::from_str(log_level));

@@ -1,5 +1,6 @@
 #include "common/objects_json.h"
 
+#include <algorithm>
 #include <fstream>
 
 #include <nlohmann/json.hpp>
@@ -23,17 +24,40 @@ StatusOr<GroundTruthScene> ReadObjectsJson(const std::string& path) {
   try {
     const nlohmann::json j = nlohmann::json::parse(in);
     if (j.contains("up")) scene.up = ToVec(j["up"]);
+    std::vector<std::string> on_names;
     for (const auto& o : j.at("objects")) {
       GroundTruthObject g;
-      g.id = o.at("id").get<int64_t>();
+      if (o.at("id").is_string()) {
+        g.name = o["id"].get<std::string>();
+        g.id = static_cast<int64_t>(scene.objects.size()) + 1;
+      } else {
+        g.id = o["id"].get<int64_t>();
+        g.name = std::to_string(g.id);
+      }
       g.class_name = o.at("class_name").get<std::string>();
       g.centroid_m = ToVec(o.at("centroid_m"));
       g.extent_m = ToVec(o.at("extent_m"));
       g.aabb_min_m = o.contains("aabb_min_m") ? ToVec(o["aabb_min_m"]) : g.centroid_m - g.extent_m / 2;
       g.aabb_max_m = o.contains("aabb_max_m") ? ToVec(o["aabb_max_m"]) : g.centroid_m + g.extent_m / 2;
-      g.on_id = o.contains("on") && !o["on"].is_null() ? o["on"].get<int64_t>() : 0;
+      const bool on_by_name = o.contains("on") && o["on"].is_string();
+      on_names.push_back(on_by_name ? o["on"].get<std::string>() : "");
+      g.on_id = o.contains("on") && o["on"].is_number() ? o["on"].get<int64_t>() : 0;
       g.dynamic = o.value("dynamic", false);
+      g.confidence = o.value("confidence", std::string("high"));
+      if (g.confidence != "high" && g.confidence != "medium" && g.confidence != "low") {
+        throw std::runtime_error("confidence must be high, medium or low: " + g.confidence);
+      }
+      if (o.contains("visible_part_centroid_m")) {
+        g.visible_part_centroid_m = ToVec(o["visible_part_centroid_m"]);
+      }
       scene.objects.push_back(std::move(g));
+    }
+    for (size_t i = 0; i < scene.objects.size(); ++i) {
+      if (on_names[i].empty()) continue;
+      const auto it = std::find_if(scene.objects.begin(), scene.objects.end(),
+                                   [&](const GroundTruthObject& s) { return s.name == on_names[i]; });
+      if (it == scene.objects.end()) throw std::runtime_error("unknown `on` object " + on_names[i]);
+      scene.objects[i].on_id = it->id;
     }
   } catch (const std::exception& e) {
     return absl::InvalidArgumentError(absl::StrCat(path, ": ", e.what()));

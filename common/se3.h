@@ -2,7 +2,9 @@
 //   T_a_b maps a point from frame b to frame a:  p_a = T_a_b * p_b.
 //   Composition: T_a_c = T_a_b * T_b_c.  Inverse: T_b_a = T_a_b.inverse().
 // Frames: cam (x right, y down, z forward), kf (a keyframe's cam), odom (a robot's odometry
-// origin), map (shared map, z up once gravity is known). Translations in metres.
+// origin), base (the first robot's odometry frame; the server places each session's odom in
+// it), map (the shared map, ROS REP-103/105: x forward, y left, z up, origin at the first
+// keyframe; the server levels base into it, server/map/map_frame.h). Translations in metres.
 #pragma once
 
 #include <Eigen/Core>

@@ -13,6 +13,10 @@ void ToProto(const SE3d& T_a_b, v1::Pose* out) {
   out->set_qz(q.z());
 }
 
+SE3d PoseFromProto(const v1::Pose& p) {
+  return MakeSE3(Vec3d(p.t_m().x(), p.t_m().y(), p.t_m().z()), Quatd(p.qw(), p.qx(), p.qy(), p.qz()));
+}
+
 void ToProto(const Eigen::Vector3d& v, v1::Vec3* out) {
   out->set_x(v.x());
   out->set_y(v.y());

@@ -14,6 +14,8 @@ namespace loci {
 // T_a_b as translation (m) + unit quaternion with w >= 0.
 void ToProto(const SE3d& T_a_b, v1::Pose* out);
 void ToProto(const Eigen::Vector3d& v, v1::Vec3* out);
+// The inverse of ToProto(SE3d) (the quaternion is normalised; no validation).
+SE3d PoseFromProto(const v1::Pose& p);
 // A detection with its optional mask encoded as an 8-bit PNG.
 Status ToProto(const Detection2D& d, v1::Detection* out);
 

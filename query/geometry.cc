@@ -24,6 +24,7 @@ GravityFrame::GravityFrame(const Vec3d& up_map) {
 ObjectGeom GravityFrame::Geom(const MapObject& o) const {
   ObjectGeom g;
   g.id = o.id;
+  g.class_name = o.class_name;
   if (identity_) {
     g.box.min = o.aabb_min_m.cwiseMin(o.aabb_max_m);
     g.box.max = o.aabb_min_m.cwiseMax(o.aabb_max_m);

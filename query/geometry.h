@@ -27,6 +27,7 @@ struct BoxG {
 // of the box, m).
 struct ObjectGeom {
   int64_t id = 0;
+  std::string class_name;
   BoxG box;
   Vec3d centroid_g = Vec3d::Zero();
   double size_m = 0;

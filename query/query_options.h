@@ -44,6 +44,12 @@ struct RelationOptions {
   double next_to_level_tolerance_m = 0.15;
   // inside: minimal fraction of the subject's box volume inside the anchor's box. Default 0.7.
   double inside_min_fraction = 0.7;
+  // inside: only these classes hold things (COCO names), and only things whose size is at most
+  // inside_max_size_ratio times theirs (0.9).
+  std::vector<std::string> inside_containers = {
+      "cup",     "bowl",     "vase",     "sink",    "refrigerator", "oven",   "microwave",
+      "toaster", "suitcase", "backpack", "handbag", "shelf",        "cabinet", "drawer", "box"};
+  double inside_max_size_ratio = 0.9;
   // between: the distance from the subject's centre to the segment joining the anchors' centres
   // must be at most max(between_min_m, between_factor * half the subject's size), 5-95 % of the
   // way along, and the subject must not hold up either anchor. Defaults 1.0, 0.3.
@@ -70,8 +76,8 @@ struct QueryOptions {
   std::map<std::string, std::vector<std::string>> synonyms;
   // Irregular plural -> singular ("people" -> "person"); regular plurals are derived.
   std::map<std::string, std::string> irregular_plurals;
-  // Up direction of the map frame when the caller gives none (unit vector, map frame). Default +z,
-  // since the server aligns the map's z with gravity once any client sends it.
+  // Up direction of the map frame when the caller gives none (unit vector, map frame). Default +z:
+  // the server's map frame is z-up (server/map/map_frame.h).
   Eigen::Vector3d default_up_map = Eigen::Vector3d::UnitZ();
   // When the caller gives no up direction, estimate it from the viewpoints' camera -y axes (mean
   // of the latest poses) before falling back to default_up_map. Default false: a single handheld

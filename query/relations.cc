@@ -245,8 +245,13 @@ RelationResult RelationEvaluator::Inside(const ObjectGeom& s, const ObjectGeom& 
     const Vec3d& c = s.centroid_g;
     fraction = (c.array() >= a.box.min.array()).all() && (c.array() <= a.box.max.array()).all();
   }
-  r.confidence = fraction;
-  r.holds = fraction >= opt_.inside_min_fraction && a.box.Volume() > volume;
+  // Only containers hold things (a keyboard is never "inside" a monitor whose box happens to
+  // reach over it), and only smaller things.
+  const bool container = std::find(opt_.inside_containers.begin(), opt_.inside_containers.end(),
+                                    a.class_name) != opt_.inside_containers.end();
+  const bool smaller = s.size_m <= opt_.inside_max_size_ratio * a.size_m;
+  r.confidence = container && smaller ? fraction : 0.0;
+  r.holds = r.confidence >= opt_.inside_min_fraction && a.box.Volume() > volume;
   r.distance_m = 0;
   if (ev) r.evidence = absl::StrFormat("%.0f%% of its box inside the other's box", 100 * fraction);
   return r;

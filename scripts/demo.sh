@@ -80,6 +80,11 @@ if "$BIN/loci" --help 2>/dev/null | grep -qE '^ +ask +'; then
     "$BIN/loci" ask "$q" --server "$ADDR" || true
   done
   echo
+  if [ -f "$DATA/objects_gt.json" ] && [ -f "$DATA/groundtruth.txt" ]; then
+    log "the object map against the hand-made ground truth ($DATA/objects_gt.json)"
+    "$BIN/loci" eval objects --gt "$DATA/objects_gt.json" --groundtruth "$DATA/groundtruth.txt" \
+      --server "$ADDR" || true
+  fi
 else
   log "this build has no 'loci ask/objects' commands; questions skipped"
 fi
@@ -99,7 +104,8 @@ trap - EXIT
 log "exports (map rebuilt from $OUT/loci.db)"
 "$BIN/loci" export --config "$ROOT/config/server.yaml" --db "$OUT/loci.db" \
   --cloud "$OUT/cloud.ply" --objects "$OUT/objects.json" --object-clouds "$OUT/objects" \
-  --octomap "$OUT/map.bt"
+  --octomap "$OUT/map.bt" --trajectories "$OUT/trajectories"
 log "wrote: $OUT/cloud.ply (semantic cloud), $OUT/objects/ (one PLY per object),"
-log "       $OUT/objects.json, $OUT/map.bt (OctoMap), $OUT/trajectory.txt"
+log "       $OUT/objects.json, $OUT/map.bt (OctoMap), $OUT/trajectories/ (keyframes per robot),"
+log "       all in the z-up map frame; $OUT/trajectory.txt (the client's odometry frame)"
 log "done in $(elapsed) s"

@@ -1,5 +1,6 @@
 // Markdown tables of `loci bench report` (the layout of papers 000 Tables 4 and 6).
 #include <absl/strings/str_format.h>
+#include <absl/strings/str_join.h>
 
 #include <map>
 #include <thread>
@@ -18,6 +19,31 @@ void SynthTable(std::string* md, const char* name, const server::ObjectEvalResul
                         e.gt_count, e.detected_count, e.count_error, e.matches.size(),
                         e.false_positive_ids.size(), e.missed_gt_ids.size(),
                         e.mean_centroid_error_m, e.max_centroid_error_m);
+}
+
+void HandMadeSection(std::string* md, const GroundTruthEval& e) {
+  const server::ObjectEvalResult& r = e.objects;
+  *md += "\n### Objects against hand-made ground truth (`loci eval objects` method)\n\n";
+  absl::StrAppendFormat(md,
+                        "Map aligned to the ground-truth world with %zu keyframe poses (ATE rmse "
+                        "%.4f m); per-class Hungarian matching within %s; `low` objects neither "
+                        "count nor hurt.\n\n",
+                        e.alignment.pairs, e.alignment.trans_m.rmse, absl::StrFormat("%.2f m", e.radius_m));
+  *md += "| class | GT (high+medium) | GT low | map | TP | FP | FN | matched to low |\n";
+  *md += "|---|---|---|---|---|---|---|---|\n";
+  for (const server::ClassEval& c : r.classes) {
+    absl::StrAppendFormat(md, "| %s | %d | %d | %d | %d | %d | %d | %d |\n", c.class_name, c.gt,
+                          c.gt_low, c.mapped, c.tp, c.fp, c.fn, c.neutral);
+  }
+  *md += "\n| precision | recall | F1 | count error | mean centroid err (m) | median (m) | "
+         "X-on-Y answers right |\n|---|---|---|---|---|---|---|\n";
+  absl::StrAppendFormat(md, "| %.3f | %.3f | %.3f | %.1f %% | %.3f | %.3f | %d / %zu |\n",
+                        r.precision, r.recall, r.f1, 100 * r.count_error,
+                        r.mean_centroid_error_m, r.median_centroid_error_m, e.on_right,
+                        e.on_pairs.size());
+  if (!r.missed_gt_names.empty()) {
+    absl::StrAppendFormat(md, "\nMissed: %s.\n", absl::StrJoin(r.missed_gt_names, ", "));
+  }
 }
 
 }  // namespace
@@ -89,6 +115,7 @@ std::string FormatMarkdown(const ReportResult& r, const ReportOptions& o,
     SynthTable(&md, "estimated poses", *r.synth_est);
     if (r.synth_gt_poses) SynthTable(&md, "ground-truth poses", *r.synth_gt_poses);
   }
+  if (r.gt_eval) HandMadeSection(&md, *r.gt_eval);
 
   const double reduction =
       r.cloud_points ? 100.0 * (1.0 - static_cast<double>(r.object_voxel_points) / r.cloud_points)

@@ -9,6 +9,8 @@
 #include <tuple>
 #include <unordered_set>
 
+#include "client/app/keyframe_stage.h"
+#include "client/app/track_pipeline.h"
 #include "client/streaming/keyframe_encoder.h"
 #include "client/tracking/tracker.h"
 #include "common/config.h"
@@ -19,6 +21,8 @@
 #include "detection/detector_options.h"
 #include "detection/multi_object_tracker.h"
 #include "server/map/mapper.h"
+#include "server/map/voxel_key.h"
+#include "server/service/query_adapter.h"
 #include "server/service/server_options.h"
 
 namespace loci::report {
@@ -28,11 +32,6 @@ using Clock = std::chrono::steady_clock;
 double MsSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
-
-// A keyframe as the client would stream it, kept in memory for the two mapping runs.
-struct ClientKeyframe {
-  KeyframeData data;
-};
 
 // Nearest ground-truth pose within max_dt_ns (TUM ground truth is at 100 Hz).
 std::optional<SE3d> GroundTruthAt(const Trajectory& gt, int64_t t_ns, int64_t max_dt_ns) {
@@ -56,27 +55,27 @@ struct MapRun {
 
 // Feeds the keyframes to a fresh mapper; poses from `pose_of` (nullopt = keyframe skipped).
 template <typename PoseOf>
-MapRun RunMapper(const server::MapOptions& map_options, const std::vector<ClientKeyframe>& kfs,
+MapRun RunMapper(const server::MapOptions& map_options, const std::vector<KeyframeData>& kfs,
                  const PinholeCamera& camera, double depth_scale, PoseOf pose_of) {
   MapRun run;
   run.mapper = std::make_unique<server::Mapper>(map_options);
   int64_t id = 0;
-  for (const ClientKeyframe& kf : kfs) {
-    std::optional<SE3d> T_map_kf = pose_of(kf.data);
-    if (!T_map_kf) continue;
+  for (const KeyframeData& kf : kfs) {
+    std::optional<SE3d> T_base_kf = pose_of(kf);
+    if (!T_base_kf) continue;
     server::MapperKeyframe mk;
     mk.keyframe_id = ++id;
     mk.session_row = 1;
     mk.robot = "report";
-    mk.t_ns = kf.data.t_ns;
-    mk.T_map_kf = *T_map_kf;
+    mk.t_ns = kf.t_ns;
+    mk.T_base_kf = *T_base_kf;
     mk.camera = camera;
-    mk.bgr = kf.data.bgr;
-    kf.data.depth_u16.convertTo(mk.depth_m, CV_32F, 1.0 / depth_scale);
-    mk.detections = kf.data.detections;
-    if (kf.data.gravity_cam) {
+    mk.bgr = kf.bgr;
+    kf.depth_u16.convertTo(mk.depth_m, CV_32F, 1.0 / depth_scale);
+    mk.detections = kf.detections;
+    if (kf.gravity_cam) {
       mk.has_gravity = true;
-      mk.gravity_cam = *kf.data.gravity_cam;
+      mk.gravity_cam = *kf.gravity_cam;
     }
     const auto t0 = Clock::now();
     const server::StageTimes st = run.mapper->Integrate(mk);
@@ -95,36 +94,107 @@ std::vector<MapObject> ToGroundTruthFrame(std::vector<MapObject> objects, const 
   return objects;
 }
 
-// Paper 000 Table 4: each estimated-pose object against the nearest same-class object of the
-// ground-truth-pose map (greedy by distance, one partner each).
+// Paper 000 Table 4: each estimated-pose object against the same-class object of the
+// ground-truth-pose map (Hungarian on centroid distance within max_m, as `loci eval objects`).
 std::vector<ObjectPair> PairObjects(const std::vector<MapObject>& est,
                                     const std::vector<MapObject>& gt, double max_m) {
-  struct Cand {
-    double d;
-    size_t e, g;
-  };
-  std::vector<Cand> cands;
-  for (size_t e = 0; e < est.size(); ++e) {
-    for (size_t g = 0; g < gt.size(); ++g) {
-      if (est[e].class_name != gt[g].class_name) continue;
-      const double d = (est[e].centroid_m - gt[g].centroid_m).norm();
-      if (d <= max_m) cands.push_back({d, e, g});
-    }
+  GroundTruthScene scene;
+  for (const MapObject& g : gt) {
+    GroundTruthObject o;
+    o.id = g.id;
+    o.name = std::to_string(g.id);
+    o.class_name = g.class_name;
+    o.centroid_m = g.centroid_m;
+    scene.objects.push_back(std::move(o));
   }
-  std::sort(cands.begin(), cands.end(), [](const Cand& a, const Cand& b) { return a.d < b.d; });
-  std::vector<ObjectPair> pairs(est.size());
-  std::vector<bool> e_used(est.size()), g_used(gt.size());
-  for (size_t e = 0; e < est.size(); ++e) pairs[e].est = est[e];
-  for (const Cand& c : cands) {
-    if (e_used[c.e] || g_used[c.g]) continue;
-    e_used[c.e] = g_used[c.g] = true;
-    pairs[c.e].gt = gt[c.g];
-    pairs[c.e].error_m = c.d;
+  server::ObjectEvalOptions eo;
+  eo.max_match_m = max_m;
+  const server::ObjectEvalResult r = server::EvaluateObjects(est, scene, eo);
+  std::vector<ObjectPair> pairs;
+  for (const MapObject& e : est) {
+    ObjectPair p;
+    p.est = e;
+    for (const server::ObjectMatch& m : r.matches) {
+      if (m.object_id != e.id) continue;
+      for (const MapObject& g : gt) {
+        if (g.id == m.gt_id) p.gt = g;
+      }
+      p.error_m = m.centroid_error_m;
+    }
+    pairs.push_back(std::move(p));
   }
   std::sort(pairs.begin(), pairs.end(), [](const ObjectPair& a, const ObjectPair& b) {
     return std::tie(a.est.class_name, a.est.id) < std::tie(b.est.class_name, b.est.id);
   });
   return pairs;
+}
+
+// The estimated map against hand-made ground truth, with its own Ask (as `loci eval objects`).
+StatusOr<GroundTruthEval> EvaluateHandMade(const ReportOptions& o, const server::Mapper& mapper,
+                                           const Trajectory& groundtruth) {
+  GroundTruthEvalInput in;
+  LOCI_ASSIGN_OR_RETURN(in.gt, ReadObjectsJson(o.objects_gt));
+  in.objects = mapper.Snapshot(/*confirmed_only=*/true);
+  for (auto& [robot, traj] : mapper.Trajectories()) in.keyframes.push_back(traj);
+  in.groundtruth = groundtruth;
+  in.options.max_match_m = o.gt_radius_m;
+  for (const auto& c : mapper.options().mapped_classes) {
+    if (!mapper.options().IsDynamic(c)) in.options.classes.push_back(c);
+  }
+  auto adapter = std::make_shared<server::QueryAdapter>(server::QueryAdapterOptions{});
+  auto source = std::make_shared<server::MapperSource>(mapper);
+  in.ask = [adapter, source](const std::string& q) {
+    loci::v1::AskRequest req;
+    req.set_text(q);
+    return adapter->Ask(req, *source);
+  };
+  return EvaluateAgainstGroundTruth(in);
+}
+
+// The client as loci-track runs it on recorded data (client/app/track_pipeline.h, detector
+// synchronous), keeping the keyframes it would stream.
+struct ClientRun {
+  TrackPipelineResult track;
+  std::vector<KeyframeData> keyframes;
+  std::string detector_name;
+  double detect_ms = 0, bytes = 0;
+};
+
+StatusOr<ClientRun> RunClient(const ReportOptions& o, const TumSequence& seq,
+                              const TrackerOptions& topt) {
+  ClientRun run;
+  std::vector<FrameDetections> file_dets;
+  std::unique_ptr<detection::Detector> detector;
+  std::unique_ptr<detection::MultiObjectTracker> mot;
+  LOCI_ASSIGN_OR_RETURN(auto dc,
+                        detection::LoadDetectionConfig(detection::DefaultDetectionConfigPath()));
+  if (!o.detections.empty()) {
+    LOCI_ASSIGN_OR_RETURN(file_dets, ReadDetectionsJsonl(o.detections));
+    run.detector_name = "file " + o.detections;
+  } else {
+    LOCI_ASSIGN_OR_RETURN(detector, detection::MakeDetector(dc.detector));
+    run.detector_name = detector->Name();
+    mot = std::make_unique<detection::MultiObjectTracker>(dc.tracker);
+  }
+  KeyframeMasking masking{dc.mask, topt.camera};
+  masking.options.depth_scale = static_cast<float>(topt.depth_scale);
+  KeyframeStage stage(std::move(detector), std::move(mot),
+                      [&](KeyframeData kf) {
+                        auto encoded = EncodeKeyframe(kf, static_cast<int64_t>(run.keyframes.size()), 90);
+                        if (encoded.ok()) run.bytes += static_cast<double>(encoded->ByteSizeLong());
+                        run.keyframes.push_back(std::move(kf));
+                        return absl::OkStatus();
+                      },
+                      /*capacity=*/0, masking);
+  LOCI_ASSIGN_OR_RETURN(auto tracker, Tracker::Create(topt));
+  TrackPipelineOptions po;
+  po.max_frames = o.max_frames > 0 ? static_cast<size_t>(o.max_frames) : 0;
+  po.progress = o.progress;
+  LOCI_ASSIGN_OR_RETURN(run.track,
+                        RunTrackPipeline(seq, tracker.get(), nullptr, file_dets, stage, po));
+  LOCI_RETURN_IF_ERROR(stage.Finish());
+  run.detect_ms = stage.detect_ms_total();
+  return run;
 }
 
 }  // namespace
@@ -134,100 +204,23 @@ StatusOr<ReportResult> RunReport(const ReportOptions& o) {
   LOCI_ASSIGN_OR_RETURN(TumSequence seq, LoadTumSequence(o.tum_dir));
   if (seq.frames.empty()) return absl::InvalidArgumentError(o.tum_dir + ": no frames");
 
-  TrackerOptions topt;
-  const std::string client_cfg =
-      o.client_config.empty() ? SourceDir() + "/config/client.yaml" : o.client_config;
-  if (auto node = LoadYamlFile(client_cfg); node.ok()) {
-    LOCI_RETURN_IF_ERROR(topt.FromYaml((*node)["tracker"]));
-  } else if (!o.client_config.empty()) {
-    return node.status();
-  }
-  if (auto classes = LoadYamlFile(SourceDir() + "/config/classes.yaml"); classes.ok()) {
-    (void)topt.ClassWeightsFromYaml(*classes);
-  }
-  if (auto cam = LoadYamlFile(o.tum_dir + "/camera.yaml"); cam.ok()) {
-    if (auto c = CameraFromYaml(*cam); c.ok()) topt.camera = *c;
-  }
+  LOCI_ASSIGN_OR_RETURN(TrackerOptions topt, LoadTrackerOptions(o.client_config, o.tum_dir));
   server::ServerOptions sopt;
   LOCI_RETURN_IF_ERROR(sopt.FromYamlFile(
       o.server_config.empty() ? SourceDir() + "/config/server.yaml" : o.server_config));
-
-  std::vector<FrameDetections> file_dets;
-  std::unique_ptr<detection::Detector> detector;
-  std::unique_ptr<detection::MultiObjectTracker> mot;
-  if (!o.detections.empty()) {
-    LOCI_ASSIGN_OR_RETURN(file_dets, ReadDetectionsJsonl(o.detections));
-    r.detector_name = "file " + o.detections;
-  } else {
-    LOCI_ASSIGN_OR_RETURN(auto dc,
-                          detection::LoadDetectionConfig(detection::DefaultDetectionConfigPath()));
-    LOCI_ASSIGN_OR_RETURN(detector, detection::MakeDetector(dc.detector));
-    r.detector_name = detector->Name();
-    mot = std::make_unique<detection::MultiObjectTracker>(dc.tracker);
+  LOCI_ASSIGN_OR_RETURN(ClientRun client, RunClient(o, seq, topt));
+  r.frames = client.track.frames;
+  r.tracked = client.track.tracked;
+  r.keyframes = client.keyframes.size();
+  r.detector_name = client.detector_name;
+  if (r.frames == 0 || client.keyframes.empty()) {
+    return absl::FailedPreconditionError("no keyframes");
   }
-
-  // Client: odometry on every frame, detector + tracker on keyframes (sequentially, so the
-  // timings are per stage; loci-track runs the detector on its own thread).
-  LOCI_ASSIGN_OR_RETURN(auto tracker, Tracker::Create(topt));
-  const size_t n =
-      o.max_frames > 0 ? std::min<size_t>(o.max_frames, seq.frames.size()) : seq.frames.size();
-  Trajectory traj;
-  std::vector<ClientKeyframe> kfs;
-  std::vector<Detection2D> prior;  // last keyframe's boxes: the odometry's dynamic prior
-  int64_t prior_t_ns = 0;
-  double track_ms = 0, detect_ms = 0, bytes = 0;
-  for (size_t i = 0; i < n; ++i) {
-    const TumFrame& f = seq.frames[i];
-    cv::Mat bgr = cv::imread(f.rgb_path, cv::IMREAD_COLOR);
-    cv::Mat depth = cv::imread(f.depth_path, cv::IMREAD_UNCHANGED);
-    if (bgr.empty() || depth.empty()) continue;
-    ++r.frames;
-    std::vector<Detection2D> dets;
-    if (const FrameDetections* fd = FindDetections(file_dets, f.rgb_t_ns)) {
-      dets = fd->detections;
-    } else if (detector && f.rgb_t_ns - prior_t_ns <= 300'000'000) {
-      dets = prior;
-    }
-    const auto t0 = Clock::now();
-    StatusOr<FrameResult> fr = tracker->Track(bgr, depth, f.rgb_t_ns, &dets);
-    track_ms += MsSince(t0);
-    if (o.progress) {
-      std::fprintf(stderr, "\rclient: frame %zu/%zu, keyframes %zu   ", i + 1, n, kfs.size());
-    }
-    if (!fr.ok() || !fr->tracked) continue;
-    ++r.tracked;
-    traj.push_back({f.rgb_t_ns, fr->T_odom_cam});
-    if (!fr->keyframe) continue;
-    ClientKeyframe kf;
-    kf.data.t_ns = f.rgb_t_ns;
-    kf.data.T_odom_cam = fr->T_odom_cam;
-    kf.data.bgr = bgr;
-    kf.data.depth_u16 = depth;
-    kf.data.segment = fr->segment;
-    if (auto g = GravityInCamAt(seq.accel, f.rgb_t_ns); g.ok()) kf.data.gravity_cam = *g;
-    if (detector) {
-      const auto td = Clock::now();
-      auto d = detector->Detect(bgr, f.rgb_t_ns);
-      if (d.ok()) {
-        kf.data.detections = std::move(*d);
-        mot->Update(bgr, &kf.data.detections);
-      }
-      detect_ms += MsSince(td);
-      prior = kf.data.detections;
-      prior_t_ns = f.rgb_t_ns;
-    } else {
-      kf.data.detections = dets;
-    }
-    auto encoded = EncodeKeyframe(kf.data, static_cast<int64_t>(kfs.size()), 90);
-    if (encoded.ok()) bytes += static_cast<double>(encoded->ByteSizeLong());
-    kfs.push_back(std::move(kf));
-  }
-  if (o.progress) std::fprintf(stderr, "\n");
-  r.keyframes = kfs.size();
-  if (r.frames == 0 || kfs.empty()) return absl::FailedPreconditionError("no keyframes");
-  r.track_ms_per_frame = track_ms / r.frames;
-  r.detect_ms_per_keyframe = detector ? detect_ms / kfs.size() : 0;
-  r.bytes_per_keyframe = bytes / kfs.size();
+  r.track_ms_per_frame = client.track.track_ms / r.frames;
+  r.detect_ms_per_keyframe = client.detect_ms / r.keyframes;
+  r.bytes_per_keyframe = client.bytes / r.keyframes;
+  const std::vector<KeyframeData>& kfs = client.keyframes;
+  const Trajectory& traj = client.track.trajectory;
 
   SE3d T_gt_est = SE3d::Identity();
   if (!seq.groundtruth.empty()) {
@@ -255,15 +248,13 @@ StatusOr<ReportResult> RunReport(const ReportOptions& o) {
   // The object-only map of paper 000 Table 6: the union of the objects' clouds on the dense
   // cloud's voxel grid.
   const double voxel_m = sopt.map.cloud.voxel_m;
-  std::unordered_set<uint64_t> object_voxels;
+  std::unordered_set<server::VoxelKey> object_voxels;
   for (const MapObject& obj : r.objects_est) {
     std::vector<server::ColoredPoint> pts;
     est.mapper->GetObject(obj.id, &pts, nullptr);
     r.object_cloud_points += pts.size();
     for (const server::ColoredPoint& p : pts) {
-      const Eigen::Vector3d q = p.p_m.cast<double>() / voxel_m;
-      const auto key = [](double v) { return static_cast<uint64_t>(std::floor(v) + (1 << 20)); };
-      object_voxels.insert(key(q.x()) << 42 | key(q.y()) << 21 | key(q.z()));
+      object_voxels.insert(server::KeyOf(p.p_m.cast<double>(), voxel_m));
     }
   }
   r.object_voxel_points = object_voxels.size();
@@ -271,14 +262,23 @@ StatusOr<ReportResult> RunReport(const ReportOptions& o) {
   r.octomap_bytes = est.mapper->OctomapBt().size();
   r.octomap_resolution_m = est.mapper->OctomapResolution();
 
-  const std::vector<MapObject> est_in_gt = ToGroundTruthFrame(r.objects_est, T_gt_est);
+  // The estimated map in the ground-truth world: its map frame -> the client's odometry frame
+  // (the mapper's base) -> the world by the ATE alignment.
+  const std::vector<MapObject> est_in_gt = ToGroundTruthFrame(
+      r.objects_est, T_gt_est * est.mapper->MapFromBaseFrame().inverse());
+  r.objects_est = est_in_gt;
+  if (!o.objects_gt.empty()) {
+    LOCI_ASSIGN_OR_RETURN(r.gt_eval, EvaluateHandMade(o, *est.mapper, seq.groundtruth));
+  }
   if (!seq.groundtruth.empty()) {
     if (o.progress) std::fprintf(stderr, "server: mapping again with ground-truth poses\n");
     MapRun gt =
         RunMapper(sopt.map, kfs, topt.camera, topt.depth_scale, [&](const KeyframeData& kf) {
           return GroundTruthAt(seq.groundtruth, kf.t_ns, 20'000'000);
         });
-    r.objects_gt_poses = gt.mapper->Snapshot(true);
+    // Its base frame is the ground-truth world.
+    r.objects_gt_poses =
+        ToGroundTruthFrame(gt.mapper->Snapshot(true), gt.mapper->MapFromBaseFrame().inverse());
     r.pairs = PairObjects(est_in_gt, r.objects_gt_poses, o.match_max_m);
     double sum = 0;
     for (const ObjectPair& p : r.pairs) {

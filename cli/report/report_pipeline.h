@@ -12,6 +12,7 @@
 #include "common/status.h"
 #include "common/trajectory_eval.h"
 #include "server/map/object_eval.h"
+#include "cli/report/gt_eval.h"
 
 namespace loci::report {
 
@@ -19,6 +20,9 @@ struct ReportOptions {
   std::string tum_dir;        // TUM RGB-D folder (rgb.txt, depth.txt, groundtruth.txt)
   std::string detections;     // detections.jsonl; "" = run the configured detector (YOLOX)
   std::string synth_objects;  // objects.json of a `loci synth` scene; "" = none
+  // Hand-made ground truth (objects_gt.json of TUM fr1_rpy, cli/report/gt_eval.h); "" = none.
+  std::string objects_gt;
+  double gt_radius_m = 0.3;   // its matching radius, m
   std::string client_config;  // client YAML; "" = config/client.yaml
   std::string server_config;  // server YAML; "" = config/server.yaml
   int max_frames = 0;         // 0 = every frame
@@ -38,13 +42,16 @@ struct ReportResult {
   size_t frames = 0, tracked = 0, keyframes = 0;
   std::optional<AteResult> ate;
   std::optional<RpeResult> rpe;
-  // Objects (confirmed) of both runs; pairs sorted by class then id.
+  // Objects (confirmed) of both runs, in the ground-truth world frame (the estimated map moved
+  // there by the ATE alignment); pairs sorted by class then id.
   std::vector<MapObject> objects_est, objects_gt_poses;
   std::vector<ObjectPair> pairs;
   double mean_pair_error_m = 0;
   int matched_pairs = 0;
   // Against a synthetic scene's true objects (est map aligned to GT frame; and the GT-pose map).
   std::optional<server::ObjectEvalResult> synth_est, synth_gt_poses;
+  // Against hand-made ground truth (ReportOptions::objects_gt).
+  std::optional<GroundTruthEval> gt_eval;
   // Map size (estimated-pose map).
   size_t cloud_points = 0;         // dense semantic cloud at the map's voxel
   size_t object_points = 0;        // ... of which labelled with an object

@@ -13,17 +13,26 @@ KeyframeStage::KeyframeStage(std::unique_ptr<detection::Detector> detector,
       mot_(std::move(mot)),
       masking_(std::move(masking)),
       sink_(std::move(sink)),
-      capacity_(std::max<size_t>(1, capacity)) {
-  thread_ = std::thread([this] { Loop(); });
+      capacity_(capacity),
+      synchronous_(capacity == 0) {
+  if (!synchronous_) thread_ = std::thread([this] { Loop(); });
 }
 
 KeyframeStage::~KeyframeStage() { (void)Finish(); }
 
-void KeyframeStage::Push(KeyframeData kf) {
+Status KeyframeStage::Push(KeyframeData kf) {
   std::unique_lock<std::mutex> lock(mu_);
+  if (done_) return absl::FailedPreconditionError("keyframe stage already finished");
+  if (synchronous_) {
+    lock.unlock();
+    Process(std::move(kf));
+    return absl::OkStatus();
+  }
   cv_.wait(lock, [&] { return queue_.size() < capacity_ || done_; });
+  if (done_) return absl::FailedPreconditionError("keyframe stage finished while waiting");
   queue_.push_back(std::move(kf));
   cv_.notify_all();
+  return absl::OkStatus();
 }
 
 Status KeyframeStage::Finish() {
@@ -52,33 +61,37 @@ void KeyframeStage::Loop() {
       queue_.pop_front();
       cv_.notify_all();
     }
-    if (detector_) {
-      const auto t0 = std::chrono::steady_clock::now();
-      auto dets = detector_->Detect(kf.bgr, kf.t_ns);
-      if (dets.ok()) {
-        kf.detections = std::move(*dets);
-        if (mot_) mot_->Update(kf.bgr, &kf.detections);
-        std::lock_guard<std::mutex> lock(mu_);
-        latest_.t_ns = kf.t_ns;
-        latest_.detections = kf.detections;
-      } else {
-        spdlog::warn("detector {}: {}", detector_->Name(), std::string(dets.status().message()));
-      }
-      detect_ms_total_ +=
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-      ++detected_;
+    Process(std::move(kf));
+  }
+}
+
+void KeyframeStage::Process(KeyframeData kf) {
+  if (detector_) {
+    const auto t0 = std::chrono::steady_clock::now();
+    auto dets = detector_->Detect(kf.bgr, kf.t_ns);
+    if (dets.ok()) {
+      kf.detections = std::move(*dets);
+      if (mot_) mot_->Update(kf.bgr, &kf.detections);
+      std::lock_guard<std::mutex> lock(mu_);
+      latest_.t_ns = kf.t_ns;
+      latest_.detections = kf.detections;
+    } else {
+      spdlog::warn("detector {}: {}", detector_->Name(), std::string(dets.status().message()));
     }
-    if (masking_ && !kf.detections.empty() && !kf.depth_u16.empty()) {
-      const auto t0 = std::chrono::steady_clock::now();
-      detection::AttachDepthMasks(kf.depth_u16, &kf.detections, masking_->options, masking_->camera,
-                                  kf.gravity_cam);
-      mask_ms_total_ +=
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    }
-    if (sink_) {
-      Status s = sink_(std::move(kf));
-      if (!s.ok() && first_error_.ok()) first_error_ = s;
-    }
+    detect_ms_total_ +=
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    ++detected_;
+  }
+  if (masking_ && !kf.detections.empty() && !kf.depth_u16.empty()) {
+    const auto t0 = std::chrono::steady_clock::now();
+    detection::AttachDepthMasks(kf.depth_u16, &kf.detections, masking_->options, masking_->camera,
+                                kf.gravity_cam);
+    mask_ms_total_ +=
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  }
+  if (sink_) {
+    Status s = sink_(std::move(kf));
+    if (!s.ok() && first_error_.ok()) first_error_ = s;
   }
 }
 

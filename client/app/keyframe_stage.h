@@ -1,7 +1,13 @@
-// The keyframe stage of loci-track: its own thread takes keyframes from a bounded queue, runs the
-// detector + multi-object tracker on them when one is configured (so tracking keeps its rate),
-// and hands them to a sink (MapClient::Send, or nothing offline). Push blocks when the queue is
-// full (back-pressure from the network through to the tracker, never a silent drop).
+// The keyframe stage of loci-track: runs the detector + multi-object tracker on keyframes when
+// one is configured, attaches object masks and hands them to a sink (MapClient::Send, or
+// nothing offline).
+//   - Live (default): its own thread takes keyframes from a bounded queue, so tracking keeps its
+//     rate; Push blocks when the queue is full (back-pressure from the network through to the
+//     tracker, never a silent drop). Which frames see which keyframe's boxes as their dynamic
+//     prior then depends on timing.
+//   - Synchronous: Push processes the keyframe on the caller's thread before it returns, so the
+//     same input gives the same keyframes, detections and map every time (recorded data, tests,
+//     benchmarks).
 #pragma once
 
 #include <condition_variable>
@@ -32,12 +38,15 @@ class KeyframeStage {
   using Sink = std::function<Status(KeyframeData)>;
   // detector may be null (detections already attached, or none). capacity >= 1. With masking,
   // every detection that comes without a mask (from the detector or a file) gets one.
+  // capacity 0 = synchronous.
   KeyframeStage(std::unique_ptr<detection::Detector> detector,
                 std::unique_ptr<detection::MultiObjectTracker> mot, Sink sink, size_t capacity,
                 std::optional<KeyframeMasking> masking = std::nullopt);
   ~KeyframeStage();
 
-  void Push(KeyframeData kf);
+  // FailedPrecondition after Finish (the keyframe is not taken); otherwise OK (sink errors are
+  // reported by Finish).
+  Status Push(KeyframeData kf);
   // Processes everything queued, then stops the thread. Returns the first sink error, if any.
   Status Finish();
 
@@ -51,6 +60,7 @@ class KeyframeStage {
 
  private:
   void Loop();
+  void Process(KeyframeData kf);
 
   std::unique_ptr<detection::Detector> detector_;
   std::unique_ptr<detection::MultiObjectTracker> mot_;
@@ -62,6 +72,7 @@ class KeyframeStage {
   std::condition_variable cv_;
   std::deque<KeyframeData> queue_;
   bool done_ = false;
+  bool synchronous_ = false;
   Status first_error_;
   double detect_ms_total_ = 0;
   double mask_ms_total_ = 0;

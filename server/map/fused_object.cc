@@ -47,13 +47,13 @@ void FusedObject::Absorb(const FusedObject& other) {
   }
   std::sort(keyframes_.begin(), keyframes_.end());
   tracks_.insert(other.tracks_.begin(), other.tracks_.end());
-  confirmed_ = confirmed_ || other.confirmed_;
+  misses_ += other.misses_;
   RecomputeGeometry();
 }
 
 void FusedObject::Observe(const std::string& class_name, double score, int64_t session_row,
                           int64_t track_id, const std::string& robot, int64_t keyframe_id,
-                          int64_t t_ns, int confirm_observations) {
+                          int64_t t_ns) {
   labels_.Update(class_name, score);
   if (keyframes_.empty()) first_seen_ns_ = t_ns;
   first_seen_ns_ = std::min(first_seen_ns_, t_ns);
@@ -64,7 +64,11 @@ void FusedObject::Observe(const std::string& class_name, double score, int64_t s
   robots_.insert(robot);
   if (keyframes_.empty() || keyframes_.back() != keyframe_id) keyframes_.push_back(keyframe_id);
   if (track_id != 0) tracks_.insert({session_row, track_id});
-  if (static_cast<int>(keyframes_.size()) >= confirm_observations) confirmed_ = true;
+}
+
+void FusedObject::UpdateConfirmed(int confirm_observations, double min_existence) {
+  confirmed_ = static_cast<int>(keyframes_.size()) >= confirm_observations &&
+               existence() >= min_existence;
 }
 
 std::unordered_set<VoxelKey> FusedObject::KeysAt(double voxel_m) const {
@@ -138,6 +142,9 @@ void FusedObject::RecomputeGeometry() {
   R_map_box_ = R;
   obb_center_m_ = mean + R * (0.5 * (lo + hi));
   obb_half_m_ = 0.5 * (hi - lo);
+  sample_m_.clear();
+  const size_t stride = std::max<size_t>(1, pts.size() / 48);
+  for (size_t i = 0; i < pts.size(); i += stride) sample_m_.push_back(pts[i]);
 }
 
 MapObject FusedObject::Snapshot() const {
@@ -159,6 +166,8 @@ MapObject FusedObject::Snapshot() const {
   o.observation_count = observation_count();
   o.point_count = static_cast<uint32_t>(supported_voxels_ > 0 ? supported_voxels_ : voxels_.size());
   o.confirmed = confirmed_;
+  o.missed_views = misses_;
+  o.existence = existence();
   return o;
 }
 

@@ -50,8 +50,20 @@ class FusedObject {
   void Absorb(const FusedObject& other);
   // Records one keyframe's observation of this object.
   void Observe(const std::string& class_name, double score, int64_t session_row, int64_t track_id,
-               const std::string& robot, int64_t keyframe_id, int64_t t_ns,
-               int confirm_observations);
+               const std::string& robot, int64_t keyframe_id, int64_t t_ns);
+  // Records a keyframe that should have seen the object but did not (visibility.h).
+  void Miss() { ++misses_; }
+  // Confirmed: seen in at least confirm_observations keyframes and, once it has been expected in
+  // views, an existence of at least min_existence.
+  void UpdateConfirmed(int confirm_observations, double min_existence);
+  // Existence belief: (hits + 1) / (hits + misses + 2), hits = keyframes that saw it.
+  double existence() const {
+    return (observation_count() + 1.0) / (observation_count() + misses_ + 2.0);
+  }
+  uint32_t misses() const { return misses_; }
+  // Up to 48 of the object's supported points (map frame), and its largest half extent, m.
+  const std::vector<Eigen::Vector3d>& sample_m() const { return sample_m_; }
+  double half_size_m() const { return obb_half_m_.maxCoeff(); }
 
   // Voxel keys of the fused points at `voxel_m` (overlap measure).
   std::unordered_set<VoxelKey> KeysAt(double voxel_m) const;
@@ -108,6 +120,8 @@ class FusedObject {
   std::vector<int64_t> keyframes_;                // distinct, in observation order
   std::set<std::pair<int64_t, int64_t>> tracks_;  // (session_row, track_id)
   bool confirmed_ = false;
+  uint32_t misses_ = 0;
+  std::vector<Eigen::Vector3d> sample_m_;
 };
 
 }  // namespace loci::server

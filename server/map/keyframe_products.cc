@@ -160,6 +160,22 @@ pcl::PointCloud<pcl::PointXYZRGB> ObjectCloud(const cv::Mat& bgr, const cv::Mat&
                               o.sor_min_voxels * voxel_m);
 }
 
+// Longest side of the points' 5-95 % box (a few stray points do not count).
+double RobustExtentM(const pcl::PointCloud<pcl::PointXYZRGB>& cloud) {
+  if (cloud.size() < 2) return 0;
+  double longest = 0;
+  std::vector<float> v(cloud.size());
+  for (int axis = 0; axis < 3; ++axis) {
+    for (size_t i = 0; i < cloud.size(); ++i) v[i] = cloud[i].data[axis];
+    const size_t lo = v.size() / 20, hi = v.size() - 1 - v.size() / 20;
+    std::nth_element(v.begin(), v.begin() + lo, v.end());
+    const float a = v[lo];
+    std::nth_element(v.begin(), v.begin() + hi, v.end());
+    longest = std::max<double>(longest, v[hi] - a);
+  }
+  return longest;
+}
+
 }  // namespace
 
 KeyframeProducts BuildKeyframeProducts(const cv::Mat& bgr, const cv::Mat& depth_m,
@@ -212,6 +228,7 @@ KeyframeProducts BuildKeyframeProducts(const cv::Mat& bgr, const cv::Mat& depth_
     obs.cloud_kf = ObjectCloud(bgr, depth_m, labels, static_cast<int16_t>(i + 1),
                                MaskRect(d.box_px, depth_m.cols, depth_m.rows), camera, options);
     if (static_cast<int>(obs.cloud_kf.size()) < options.observation.min_points) continue;
+    if (RobustExtentM(obs.cloud_kf) > options.MaxSizeM(d.class_name)) continue;
     products.observations.push_back(std::move(obs));
     label_to_observation[i + 1] = static_cast<uint32_t>(products.observations.size());
   }

@@ -1,6 +1,7 @@
 #include "server/map/map_options.h"
 
 #include <algorithm>
+#include <limits>
 
 #include "common/config.h"
 
@@ -44,8 +45,28 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "confirm_observations", &fusion.confirm_observations));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_centroid_m", &fusion.merge_centroid_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_containment", &fusion.merge_containment));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_across_classes", &fusion.merge_across_classes));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "assoc_containment", &fusion.assoc_containment));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_size_ratio", &fusion.max_size_ratio));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "label_universe", &fusion.label_universe));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_likelihood", &fusion.min_likelihood));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_existence", &fusion.min_existence));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "remove_existence", &fusion.remove_existence));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "remove_min_misses", &fusion.remove_min_misses));
+    if (const YAML::Node v = n["visibility"]) {
+      VisibilityOptions& o = fusion.visibility;
+      LOCI_RETURN_IF_ERROR(ReadOptional(v, "min_visible_fraction", &o.min_visible_fraction));
+      LOCI_RETURN_IF_ERROR(ReadOptional(v, "occlusion_tol_m", &o.occlusion_tol_m));
+      LOCI_RETURN_IF_ERROR(ReadOptional(v, "occlusion_tol_rel", &o.occlusion_tol_rel));
+      LOCI_RETURN_IF_ERROR(ReadOptional(v, "border_px", &o.border_px));
+      LOCI_RETURN_IF_ERROR(ReadOptional(v, "min_projected_px", &o.min_projected_px));
+      LOCI_RETURN_IF_ERROR(ReadOptional(v, "max_depth_m", &o.max_depth_m));
+      LOCI_RETURN_IF_ERROR(ReadOptional(v, "excuse_iou", &o.excuse_iou));
+    }
+  }
+  if (const YAML::Node n = node["frame"]) {
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "settle_keyframes", &frame.settle_keyframes));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "plane_refine_max_deg", &frame.plane_refine_max_deg));
   }
   if (const YAML::Node n = node["octomap"]) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "enabled", &octomap.enabled));
@@ -61,6 +82,19 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
 Status MapOptions::ClassesFromYaml(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "dynamic_classes", &dynamic_classes));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "mapped", &mapped_classes));
+  if (const YAML::Node sizes = node["max_size_m"]) {
+    if (!sizes.IsMap()) return absl::InvalidArgumentError("max_size_m must be a map class: metres");
+    for (const auto& kv : sizes) {
+      try {
+        const double m = kv.second.as<double>();
+        if (!(m > 0)) throw YAML::Exception(kv.second.Mark(), "must be > 0");
+        max_size_m[kv.first.as<std::string>()] = m;
+      } catch (const YAML::Exception& e) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("max_size_m.", kv.first.as<std::string>(), ": ", e.what()));
+      }
+    }
+  }
   if (!mapped_classes.empty()) {
     fusion.label_universe = std::max<int>(2, static_cast<int>(mapped_classes.size()));
   }
@@ -92,6 +126,14 @@ Status MapOptions::Validate() const {
     return bad("fusion.support_cell_m > 0.001 and fusion.min_support_fraction in [0, 1]");
   }
   if (fusion.label_universe < 2) return bad("fusion.label_universe >= 2");
+  if (!(fusion.min_existence >= 0 && fusion.min_existence <= 1) ||
+      !(fusion.remove_existence >= 0 && fusion.remove_existence <= fusion.min_existence)) {
+    return bad("fusion: 0 <= remove_existence <= min_existence <= 1");
+  }
+  if (fusion.remove_min_misses < 1) return bad("fusion.remove_min_misses >= 1");
+  if (frame.settle_keyframes < 1 || frame.settle_keyframes > 1000) {
+    return bad("frame.settle_keyframes in [1, 1000]");
+  }
   if (octomap.enabled && !(octomap.resolution_m >= 0.005))
     return bad("octomap.resolution_m >= 0.005");
   return absl::OkStatus();
@@ -99,6 +141,11 @@ Status MapOptions::Validate() const {
 
 bool MapOptions::IsDynamic(const std::string& c) const {
   return std::find(dynamic_classes.begin(), dynamic_classes.end(), c) != dynamic_classes.end();
+}
+
+double MapOptions::MaxSizeM(const std::string& c) const {
+  const auto it = max_size_m.find(c);
+  return it == max_size_m.end() ? std::numeric_limits<double>::infinity() : it->second;
 }
 
 bool MapOptions::IsMapped(const std::string& c) const {

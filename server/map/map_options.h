@@ -4,11 +4,14 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <map>
 #include <string>
 #include <vector>
 
 #include "common/status.h"
 #include "detection/depth_mask.h"
+#include "server/map/map_frame.h"
+#include "server/map/visibility.h"
 
 namespace loci::server {
 
@@ -61,6 +64,14 @@ struct FusionOptions {
   // merge_centroid_m (0.1) or when |A∩B| / min(|A|, |B|) exceeds merge_containment (0.5).
   double merge_centroid_m = 0.1;
   double merge_containment = 0.5;
+  // Association ignores the class; so can merging: objects of other argmax classes merge by the
+  // same rules when their sizes are compatible (true).
+  bool merge_across_classes = true;
+  // An observation also meets the overlap criterion when more than assoc_containment of its
+  // voxels lie inside the object (a partial view) and the sizes are compatible; 1 = off (0.6).
+  double assoc_containment = 0.6;
+  // Sizes are compatible when the larger half extent is at most this many times the smaller (2).
+  double max_size_ratio = 2.0;
   // Object geometry from voxels in support_cell_m (0.05) cells that at least
   // max(2, ceil(min_support_fraction * observations)) observations saw, from 3 observations on
   // (FusedObject SupportOptions); min_support_fraction 0 = every voxel (0.1).
@@ -68,6 +79,14 @@ struct FusionOptions {
   double min_support_fraction = 0.1;
   int label_universe = 13;       // K, classes the detector can report (mapped classes) (13)
   double min_likelihood = 0.05;  // detection scores are clamped to [this, 1 - this] (0.05)
+  // Existence from negative evidence (visibility.h): every keyframe that should have seen an
+  // object but did not is a miss; existence = (hits + 1) / (hits + misses + 2). An object is
+  // confirmed only with existence >= min_existence (0.3); it is removed when its existence falls
+  // below remove_existence (0.15) after at least remove_min_misses misses (8).
+  double min_existence = 0.3;
+  double remove_existence = 0.15;
+  int remove_min_misses = 8;
+  VisibilityOptions visibility;
 };
 
 struct OctomapOptions {
@@ -81,6 +100,7 @@ struct OctomapOptions {
 };
 
 struct MapOptions {
+  MapFrameOptions frame;
   CloudOptions cloud;
   ObservationOptions observation;
   FusionOptions fusion;
@@ -89,6 +109,9 @@ struct MapOptions {
   std::vector<std::string> dynamic_classes = {"person", "dog", "cat"};
   // Classes kept in the object database; empty = every class.
   std::vector<std::string> mapped_classes;
+  // Largest plausible extent of one view of a class, m (config/classes.yaml `max_size_m`);
+  // larger observations are dropped. Absent = no limit.
+  std::map<std::string, double> max_size_m;
 
   // Reads the sections cloud / observation / fusion / octomap and the class lists.
   Status FromYaml(const YAML::Node& node);
@@ -97,6 +120,8 @@ struct MapOptions {
   Status Validate() const;
   bool IsDynamic(const std::string& class_name) const;
   bool IsMapped(const std::string& class_name) const;
+  // max_size_m of the class, or infinity.
+  double MaxSizeM(const std::string& class_name) const;
 };
 
 }  // namespace loci::server

@@ -58,64 +58,161 @@ void Mapper::SetEventListener(std::function<void(const std::vector<ObjectEventOu
   listener_ = std::move(listener);
 }
 
+namespace {
+
+std::optional<Vec3d> GravityOf(const MapperKeyframe& kf) {
+  if (kf.has_gravity && kf.gravity_cam.allFinite() && kf.gravity_cam.norm() > 0.5) {
+    return kf.gravity_cam.normalized();
+  }
+  return std::nullopt;
+}
+
+void CopyProductTimes(const KeyframeProducts& products, StageTimes* times) {
+  // CPU of both threads of the products stage (the dense cloud runs on a second thread).
+  times->products_ms = products.labels_ms + products.objects_ms + products.backproject_ms +
+                       products.voxel_ms + products.outlier_ms;
+  times->labels_ms = products.labels_ms;
+  times->objects_ms = products.objects_ms;
+  times->backproject_ms = products.backproject_ms;
+  times->voxel_ms = products.voxel_ms;
+  times->outlier_ms = products.outlier_ms;
+}
+
+// One object observation moved into the map frame.
+MapObservation ToMap(const ObjectObservation& o, const MapperKeyframe& kf,
+                     const Eigen::Isometry3f& T_map_kf, bool centroid_from_box) {
+  MapObservation m;
+  m.session_row = kf.session_row;
+  m.robot = kf.robot;
+  m.keyframe_id = kf.keyframe_id;
+  m.t_ns = kf.t_ns;
+  m.track_id = o.track_id;
+  m.class_name = o.class_name;
+  m.score = o.score;
+  m.points_m.reserve(o.cloud_kf.size());
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(1e30f), hi = -lo;
+  for (const auto& p : o.cloud_kf) {
+    const Eigen::Vector3f q = T_map_kf * p.getVector3fMap();
+    m.points_m.push_back({q, PackRgb(p.r, p.g, p.b)});
+    sum += q.cast<double>();
+    lo = lo.cwiseMin(q);
+    hi = hi.cwiseMax(q);
+  }
+  // The same centroid definition as the fused objects (FusionOptions::centroid_from_box).
+  m.centroid_m = centroid_from_box ? Eigen::Vector3d((0.5f * (lo + hi)).cast<double>())
+                                   : Eigen::Vector3d(sum / static_cast<double>(o.cloud_kf.size()));
+  m.half_size_m = 0.5 * (hi - lo).maxCoeff();
+  return m;
+}
+
+}  // namespace
+
 StageTimes Mapper::Integrate(const MapperKeyframe& kf) {
   StageTimes times;
-  std::optional<Vec3d> gravity_cam;
-  if (kf.has_gravity && kf.gravity_cam.allFinite() && kf.gravity_cam.norm() > 0.5) {
-    gravity_cam = kf.gravity_cam.normalized();
-  }
-  const KeyframeProducts products =
+  const std::optional<Vec3d> gravity_cam = GravityOf(kf);
+  KeyframeProducts products =
       BuildKeyframeProducts(kf.bgr, kf.depth_m, kf.camera, kf.detections, options_, gravity_cam);
-  // CPU of both threads of the products stage (the dense cloud runs on a second thread).
-  times.products_ms = products.labels_ms + products.objects_ms + products.backproject_ms +
-                      products.voxel_ms + products.outlier_ms;
-  times.labels_ms = products.labels_ms;
-  times.objects_ms = products.objects_ms;
-  times.backproject_ms = products.backproject_ms;
-  times.voxel_ms = products.voxel_ms;
-  times.outlier_ms = products.outlier_ms;
+  CopyProductTimes(products, &times);
+  std::vector<ObjectEventOut> events;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (!have_frame_) {  // the first keyframe fixes the origin and a first up
+      evidence_.T_base_first_cam = kf.T_base_kf;
+      FrameEvidence first = evidence_;
+      if (gravity_cam) {
+        first.gravity_sum_base = kf.T_base_kf.linear() * *gravity_cam;
+        first.gravity_count = 1;
+      }
+      const UpEstimate up = EstimateUp(first, options_.frame);  // no points yet: no planes
+      T_map_base_ = MapFromBase(kf.T_base_kf, up.up_base);
+      frame_source_ = up.source;
+      have_frame_ = true;
+    }
+    keyframe_poses_.push_back({kf.robot, kf.t_ns, kf.T_base_kf});
+  }
+  if (!frame_settled_) {
+    if (gravity_cam) {
+      evidence_.gravity_sum_base += kf.T_base_kf.linear() * *gravity_cam;
+      ++evidence_.gravity_count;
+    }
+    const Eigen::Isometry3f T_base_kf = kf.T_base_kf.cast<float>();
+    for (const auto& p : products.static_cloud_kf) {
+      evidence_.points_base.push_back(T_base_kf * p.getVector3fMap());
+    }
+  }
+  IntegrateProducts(kf, products, &times, &events);
+  if (!frame_settled_) {
+    settling_.push_back({kf, std::move(products)});
+    if (static_cast<int>(settling_.size()) >= options_.frame.settle_keyframes) {
+      SettleFrame(&events);
+    }
+  }
+  if (listener_ && !events.empty()) listener_(events);
+  return times;
+}
 
-  // World products derived from the keyframe-frame products with T_map_kf.
-  const Eigen::Isometry3f T_map_kf = kf.T_map_kf.cast<float>();
+void Mapper::SettleFrame(std::vector<ObjectEventOut>* events) {
+  const UpEstimate up = EstimateUp(evidence_, options_.frame);
+  if (octomap_) FlushOctomap();
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    T_map_base_ = MapFromBase(evidence_.T_base_first_cam, up.up_base);
+    frame_source_ = up.source;
+    frame_settled_ = true;
+    // Re-derive: everything mapped so far moves to the settled frame.
+    for (const MapObject& o : objects_.Snapshot(false)) {
+      ObjectEventOut e;
+      e.kind = ObjectChange::Kind::kRemoved;
+      e.object = o;
+      events->push_back(std::move(e));
+    }
+    objects_.Clear();
+    cloud_ = SemanticCloud(options_.cloud.voxel_m);
+    gravity_sum_map_.setZero();
+    gravity_count_ = 0;
+    latest_poses_.clear();
+    stats_.keyframes = 0;
+  }
+  if (octomap_) {
+    std::lock_guard<std::mutex> lock(octo_mu_);
+    octomap_ = std::make_unique<OccupancyMap>(options_.octomap);
+  }
+  std::vector<Settling> settling = std::move(settling_);
+  settling_.clear();
+  evidence_.points_base.clear();
+  evidence_.points_base.shrink_to_fit();
+  for (const Settling& s : settling) {
+    StageTimes ignored;
+    IntegrateProducts(s.keyframe, s.products, &ignored, events);
+  }
+}
+
+void Mapper::IntegrateProducts(const MapperKeyframe& kf, const KeyframeProducts& products,
+                               StageTimes* times, std::vector<ObjectEventOut>* events) {
+  SE3d T_map_kf;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    T_map_kf = T_map_base_ * kf.T_base_kf;
+  }
+  const Eigen::Isometry3f T_map_kf_f = T_map_kf.cast<float>();
   std::vector<MapObservation> observations;
   observations.reserve(products.observations.size());
   for (const ObjectObservation& o : products.observations) {
-    MapObservation m;
-    m.session_row = kf.session_row;
-    m.robot = kf.robot;
-    m.keyframe_id = kf.keyframe_id;
-    m.t_ns = kf.t_ns;
-    m.track_id = o.track_id;
-    m.class_name = o.class_name;
-    m.score = o.score;
-    m.points_m.reserve(o.cloud_kf.size());
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    Eigen::Vector3f lo = Eigen::Vector3f::Constant(1e30f), hi = -lo;
-    for (const auto& p : o.cloud_kf) {
-      const Eigen::Vector3f q = T_map_kf * p.getVector3fMap();
-      m.points_m.push_back({q, PackRgb(p.r, p.g, p.b)});
-      sum += q.cast<double>();
-      lo = lo.cwiseMin(q);
-      hi = hi.cwiseMax(q);
-    }
-    // The same centroid definition as the fused objects (FusionOptions::centroid_from_box).
-    m.centroid_m = options_.fusion.centroid_from_box
-                       ? Eigen::Vector3d((0.5f * (lo + hi)).cast<double>())
-                       : Eigen::Vector3d(sum / static_cast<double>(o.cloud_kf.size()));
-    observations.push_back(std::move(m));
+    observations.push_back(ToMap(o, kf, T_map_kf_f, options_.fusion.centroid_from_box));
   }
   std::vector<Eigen::Vector3f> static_points_m;
   static_points_m.reserve(products.static_cloud_kf.size());
   for (const auto& p : products.static_cloud_kf) {
-    static_points_m.push_back(T_map_kf * p.getVector3fMap());
+    static_points_m.push_back(T_map_kf_f * p.getVector3fMap());
   }
-
-  std::vector<ObjectEventOut> events;
   {
     std::lock_guard<std::mutex> lock(mu_);
     double t0 = ThreadCpuMs();
     std::vector<ObjectChange> changes;
     const std::vector<int64_t> ids = objects_.Integrate(observations, &changes);
+    const KeyframeView view{&kf.camera, &kf.depth_m, T_map_kf.inverse(), &kf.detections};
+    objects_.ObserveView(view, ids, &changes);
     for (const ObjectChange& c : changes) {
       ObjectEventOut e;
       e.kind = c.kind;
@@ -123,15 +220,15 @@ StageTimes Mapper::Integrate(const MapperKeyframe& kf) {
       if (c.kind == ObjectChange::Kind::kRemoved) {  // gone: its last state, its own id
         e.object = c.removed_state;
         e.object.id = c.object_id;
-        events.push_back(std::move(e));
+        events->push_back(std::move(e));
         continue;
       }
       const FusedObject* obj = objects_.Find(objects_.Resolve(c.object_id));
       if (obj != nullptr) e.object = obj->Snapshot();
       e.object.id = objects_.Resolve(c.object_id);
-      events.push_back(std::move(e));
+      events->push_back(std::move(e));
     }
-    times.fusion_ms = MsSince(t0);
+    times->fusion_ms = MsSince(t0);
 
     t0 = ThreadCpuMs();
     std::vector<SemanticPoint> points;
@@ -142,49 +239,51 @@ StageTimes Mapper::Integrate(const MapperKeyframe& kf) {
       points.push_back({static_points_m[i], PackRgb(p.r, p.g, p.b), object_id});
     }
     cloud_.Add(points);
-    times.cloud_ms = MsSince(t0);
+    times->cloud_ms = MsSince(t0);
 
-    if (kf.has_gravity && kf.gravity_cam.allFinite() && kf.gravity_cam.norm() > 0.5) {
-      gravity_sum_map_ += kf.T_map_kf.linear() * kf.gravity_cam.normalized();
+    if (const std::optional<Vec3d> g = GravityOf(kf)) {
+      gravity_sum_map_ += T_map_kf.linear() * *g;
       ++gravity_count_;
     }
     RobotPose& pose = latest_poses_[kf.robot];
-    if (kf.t_ns >= pose.t_ns) pose = {kf.t_ns, kf.T_map_kf};
+    if (kf.t_ns >= pose.t_ns) pose = {kf.t_ns, T_map_kf};
     ++stats_.keyframes;
   }
+  if (octomap_) PushOctomap(static_points_m, T_map_kf.translation());
+  AddTimes(*times);
+}
 
-  if (octomap_) {
-    // One ray per OctoMap leaf is enough: thin the cloud to the OctoMap resolution first.
-    OctomapJob job;
-    job.origin_m = kf.T_map_kf.translation();
-    std::unordered_map<VoxelKey, std::pair<Eigen::Vector3f, int>> leaves;
-    for (const Eigen::Vector3f& p : static_points_m) {
-      auto& [sum, n] = leaves[KeyOf(p.cast<double>(), options_.octomap.resolution_m)];
-      if (n == 0) sum.setZero();
-      sum += p;
-      ++n;
-    }
-    job.points_m.reserve(leaves.size());
-    for (const auto& [key, sn] : leaves) job.points_m.push_back(sn.first / sn.second);
-    {
-      std::lock_guard<std::mutex> lock(octomap_progress_mu_);
-      ++octomap_pushed_;
-    }
-    octomap_queue_.Push(std::move(job));
+void Mapper::PushOctomap(const std::vector<Eigen::Vector3f>& static_points_m,
+                         const Vec3d& origin_m) {
+  // One ray per OctoMap leaf is enough: thin the cloud to the OctoMap resolution first.
+  OctomapJob job;
+  job.origin_m = origin_m;
+  std::unordered_map<VoxelKey, std::pair<Eigen::Vector3f, int>> leaves;
+  for (const Eigen::Vector3f& p : static_points_m) {
+    auto& [sum, n] = leaves[KeyOf(p.cast<double>(), options_.octomap.resolution_m)];
+    if (n == 0) sum.setZero();
+    sum += p;
+    ++n;
   }
+  job.points_m.reserve(leaves.size());
+  for (const auto& [key, sn] : leaves) job.points_m.push_back(sn.first / sn.second);
   {
-    std::lock_guard<std::mutex> lock(mu_);
-    stats_.total.products_ms += times.products_ms;
-    stats_.total.fusion_ms += times.fusion_ms;
-    stats_.total.cloud_ms += times.cloud_ms;
-    stats_.total.labels_ms += times.labels_ms;
-    stats_.total.objects_ms += times.objects_ms;
-    stats_.total.backproject_ms += times.backproject_ms;
-    stats_.total.voxel_ms += times.voxel_ms;
-    stats_.total.outlier_ms += times.outlier_ms;
+    std::lock_guard<std::mutex> lock(octomap_progress_mu_);
+    ++octomap_pushed_;
   }
-  if (listener_ && !events.empty()) listener_(events);
-  return times;
+  octomap_queue_.Push(std::move(job));
+}
+
+void Mapper::AddTimes(const StageTimes& times) {
+  std::lock_guard<std::mutex> lock(mu_);
+  stats_.total.products_ms += times.products_ms;
+  stats_.total.fusion_ms += times.fusion_ms;
+  stats_.total.cloud_ms += times.cloud_ms;
+  stats_.total.labels_ms += times.labels_ms;
+  stats_.total.objects_ms += times.objects_ms;
+  stats_.total.backproject_ms += times.backproject_ms;
+  stats_.total.voxel_ms += times.voxel_ms;
+  stats_.total.outlier_ms += times.outlier_ms;
 }
 
 std::vector<MapObject> Mapper::Snapshot(bool confirmed_only) const {
@@ -236,6 +335,34 @@ std::optional<Vec3d> Mapper::UpDirection() const {
   std::lock_guard<std::mutex> lock(mu_);
   if (gravity_count_ == 0 || gravity_sum_map_.norm() < 1e-9) return std::nullopt;
   return Vec3d(-gravity_sum_map_.normalized());
+}
+
+std::string Mapper::FrameSource() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return frame_source_;
+}
+
+bool Mapper::FrameSettled() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return frame_settled_;
+}
+
+SE3d Mapper::MapFromBaseFrame() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return T_map_base_;
+}
+
+std::map<std::string, Trajectory> Mapper::Trajectories() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  std::map<std::string, Trajectory> out;
+  for (const KeyframePose& k : keyframe_poses_) {
+    out[k.robot].push_back({k.t_ns, T_map_base_ * k.T_base_kf});
+  }
+  for (auto& [robot, traj] : out) {
+    std::stable_sort(traj.begin(), traj.end(),
+                     [](const StampedPose& a, const StampedPose& b) { return a.t_ns < b.t_ns; });
+  }
+  return out;
 }
 
 std::map<std::string, RobotPose> Mapper::LatestPoses() const {

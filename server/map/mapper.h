@@ -1,5 +1,6 @@
 // The map of the server: turns keyframes into objects, a semantic cloud and an OctoMap, and
-// answers thread-safe snapshots for the services, exports and the query engine.
+// answers thread-safe snapshots for the services, exports and the query engine. Everything it
+// gives out is in the gravity-aligned map frame (map_frame.h).
 //
 // Integrate() is called by one mapping thread; every other method may be called concurrently.
 // The OctoMap is updated on its own thread (ray casting is the costliest stage); its readers wait
@@ -22,7 +23,10 @@
 #include "common/detections_io.h"
 #include "common/map_object.h"
 #include "common/se3.h"
+#include "common/tum_io.h"
 #include "server/map/bounded_queue.h"
+#include "server/map/keyframe_products.h"
+#include "server/map/map_frame.h"
 #include "server/map/map_options.h"
 #include "server/map/object_map.h"
 #include "server/map/occupancy_map.h"
@@ -36,7 +40,9 @@ struct MapperKeyframe {
   int64_t session_row = 0;
   std::string robot;
   int64_t t_ns = 0;
-  SE3d T_map_kf = SE3d::Identity();  // = T_map_odom(session) * T_odom_cam
+  // Pose in the base frame (map_frame.h): T_base_odom(session) * T_odom_cam. The mapper moves
+  // it into the map frame.
+  SE3d T_base_kf = SE3d::Identity();
   PinholeCamera camera;
   cv::Mat bgr;      // CV_8UC3
   cv::Mat depth_m;  // CV_32FC1, metres, 0 = invalid
@@ -100,6 +106,14 @@ class Mapper {
   std::vector<Eigen::Vector3d> OccupiedCenters() const;
   // Unit "up" of the map frame (minus the mean gravity of the keyframes), if any had gravity.
   std::optional<Vec3d> UpDirection() const;
+  // How the map frame's up was found ("gravity+planes", "gravity", "planes", "level-camera";
+  // "" before the first keyframe) and whether it is final (the first settle_keyframes are in).
+  std::string FrameSource() const;
+  bool FrameSettled() const;
+  // T_map_base (identity before the first keyframe).
+  SE3d MapFromBaseFrame() const;
+  // Every integrated keyframe's camera pose in the map frame, per robot, in time order.
+  std::map<std::string, Trajectory> Trajectories() const;
   std::map<std::string, RobotPose> LatestPoses() const;
   MapperStats Stats() const;
   const MapOptions& options() const { return options_; }
@@ -112,11 +126,35 @@ class Mapper {
     Vec3d origin_m = Vec3d::Zero();         // camera centre
   };
   void OctomapLoop();
+  // A keyframe kept until the map frame is settled, to re-derive the map from.
+  struct Settling {
+    MapperKeyframe keyframe;
+    KeyframeProducts products;
+  };
+  struct KeyframePose {
+    std::string robot;
+    int64_t t_ns = 0;
+    SE3d T_base_kf = SE3d::Identity();
+  };
+  // World products of one keyframe (objects, cloud, gravity, poses) in the current map frame;
+  // appends object events. Caller holds no lock.
+  void IntegrateProducts(const MapperKeyframe& kf, const KeyframeProducts& products,
+                         StageTimes* times, std::vector<ObjectEventOut>* events);
+  void PushOctomap(const std::vector<Eigen::Vector3f>& static_points_m, const Vec3d& origin_m);
+  // Fixes the map frame from the settling keyframes and re-derives the map from them.
+  void SettleFrame(std::vector<ObjectEventOut>* events);
+  void AddTimes(const StageTimes& times);
 
   MapOptions options_;
   std::function<void(const std::vector<ObjectEventOut>&)> listener_;
 
-  mutable std::mutex mu_;  // objects, cloud, poses, gravity, stats
+  mutable std::mutex mu_;  // objects, cloud, poses, gravity, stats, frame
+  SE3d T_map_base_ = SE3d::Identity();
+  bool have_frame_ = false, frame_settled_ = false;
+  std::string frame_source_;
+  FrameEvidence evidence_;            // mapping thread only
+  std::vector<Settling> settling_;    // mapping thread only
+  std::vector<KeyframePose> keyframe_poses_;
   ObjectMap objects_;
   SemanticCloud cloud_;
   Vec3d gravity_sum_map_ = Vec3d::Zero();

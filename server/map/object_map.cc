@@ -26,6 +26,18 @@ double VoxelContainment(const std::unordered_set<VoxelKey>& a,
 ObjectMap::ObjectMap(const FusionOptions& options, double voxel_m)
     : options_(options), voxel_m_(voxel_m) {}
 
+namespace {
+
+// |A∩B| / |A|: the share of A inside B.
+double Within(const std::unordered_set<VoxelKey>& a, const std::unordered_set<VoxelKey>& b) {
+  if (a.empty()) return 0.0;
+  size_t inter = 0;
+  for (VoxelKey k : a) inter += b.count(k);
+  return static_cast<double>(inter) / static_cast<double>(a.size());
+}
+
+}  // namespace
+
 double ObjectMap::AssociationScore(const FusedObject& object, const MapObservation& obs,
                                    const std::unordered_set<VoxelKey>& obs_keys) const {
   const double d = (object.centroid_m() - obs.centroid_m).norm();
@@ -33,13 +45,27 @@ double ObjectMap::AssociationScore(const FusedObject& object, const MapObservati
   if (d < options_.track_gate_m && object.HasTrack(obs.session_row, obs.track_id)) {
     score += options_.weight_track;
   }
-  if (d < options_.max_centroid_distance_m) score += options_.weight_centroid;
-  // The overlap is only worth computing for objects that can be near.
-  if (options_.weight_overlap > 0 && d < options_.track_gate_m &&
-      VoxelOverlap(object.KeysAt(options_.overlap_voxel_m), obs_keys) > options_.min_overlap) {
-    score += options_.weight_overlap;
+  if (d < options_.max_centroid_distance_m &&
+      SizeCompatible(object.half_size_m(), obs.half_size_m)) {
+    score += options_.weight_centroid;
+  }
+  // The overlap is only worth computing for objects that can be near. A partial view (cut by
+  // the image border, half hidden) lies inside the object without overlapping most of it: it
+  // counts when it is contained and of a compatible size.
+  if (options_.weight_overlap > 0 && d < options_.track_gate_m) {
+    const std::unordered_set<VoxelKey> keys = object.KeysAt(options_.overlap_voxel_m);
+    const bool overlap = VoxelOverlap(keys, obs_keys) > options_.min_overlap;
+    const bool contained = options_.assoc_containment < 1 &&
+                           SizeCompatible(object.half_size_m(), obs.half_size_m) &&
+                           Within(obs_keys, keys) > options_.assoc_containment;
+    if (overlap || contained) score += options_.weight_overlap;
   }
   return score;
+}
+
+bool ObjectMap::SizeCompatible(double half_a_m, double half_b_m) const {
+  const double lo = std::max(std::min(half_a_m, half_b_m), 0.02);
+  return std::max(half_a_m, half_b_m) / lo <= options_.max_size_ratio;
 }
 
 std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& observations,
@@ -74,7 +100,8 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
     FusedObject& object = objects_.at(best_id);
     object.AddPoints(obs.points_m);
     object.Observe(obs.class_name, obs.score, obs.session_row, obs.track_id, obs.robot,
-                   obs.keyframe_id, obs.t_ns, options_.confirm_observations);
+                   obs.keyframe_id, obs.t_ns);
+    object.UpdateConfirmed(options_.confirm_observations, options_.min_existence);
     changes->push_back({kind, best_id, 0, {}});
     ids.push_back(MergeDuplicates(best_id, changes));
   }
@@ -90,7 +117,15 @@ int64_t ObjectMap::MergeDuplicates(int64_t id, std::vector<ObjectChange>* change
     const std::string cls = self.labels().Argmax();
     std::unordered_set<VoxelKey> self_keys;
     for (const auto& [other_id, other] : objects_) {
-      if (other_id == id || other.labels().Argmax() != cls) continue;
+      if (other_id == id) continue;
+      // Other classes merge only with an object of a compatible size (a monitor labelled
+      // "laptop" on blurred frames), never a keyboard with the desk it lies on; the label
+      // distributions then settle the class.
+      const bool same_class = other.labels().Argmax() == cls;
+      if (!same_class && (!options_.merge_across_classes ||
+                          !SizeCompatible(self.half_size_m(), other.half_size_m()))) {
+        continue;
+      }
       const double d = (other.centroid_m() - self.centroid_m()).norm();
       bool duplicate = d < options_.merge_centroid_m;
       if (!duplicate && d < options_.track_gate_m + 1.0) {
@@ -102,6 +137,7 @@ int64_t ObjectMap::MergeDuplicates(int64_t id, std::vector<ObjectChange>* change
       // The older object survives, so ids handed out earlier stay valid where possible.
       const int64_t keep = std::min(id, other_id), drop = std::max(id, other_id);
       objects_.at(keep).Absorb(objects_.at(drop));
+      objects_.at(keep).UpdateConfirmed(options_.confirm_observations, options_.min_existence);
       ObjectChange removed{ObjectChange::Kind::kRemoved, drop, 0, objects_.at(drop).Snapshot()};
       objects_.erase(drop);
       merged_into_[drop] = keep;
@@ -113,6 +149,29 @@ int64_t ObjectMap::MergeDuplicates(int64_t id, std::vector<ObjectChange>* change
     }
   }
   return id;
+}
+
+void ObjectMap::ObserveView(const KeyframeView& view, const std::vector<int64_t>& observed_ids,
+                            std::vector<ObjectChange>* changes) {
+  std::unordered_set<int64_t> observed;
+  for (int64_t id : observed_ids) observed.insert(Resolve(id));
+  std::vector<int64_t> gone;
+  for (auto& [id, object] : objects_) {
+    if (observed.count(id)) continue;
+    if (!ExpectedInView(object.sample_m(), object.half_size_m(), view, options_.visibility)) {
+      continue;
+    }
+    object.Miss();
+    object.UpdateConfirmed(options_.confirm_observations, options_.min_existence);
+    if (object.misses() >= static_cast<uint32_t>(options_.remove_min_misses) &&
+        object.existence() < options_.remove_existence) {
+      gone.push_back(id);
+    }
+  }
+  for (int64_t id : gone) {
+    changes->push_back({ObjectChange::Kind::kRemoved, id, 0, objects_.at(id).Snapshot()});
+    objects_.erase(id);
+  }
 }
 
 int64_t ObjectMap::Resolve(int64_t id) const {

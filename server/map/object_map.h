@@ -14,6 +14,7 @@
 #include "common/map_object.h"
 #include "server/map/fused_object.h"
 #include "server/map/map_options.h"
+#include "server/map/visibility.h"
 
 namespace loci::server {
 
@@ -28,6 +29,7 @@ struct MapObservation {
   double score = 0;
   std::vector<ColoredPoint> points_m;  // map frame
   Eigen::Vector3d centroid_m = Eigen::Vector3d::Zero();
+  double half_size_m = 0;  // half the longest side of its points' box
 };
 
 struct ObjectChange {
@@ -60,6 +62,18 @@ class ObjectMap {
   std::vector<int64_t> Integrate(const std::vector<MapObservation>& observations,
                                  std::vector<ObjectChange>* changes);
 
+  // Negative evidence of one keyframe: every object not observed in it (observed_ids) that
+  // the view should have shown takes a miss; objects whose existence falls are unconfirmed, or
+  // removed (kRemoved changes).
+  void ObserveView(const KeyframeView& view, const std::vector<int64_t>& observed_ids,
+                   std::vector<ObjectChange>* changes);
+
+  // Forgets every object (the map is re-derived); ids keep counting up.
+  void Clear() {
+    objects_.clear();
+    merged_into_.clear();
+  }
+
   // Follows merges: the id an object id lives on as (0 stays 0).
   int64_t Resolve(int64_t id) const;
   const FusedObject* Find(int64_t id) const;
@@ -68,6 +82,8 @@ class ObjectMap {
   size_t confirmed_count() const;
 
  private:
+  // Largest half extents within FusionOptions::max_size_ratio of each other.
+  bool SizeCompatible(double half_a_m, double half_b_m) const;
   // Merges duplicates of `id` into the older object (a kMerged change for the survivor, then a
   // kRemoved one for the absorbed object); returns the surviving id.
   int64_t MergeDuplicates(int64_t id, std::vector<ObjectChange>* changes);

@@ -114,7 +114,7 @@ StatusOr<KeyframeRecord> ValidateKeyframe(const loci::v1::Keyframe& kf,
     decoded->session_row = session.row_id;
     decoded->robot = session.robot_name;
     decoded->t_ns = rec.t_ns;
-    decoded->T_map_kf = session.T_map_odom * rec.T_odom_cam;
+    decoded->T_base_kf = session.T_base_odom * rec.T_odom_cam;
     decoded->camera = rec.camera;
     decoded->bgr = std::move(*bgr);
     decoded->depth_m = DepthToMetres(*depth, rec.depth_scale);
@@ -131,7 +131,7 @@ StatusOr<MapperKeyframe> DecodeKeyframe(const KeyframeRecord& rec, const Session
   kf.session_row = session.row_id;
   kf.robot = session.robot_name;
   kf.t_ns = rec.t_ns;
-  kf.T_map_kf = session.T_map_odom * rec.T_odom_cam;
+  kf.T_base_kf = session.T_base_odom * rec.T_odom_cam;
   kf.camera = rec.camera;
   LOCI_ASSIGN_OR_RETURN(kf.bgr,
                         DecodeJpeg(rec.rgb_jpeg, rec.camera.width_px, rec.camera.height_px));

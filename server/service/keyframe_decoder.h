@@ -21,7 +21,7 @@ StatusOr<KeyframeRecord> ValidateKeyframe(const loci::v1::Keyframe& kf,
                                           const SessionRecord& session,
                                           const ValidationLimits& limits, MapperKeyframe* decoded);
 
-// Decodes a stored keyframe for the mapper; T_map_kf = session.T_map_odom * T_odom_cam.
+// Decodes a stored keyframe for the mapper; T_base_kf = session.T_base_odom * T_odom_cam.
 StatusOr<MapperKeyframe> DecodeKeyframe(const KeyframeRecord& record, const SessionRecord& session);
 
 }  // namespace loci::server

@@ -102,8 +102,8 @@ StatusOr<loci::v1::OpenSessionResponse> MapServer::OpenSession(
   if (!std::isfinite(s.depth_scale) || s.depth_scale <= 0 || s.depth_scale > 1e6) {
     return absl::InvalidArgumentError("depth_scale must be in (0, 1e6]");
   }
-  if (auto it = options_.T_map_odom.find(s.robot_name); it != options_.T_map_odom.end()) {
-    s.T_map_odom = it->second;
+  if (auto it = options_.T_base_odom.find(s.robot_name); it != options_.T_base_odom.end()) {
+    s.T_base_odom = it->second;
   }
   s.opened_ns = NowNs();
   LOCI_ASSIGN_OR_RETURN(s, store_->CreateSession(s));

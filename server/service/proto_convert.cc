@@ -47,6 +47,8 @@ void ToProto(const MapObject& in, loci::v1::Object* out) {
   out->set_confirmed(in.confirmed);
   out->set_point_count(in.point_count);
   out->set_last_robot(in.last_robot);
+  out->set_missed_views(in.missed_views);
+  out->set_existence(in.existence);
 }
 
 MapObject FromProto(const loci::v1::Object& in) {
@@ -68,6 +70,8 @@ MapObject FromProto(const loci::v1::Object& in) {
   o.last_seen_ns = in.last_seen_ns();
   o.robots.assign(in.robots().begin(), in.robots().end());
   o.last_robot = in.last_robot();
+  o.missed_views = in.missed_views();
+  o.existence = in.existence();
   o.observation_count = in.observation_count();
   o.point_count = in.point_count();
   o.confirmed = in.confirmed();

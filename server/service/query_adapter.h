@@ -18,6 +18,7 @@
 #include "common/status.h"
 #include "query/query_engine.h"
 #include "server/map/mapper.h"
+#include "server/map/up_estimate.h"
 #include "server/service/query_engine.h"
 
 namespace loci::server {
@@ -60,16 +61,9 @@ struct QueryAdapterOptions {
   bool confirmed_only = true;
   // Longest accepted question, bytes (4096): longer text is INVALID_ARGUMENT before parsing.
   size_t max_question_bytes = 4096;
-  // Plane-based up estimate (used when no client sent gravity): cloud voxel (m, 0.08), RANSAC
-  // inlier distance (m, 0.03), at most `up_max_planes` planes (6), each with at least
-  // `up_min_plane_fraction` of the cloud (0.05), normals within `up_max_tilt_deg` of the
-  // configured up (45) count as horizontal; normals within `up_cluster_deg` (10) agree.
-  double up_voxel_m = 0.08;
-  double up_plane_distance_m = 0.03;
-  int up_max_planes = 6;
-  double up_min_plane_fraction = 0.05;
-  double up_max_tilt_deg = 45.0;
-  double up_cluster_deg = 10.0;
+  // Plane-based up estimate (server/map/up_estimate.h): refines the map's gravity, or gives the
+  // up when no client sent gravity.
+  PlaneUpOptions up_planes;
   // When clients sent gravity, the plane estimate replaces it if within this angle (deg, 5).
   double up_refine_max_deg = 5.0;
   // An up within this angle of the map's +z is taken as +z (deg, 1): sub-degree tilts are
@@ -83,14 +77,6 @@ struct QueryAdapterOptions {
   // 2011 TUM sequence reads "last seen 12 s ago", not "5673 days ago".
   double replay_age_s = 3600.0;
 };
-
-// Up from the dominant horizontal planes of `points_m` (map frame): planes are extracted with
-// PCL RANSAC, their normals flipped towards `prior_up_m`, those within max tilt of the prior
-// grouped, and the group with the most inliers wins (inlier-weighted mean normal). nullopt when
-// no plane qualifies.
-std::optional<Vec3d> EstimateUpFromPlanes(const std::vector<Eigen::Vector3f>& points_m,
-                                          const Vec3d& prior_up_m,
-                                          const QueryAdapterOptions& options);
 
 class QueryAdapter final : public QueryEngine {
  public:

@@ -34,15 +34,15 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
     for (const auto& kv : sessions) {
       const std::string robot = kv.first.as<std::string>();
       std::vector<double> t{0, 0, 0}, q{1, 0, 0, 0};
-      LOCI_RETURN_IF_ERROR(ReadOptional(kv.second, "t_map_odom_m", &t));
-      LOCI_RETURN_IF_ERROR(ReadOptional(kv.second, "q_map_odom_wxyz", &q));
+      LOCI_RETURN_IF_ERROR(ReadOptional(kv.second, "t_base_odom_m", &t));
+      LOCI_RETURN_IF_ERROR(ReadOptional(kv.second, "q_base_odom_wxyz", &q));
       if (t.size() != 3 || q.size() != 4) {
         return absl::InvalidArgumentError(
             absl::StrCat(path, ": sessions.", robot,
-                         " needs t_map_odom_m [x,y,z] and q_map_odom_wxyz [w,x,y,z]"));
+                         " needs t_base_odom_m [x,y,z] and q_base_odom_wxyz [w,x,y,z]"));
       }
       LOCI_RETURN_IF_ERROR(ValidatePose(Vec3d(t[0], t[1], t[2]), q[0], q[1], q[2], q[3]));
-      T_map_odom[robot] = MakeSE3(Vec3d(t[0], t[1], t[2]), Quatd(q[0], q[1], q[2], q[3]));
+      T_base_odom[robot] = MakeSE3(Vec3d(t[0], t[1], t[2]), Quatd(q[0], q[1], q[2], q[3]));
     }
   }
   if (max_message_mb < 1 || max_message_mb > 1024) {

@@ -26,8 +26,9 @@ struct ServerOptions {
   YAML::Node detector_config;
   std::string config_dir;    // directory of the config file (relative paths)
   std::string classes_file;  // class lists; "" = <source>/config/classes.yaml
-  // T_map_odom per robot name (identity when absent).
-  std::map<std::string, SE3d> T_map_odom;
+  // T_base_odom per robot name: the robot's odometry frame in the base frame, the first
+  // robot's odometry frame (server/map/map_frame.h); identity when absent.
+  std::map<std::string, SE3d> T_base_odom;
   MapOptions map;
 
   // Reads config/server.yaml (sections server, map, sessions); then the classes file.

@@ -1,5 +1,7 @@
 #include "server/service/services.h"
 
+#include <set>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -169,6 +171,25 @@ grpc::Status QueryService::GetStats(grpc::ServerContext*, const loci::v1::GetSta
   resp->set_db_bytes(server_->store().DbBytes());
   resp->set_queue_depth(server_->queue_depth());
   resp->set_ingest_ms_mean(server_->ingest_ms_mean());
+  resp->set_frame_up_source(server_->mapper().FrameSource());
+  resp->set_frame_settled(server_->mapper().FrameSettled());
+  return grpc::Status::OK;
+}
+
+grpc::Status QueryService::GetTrajectories(grpc::ServerContext*,
+                                           const loci::v1::GetTrajectoriesRequest* req,
+                                           loci::v1::GetTrajectoriesResponse* resp) {
+  const std::set<std::string> wanted(req->robots().begin(), req->robots().end());
+  for (const auto& [robot, traj] : server_->mapper().Trajectories()) {
+    if (!wanted.empty() && !wanted.count(robot)) continue;
+    loci::v1::Trajectory* t = resp->add_trajectories();
+    t->set_robot(robot);
+    for (const StampedPose& p : traj) {
+      loci::v1::StampedPose* sp = t->add_poses();
+      sp->set_t_ns(p.t_ns);
+      ToProto(p.T_world_cam, sp->mutable_t_map_cam());
+    }
+  }
   return grpc::Status::OK;
 }
 

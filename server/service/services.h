@@ -46,6 +46,9 @@ class QueryService final : public loci::v1::Query::Service {
                             grpc::ServerWriter<loci::v1::ObjectEvent>* writer) override;
   grpc::Status GetStats(grpc::ServerContext* ctx, const loci::v1::GetStatsRequest* req,
                         loci::v1::GetStatsResponse* resp) override;
+  grpc::Status GetTrajectories(grpc::ServerContext* ctx,
+                               const loci::v1::GetTrajectoriesRequest* req,
+                               loci::v1::GetTrajectoriesResponse* resp) override;
 
  private:
   MapServer* server_;

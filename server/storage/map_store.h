@@ -15,7 +15,8 @@
 
 namespace loci::server {
 
-// One robot's mapping session; `T_map_odom` places its odometry frame in the map.
+// One robot's mapping session; `T_base_odom` places its odometry frame in the base frame (the
+// first robot's odometry frame, server/map/map_frame.h), which the mapper levels into the map.
 struct SessionRecord {
   int64_t row_id = 0;      // storage key
   std::string session_id;  // public id, e.g. "robot1-3"
@@ -23,7 +24,7 @@ struct SessionRecord {
   std::string client_version;
   PinholeCamera camera;         // default intrinsics of the session's keyframes
   double depth_scale = 5000.0;  // depth PNG units per metre
-  SE3d T_map_odom = SE3d::Identity();
+  SE3d T_base_odom = SE3d::Identity();
   int64_t opened_ns = 0;  // wall time
   bool open = true;
 };

@@ -197,7 +197,7 @@ StatusOr<SessionRecord> SqliteStore::CreateSession(SessionRecord session) {
   ins.BindText(1, session.robot_name).BindText(2, session.client_version);
   BindCamera(ins, 3, session.camera);
   ins.Bind(9, session.depth_scale);
-  BindPose(ins, 10, session.T_map_odom);
+  BindPose(ins, 10, session.T_base_odom);
   ins.Bind(17, session.opened_ns);
   if (ins.Step() != SQLITE_DONE) {
     Status s = SqlError(db, "insert session");
@@ -235,7 +235,7 @@ StatusOr<std::vector<SessionRecord>> SqliteStore::QuerySessions(const std::strin
     s.client_version = q.Text(3);
     s.camera = CameraFrom(q, 4);
     s.depth_scale = q.Real(10);
-    s.T_map_odom = PoseFrom(q, 11);
+    s.T_base_odom = PoseFrom(q, 11);
     s.opened_ns = q.Int(18);
     s.open = q.IsNull(19);
     out.push_back(std::move(s));

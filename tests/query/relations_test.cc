@@ -100,6 +100,15 @@ TEST_F(RelationsTest, Inside) {
   EXPECT_TRUE(eval_.Evaluate(RelationKind::kInside, b, d).holds);
   EXPECT_FALSE(eval_.Evaluate(RelationKind::kInside, d, b).holds);
   EXPECT_FALSE(Eval(RelationKind::kInside, 2, 1).holds);  // on top is not inside
+  // A keyboard whose box lies within a tall monitor's box (the monitor's box reaching down over
+  // the desk) is not inside it: a monitor holds nothing.
+  const ObjectGeom tv = frame_.Geom(Box(52, "tv", {0, 0, 0.75}, {0.9, 0.8, 1.7}));
+  const ObjectGeom kb = frame_.Geom(Box(53, "keyboard", {0.2, 0.2, 0.78}, {0.65, 0.35, 0.81}));
+  EXPECT_FALSE(eval_.Evaluate(RelationKind::kInside, kb, tv).holds);
+  // A pen in a cup is.
+  const ObjectGeom cup = frame_.Geom(Box(54, "cup", {0, 0, 0}, {0.1, 0.1, 0.12}));
+  const ObjectGeom pen = frame_.Geom(Box(55, "pen", {0.04, 0.04, 0.01}, {0.05, 0.05, 0.09}));
+  EXPECT_TRUE(eval_.Evaluate(RelationKind::kInside, pen, cup).holds);
 }
 
 TEST_F(RelationsTest, Between) {

@@ -308,6 +308,7 @@ MapObservation Obs(int64_t track, const Eigen::Vector3d& center, double half, in
     for (double y = -half; y <= half + 1e-9; y += 0.01)
       o.points_m.push_back({(center + Eigen::Vector3d(x, y, 0)).cast<float>(), 0});
   o.centroid_m = center;
+  o.half_size_m = half;
   return o;
 }
 
@@ -375,9 +376,17 @@ TEST(ObjectMap, MergesDuplicatesThatEndUpOverlapping) {
   EXPECT_EQ(removed.removed_state.id, merged.merged_from_id);
   EXPECT_NEAR(removed.removed_state.centroid_m.x(), 0.04, 0.006);
   EXPECT_EQ(map.Find(removed.object_id), nullptr);
-  // A different class at the same place is not merged.
-  map.Integrate({Obs(3, {0.0, 0, 1}, 0.10, 3, "book")}, &changes);
+  // A small object of another class lying on it is neither associated nor merged (sizes 5x
+  // apart)...
+  const auto m = map.Integrate({Obs(3, {0.0, 0, 1}, 0.02, 3, "mouse")}, &changes);
+  EXPECT_NE(m[0], a[0]);
   EXPECT_EQ(map.size(), 2u);
+  // ... while a same-sized object of another class at the same place is the same object under a
+  // confusable label: it merges, and the label distribution keeps the majority class.
+  const auto l = map.Integrate({Obs(4, {0.01, 0, 1}, 0.10, 4, "book")}, &changes);
+  EXPECT_EQ(l[0], a[0]);
+  EXPECT_EQ(map.size(), 2u);
+  EXPECT_EQ(map.Find(a[0])->labels().Argmax(), "cup");
 }
 
 TEST(FusedObject, OneStrayObservationDoesNotStretchTheObject) {
@@ -454,6 +463,58 @@ TEST(ObjectEval, CountErrorMatchingFalsePositivesAndMisses) {
   const ObjectEvalResult c = EvaluateObjects(found, gt, only_cups);
   EXPECT_EQ(c.count_error, 0.0);
   EXPECT_TRUE(c.missed_gt_ids.empty() && c.false_positive_ids.empty());
+}
+
+// Hand-made ground truth: Hungarian matching (not greedy), `low` objects neutral, the nearer of
+// centroid and visible-part centre, precision / recall / F1.
+TEST(ObjectEval, HungarianLowConfidenceAndVisiblePart) {
+  GroundTruthScene gt;
+  auto add = [&](int64_t id, const std::string& name, const std::string& cls, Eigen::Vector3d c,
+                 const std::string& confidence) {
+    GroundTruthObject o;
+    o.id = id;
+    o.name = name;
+    o.class_name = cls;
+    o.centroid_m = c;
+    o.confidence = confidence;
+    gt.objects.push_back(o);
+    return &gt.objects.back();
+  };
+  add(1, "cup_a", "cup", {0, 0, 0}, "high");
+  add(2, "cup_b", "cup", {0.25, 0, 0}, "medium");
+  add(3, "cup_far", "cup", {3, 0, 0}, "low");
+  add(4, "desk", "dining table", {0, 0, 0.4}, "high")->visible_part_centroid_m =
+      Eigen::Vector3d(0, 0, 0.75);
+  add(5, "book_low", "book", {5, 5, 0}, "low");  // missed but not counted
+  auto obj = [](int64_t id, const std::string& cls, Eigen::Vector3d c) {
+    MapObject o;
+    o.id = id;
+    o.class_name = cls;
+    o.centroid_m = c;
+    return o;
+  };
+  // Greedy would give #10 (0.12 from cup_a, 0.13 from cup_b) to cup_a and leave #11 (0.2 from
+  // cup_a, 0.45 from cup_b) unmatched; the optimal assignment matches both.
+  const std::vector<MapObject> found = {obj(10, "cup", {0.12, 0, 0}), obj(11, "cup", {-0.2, 0, 0}),
+                                        obj(12, "cup", {3.05, 0, 0}),  // -> low: neutral
+                                        obj(13, "dining table", {0, 0, 0.72}),  // visible part
+                                        obj(14, "laptop", {1, 1, 1})};          // FP
+  const ObjectEvalResult r = EvaluateObjects(found, gt, ObjectEvalOptions{});
+  EXPECT_EQ(r.gt_count, 3);
+  EXPECT_EQ(r.true_positives, 3);
+  EXPECT_EQ(r.detected_count, 4);  // 3 TP + 1 FP; the neutral match is not counted
+  EXPECT_NEAR(r.precision, 0.75, 1e-12);
+  EXPECT_NEAR(r.recall, 1.0, 1e-12);
+  EXPECT_NEAR(r.f1, 2 * 0.75 / 1.75, 1e-12);
+  EXPECT_NEAR(r.count_error, 1.0 / 3.0, 1e-12);
+  EXPECT_EQ(r.false_positive_ids, std::vector<int64_t>{14});
+  EXPECT_TRUE(r.missed_gt_names.empty());
+  int neutral = 0;
+  for (const ObjectMatch& m : r.matches) neutral += m.neutral;
+  EXPECT_EQ(neutral, 1);
+  // Errors 0.2 (cup_a <- #11), 0.13 (cup_b <- #10), 0.03 (desk top).
+  EXPECT_NEAR(r.mean_centroid_error_m, (0.2 + 0.13 + 0.03) / 3, 1e-9);
+  EXPECT_NEAR(r.median_centroid_error_m, 0.13, 1e-9);
 }
 
 }  // namespace

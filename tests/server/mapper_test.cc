@@ -29,14 +29,14 @@ std::vector<MapperKeyframe> Views(const std::vector<WorldBox>& boxes, int n, boo
     kf.session_row = 1;
     kf.robot = "robot1";
     kf.t_ns = 1'000'000'000LL * (i + 1);
-    kf.T_map_kf = LookAt(eye, target);
+    kf.T_base_kf = LookAt(eye, target);  // base = the boxes' world frame, z up
     kf.camera = cam;
-    testing::RenderedView v = Render(boxes, cam, kf.T_map_kf, masks);
+    testing::RenderedView v = Render(boxes, cam, kf.T_base_kf, masks);
     kf.bgr = v.bgr;
     kf.depth_m = v.depth_m;
     kf.detections = v.detections;
     kf.has_gravity = true;
-    kf.gravity_cam = kf.T_map_kf.rotation().transpose() * Eigen::Vector3d(0, 0, -1);
+    kf.gravity_cam = kf.T_base_kf.rotation().transpose() * Eigen::Vector3d(0, 0, -1);
     out.push_back(std::move(kf));
   }
   return out;
@@ -51,11 +51,12 @@ MapOptions Options() {
 
 void ExpectObjectsMatch(const Mapper& mapper, const std::vector<WorldBox>& boxes, double tol_m) {
   const auto objects = mapper.Snapshot(/*confirmed_only=*/true);
+  const SE3d T_map_world = mapper.MapFromBaseFrame();
   int expected = 0;
   for (const WorldBox& b : boxes) {
     if (b.class_name == "person") continue;
     ++expected;
-    const Eigen::Vector3d gt = 0.5 * (b.min_m + b.max_m);
+    const Eigen::Vector3d gt = T_map_world * (0.5 * (b.min_m + b.max_m));
     const MapObject* match = nullptr;
     for (const auto& o : objects) {
       if (o.class_name == b.class_name) match = &o;
@@ -86,7 +87,9 @@ TEST(Mapper, FusesObjectsAndKeepsThePersonOut) {
 
   const WorldBox& person = boxes.back();
   const Eigen::Vector3d lo = person.min_m.array() + 0.03, hi = person.max_m.array() - 0.03;
-  auto inside = [&](const Eigen::Vector3d& p) {
+  const SE3d T_world_map = mapper.MapFromBaseFrame().inverse();
+  auto inside = [&](const Eigen::Vector3d& p_map) {
+    const Eigen::Vector3d p = T_world_map * p_map;
     return (p.array() >= lo.array()).all() && (p.array() <= hi.array()).all();
   };
   const auto cloud = mapper.Cloud(0, {});
@@ -111,6 +114,50 @@ TEST(Mapper, FusesObjectsAndKeepsThePersonOut) {
   EXPECT_NEAR(up->z(), 1.0, 1e-6);
   EXPECT_EQ(mapper.LatestPoses().at("robot1").t_ns, 12'000'000'000LL);
   EXPECT_FALSE(mapper.OctomapBt().empty());
+}
+
+// The map frame (REP-103): origin at the first keyframe's camera, z up (world +z here, from the
+// exact gravity and the floor), x the first camera's optical axis on the floor. Trajectories
+// come out in it.
+TEST(Mapper, MapFrameIsLevelAndAnchoredAtTheFirstKeyframe) {
+  const auto boxes = DefaultBoxes(/*with_person=*/false);
+  const auto views = Views(boxes, 12, /*masks=*/true);
+  Mapper mapper(Options());
+  for (const auto& kf : views) mapper.Integrate(kf);
+  EXPECT_TRUE(mapper.FrameSettled());
+  EXPECT_EQ(mapper.FrameSource(), "gravity+planes");
+  const SE3d T_map_world = mapper.MapFromBaseFrame();
+  EXPECT_GT((T_map_world.linear() * Vec3d::UnitZ()).z(), std::cos(0.2 * M_PI / 180.0));
+  EXPECT_LT((T_map_world * views[0].T_base_kf.translation()).norm(), 1e-9);
+  const Vec3d optical_map = T_map_world.linear() * views[0].T_base_kf.linear() * Vec3d::UnitZ();
+  EXPECT_NEAR(optical_map.y(), 0.0, 1e-9);
+  EXPECT_GT(optical_map.x(), 0.0);
+  const auto traj = mapper.Trajectories();
+  ASSERT_EQ(traj.at("robot1").size(), views.size());
+  EXPECT_LT(traj.at("robot1").front().T_world_cam.translation().norm(), 1e-9);
+  // The floor of the map cloud is horizontal: its points share one height within 1 cm.
+  double floor_lo = 1e9, floor_hi = -1e9;
+  for (const auto& p : mapper.Cloud(0, {"background"})) {
+    const Vec3d w = T_map_world.inverse() * p.p_m.cast<double>();
+    if (std::abs(w.z()) > 0.02) continue;  // the world floor is z = 0
+    floor_lo = std::min(floor_lo, double(p.p_m.z()));
+    floor_hi = std::max(floor_hi, double(p.p_m.z()));
+  }
+  EXPECT_LT(floor_hi - floor_lo, 0.05);
+}
+
+// Without gravity, the floor plane gives up (the first camera looks down at 30 deg, so the
+// level-camera prior alone would tilt the map by 30 deg).
+TEST(Mapper, MapFrameFromPlanesWithoutGravity) {
+  const auto boxes = DefaultBoxes(/*with_person=*/false);
+  auto views = Views(boxes, 12, /*masks=*/true);
+  for (auto& kf : views) kf.has_gravity = false;
+  Mapper mapper(Options());
+  for (const auto& kf : views) mapper.Integrate(kf);
+  EXPECT_EQ(mapper.FrameSource(), "planes");
+  EXPECT_GT((mapper.MapFromBaseFrame().linear() * Vec3d::UnitZ()).z(),
+            std::cos(1.0 * M_PI / 180.0));
+  ExpectObjectsMatch(mapper, boxes, 0.02);
 }
 
 TEST(Mapper, DepthClusterPathWithoutMasks) {

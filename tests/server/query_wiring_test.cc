@@ -297,7 +297,7 @@ TEST(QueryWiring, SynthSceneRelationsCountsAndTransportsAgree) {
   QueryAdapterOptions ao;
   const Vec3d tilted = Eigen::AngleAxisd(25.0 * M_PI / 180.0, Vec3d::UnitX()) * Vec3d::UnitZ();
   for (const Vec3d& prior : {Vec3d(Vec3d::UnitZ()), tilted}) {
-    const std::optional<Vec3d> up = EstimateUpFromPlanes(cloud, prior, ao);
+    const std::optional<Vec3d> up = EstimateUpFromPlanes(cloud, prior, ao.up_planes);
     ASSERT_TRUE(up.has_value());
     EXPECT_GT(up->dot(Vec3d::UnitZ()), std::cos(3.0 * M_PI / 180.0)) << up->transpose();
   }

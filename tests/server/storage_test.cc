@@ -78,7 +78,7 @@ TEST(SqliteStore, KeyframeRoundTripAndDuplicates) {
   SessionRecord s;
   s.robot_name = "robot1";
   s.camera = PinholeCamera::TumFr1();
-  s.T_map_odom = MakeSE3(Vec3d(1, 2, 3), Quatd(Eigen::AngleAxisd(0.5, Vec3d::UnitZ())));
+  s.T_base_odom = MakeSE3(Vec3d(1, 2, 3), Quatd(Eigen::AngleAxisd(0.5, Vec3d::UnitZ())));
   auto created = (*store)->CreateSession(s);
   ASSERT_TRUE(created.ok()) << created.status();
   EXPECT_EQ(created->session_id, "robot1-1");
@@ -126,7 +126,7 @@ TEST(SqliteStore, KeyframeRoundTripAndDuplicates) {
 
   auto found = (*store)->FindSession("robot1-1");
   ASSERT_TRUE(found.ok() && found->has_value());
-  EXPECT_TRUE((*found)->T_map_odom.isApprox(s.T_map_odom, 1e-12));
+  EXPECT_TRUE((*found)->T_base_odom.isApprox(s.T_base_odom, 1e-12));
   EXPECT_FALSE((*(*store)->FindSession("nope")).has_value());
 }
 

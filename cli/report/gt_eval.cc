@@ -1,0 +1,111 @@
+#include "cli/report/gt_eval.h"
+
+#include <absl/strings/str_cat.h>
+#include <absl/strings/str_format.h>
+#include <absl/strings/str_join.h>
+
+#include <algorithm>
+
+namespace loci::report {
+namespace {
+
+bool Counted(const GroundTruthObject& g) { return !g.dynamic && g.confidence != "low"; }
+
+bool Evaluated(const server::ObjectEvalOptions& o, const std::string& cls) {
+  return o.classes.empty() || std::find(o.classes.begin(), o.classes.end(), cls) != o.classes.end();
+}
+
+std::vector<OnPairCheck> CheckOnPairs(const GroundTruthEvalInput& in,
+                                      const server::ObjectEvalResult& r) {
+  std::map<int64_t, int64_t> map_id_of;  // GT id -> matched map object (true positives)
+  for (const auto& m : r.matches) {
+    if (!m.neutral) map_id_of[m.gt_id] = m.object_id;
+  }
+  std::map<int64_t, const GroundTruthObject*> by_id;
+  for (const auto& g : in.gt.objects) by_id[g.id] = &g;
+  std::vector<OnPairCheck> out;
+  for (const auto& x : in.gt.objects) {
+    if (x.on_id == 0 || !by_id.count(x.on_id)) continue;
+    const GroundTruthObject& y = *by_id[x.on_id];
+    if (!Counted(x) || !Counted(y) || !Evaluated(in.options, x.class_name) ||
+        !Evaluated(in.options, y.class_name)) {
+      continue;
+    }
+    OnPairCheck c;
+    c.gt_subject = x.name;
+    c.gt_support = y.name;
+    c.question = absl::StrCat("where is the ", x.class_name, " on the ", y.class_name);
+    c.subject_id = map_id_of.count(x.id) ? map_id_of[x.id] : 0;
+    c.support_id = map_id_of.count(y.id) ? map_id_of[y.id] : 0;
+    const loci::v1::AskResponse resp = in.ask(c.question);
+    c.answer = resp.answer();
+    for (const auto& rel : resp.relations()) {
+      c.right |= c.subject_id != 0 && c.support_id != 0 && rel.name() == "on" &&
+                 rel.subject_id() == c.subject_id && rel.anchor_id() == c.support_id;
+    }
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+}  // namespace
+
+StatusOr<GroundTruthEval> EvaluateAgainstGroundTruth(const GroundTruthEvalInput& in) {
+  Trajectory stacked;
+  for (const Trajectory& t : in.keyframes) stacked.insert(stacked.end(), t.begin(), t.end());
+  std::sort(stacked.begin(), stacked.end(),
+            [](const StampedPose& a, const StampedPose& b) { return a.t_ns < b.t_ns; });
+  GroundTruthEval e;
+  LOCI_ASSIGN_OR_RETURN(e.alignment, ComputeAte(in.groundtruth, stacked));
+  std::vector<MapObject> in_world = in.objects;
+  for (MapObject& o : in_world) o.centroid_m = e.alignment.T_gt_est * o.centroid_m;
+  e.objects = server::EvaluateObjects(in_world, in.gt, in.options);
+  e.radius_m = in.options.max_match_m;
+  if (in.ask) {
+    e.on_pairs = CheckOnPairs(in, e.objects);
+    for (const OnPairCheck& c : e.on_pairs) e.on_right += c.right;
+    e.on_share = e.on_pairs.empty() ? 0.0 : e.on_right / static_cast<double>(e.on_pairs.size());
+  }
+  return e;
+}
+
+std::string FormatGroundTruthEval(const GroundTruthEval& e) {
+  const server::ObjectEvalResult& r = e.objects;
+  std::string s = absl::StrFormat(
+      "alignment: keyframe trajectory vs ground truth, %zu pairs, ATE rmse %.4f m\n",
+      e.alignment.pairs, e.alignment.trans_m.rmse);
+  absl::StrAppendFormat(&s, "%-14s %4s %4s %5s %4s %4s %4s %7s\n", "class", "gt", "low", "map",
+                        "tp", "fp", "fn", "neutral");
+  for (const server::ClassEval& c : r.classes) {
+    absl::StrAppendFormat(&s, "%-14s %4d %4d %5d %4d %4d %4d %7d\n", c.class_name, c.gt,
+                          c.gt_low, c.mapped, c.tp, c.fp, c.fn, c.neutral);
+  }
+  absl::StrAppendFormat(&s,
+                        "precision %.3f  recall %.3f  F1 %.3f  count error %.1f %% (D %d, GT %d)\n",
+                        r.precision, r.recall, r.f1, 100 * r.count_error, r.detected_count,
+                        r.gt_count);
+  absl::StrAppendFormat(&s, "centroid error over %d matches: mean %.3f m, median %.3f m, max %.3f m\n",
+                        r.true_positives, r.mean_centroid_error_m, r.median_centroid_error_m,
+                        r.max_centroid_error_m);
+  for (const auto& m : r.matches) {
+    absl::StrAppendFormat(&s, "  %-14s %-18s -> #%-4d %.3f m%s\n", m.class_name, m.gt_name,
+                          m.object_id, m.centroid_error_m, m.neutral ? " (low: not counted)" : "");
+  }
+  if (!r.missed_gt_names.empty()) {
+    absl::StrAppend(&s, "  missed: ", absl::StrJoin(r.missed_gt_names, ", "), "\n");
+  }
+  if (!r.false_positive_ids.empty()) {
+    absl::StrAppend(&s, "  false positives: #", absl::StrJoin(r.false_positive_ids, ", #"), "\n");
+  }
+  if (!e.on_pairs.empty()) {
+    absl::StrAppendFormat(&s, "X-on-Y answers right: %d of %zu (%.0f %%)\n", e.on_right,
+                          e.on_pairs.size(), 100 * e.on_share);
+    for (const OnPairCheck& c : e.on_pairs) {
+      absl::StrAppendFormat(&s, "  [%s] %s on %s: \"%s?\" -> %s\n", c.right ? "ok" : "--",
+                            c.gt_subject, c.gt_support, c.question, c.answer);
+    }
+  }
+  return s;
+}
+
+}  // namespace loci::report

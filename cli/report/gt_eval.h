@@ -1,0 +1,55 @@
+// Evaluation of a map against real ground truth (`loci eval objects`, `loci bench report`): the
+// map frame is aligned to the ground-truth world frame with the keyframe trajectory (rigid Horn
+// alignment, as the TUM ATE tool does), objects are scored with server::EvaluateObjects, and
+// every ground-truth "X on Y" pair is asked through the server's own Ask.
+#pragma once
+
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "common/map_object.h"
+#include "common/objects_json.h"
+#include "common/status.h"
+#include "common/trajectory_eval.h"
+#include "common/tum_io.h"
+#include "loci/v1/query.pb.h"
+#include "server/map/object_eval.h"
+
+namespace loci::report {
+
+// One "where is the X on the Y" question and whether the answer was right: it names the map
+// object matched to X with an "on" relation to the map object matched to Y.
+struct OnPairCheck {
+  std::string gt_subject, gt_support;  // ground-truth names
+  std::string question, answer;
+  int64_t subject_id = 0, support_id = 0;  // matched map objects (0 = not matched)
+  bool right = false;
+};
+
+struct GroundTruthEval {
+  AteResult alignment;  // keyframe trajectory vs groundtruth.txt; T_gt_est maps map -> world
+  server::ObjectEvalResult objects;
+  std::vector<OnPairCheck> on_pairs;
+  int on_right = 0;
+  double on_share = 0;  // on_right / on_pairs.size() (0 when none)
+  double radius_m = 0;  // the matching radius used
+};
+
+struct GroundTruthEvalInput {
+  std::vector<MapObject> objects;  // map frame, confirmed
+  std::vector<Trajectory> keyframes;  // map frame, one per robot (all stacked for alignment)
+  Trajectory groundtruth;             // world frame
+  GroundTruthScene gt;
+  server::ObjectEvalOptions options;
+  // Asks the map a question (gRPC or in process); null = no X-on-Y check.
+  std::function<loci::v1::AskResponse(const std::string&)> ask;
+};
+
+StatusOr<GroundTruthEval> EvaluateAgainstGroundTruth(const GroundTruthEvalInput& in);
+
+// Human-readable report (per-class rows, totals, X-on-Y answers).
+std::string FormatGroundTruthEval(const GroundTruthEval& e);
+
+}  // namespace loci::report

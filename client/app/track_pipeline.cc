@@ -1,0 +1,127 @@
+#include "client/app/track_pipeline.h"
+
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <opencv2/imgcodecs.hpp>
+
+#include "common/config.h"
+
+namespace loci {
+namespace {
+
+// A progress bar on a terminal; a line every 10 % otherwise (logs stay readable).
+void Progress(size_t i, size_t n, size_t kfs, const FrameResult& r) {
+  static const bool tty = isatty(fileno(stderr)) != 0;
+  if (tty) {
+    const int width = 30;
+    const int filled = n ? static_cast<int>(width * (i + 1) / n) : width;
+    std::fprintf(stderr, "\r[%s%s] %zu/%zu  kf %zu  inliers %d  %.1f ms   ",
+                 std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(), i + 1,
+                 n, kfs, r.num_inliers, r.track_ms);
+    if (i + 1 == n) std::fprintf(stderr, "\n");
+    return;
+  }
+  const size_t step = std::max<size_t>(1, n / 10);
+  if ((i + 1) % step == 0 || i + 1 == n) {
+    std::fprintf(stderr, "frame %zu/%zu, keyframes %zu\n", i + 1, n, kfs);
+  }
+}
+
+// Detections for the odometry's dynamic prior on this frame.
+std::vector<Detection2D> PriorFor(const TumFrame& f, const std::vector<FrameDetections>& file_dets,
+                                  const KeyframeStage& stage, int64_t max_age_ns,
+                                  bool* from_file) {
+  *from_file = false;
+  if (const FrameDetections* fd = FindDetections(file_dets, f.rgb_t_ns)) {
+    *from_file = true;
+    return fd->detections;
+  }
+  FrameDetections latest = stage.LatestDetections();
+  if (latest.t_ns > 0 && f.rgb_t_ns - latest.t_ns <= max_age_ns) return latest.detections;
+  return {};
+}
+
+}  // namespace
+
+StatusOr<TrackerOptions> LoadTrackerOptions(const std::string& client_config,
+                                            const std::string& tum_dir) {
+  TrackerOptions topt;
+  const std::string cfg = client_config.empty() ? SourceDir() + "/config/client.yaml"
+                                                : client_config;
+  if (auto node = LoadYamlFile(cfg); node.ok()) {
+    if (Status s = topt.FromYaml((*node)["tracker"]); !s.ok()) {
+      return absl::InvalidArgumentError(absl::StrCat(cfg, ": ", s.message()));
+    }
+  } else if (!client_config.empty()) {
+    return node.status();
+  }
+  const std::string classes = SourceDir() + "/config/classes.yaml";
+  if (auto node = LoadYamlFile(classes); node.ok()) {
+    if (Status s = topt.ClassWeightsFromYaml(*node); !s.ok()) {
+      return absl::InvalidArgumentError(absl::StrCat(classes, ": ", s.message()));
+    }
+  }
+  const std::string camera = tum_dir + "/camera.yaml";
+  if (access(camera.c_str(), F_OK) == 0) {
+    LOCI_ASSIGN_OR_RETURN(YAML::Node node, LoadYamlFile(camera));
+    auto c = CameraFromYaml(node);
+    if (!c.ok()) return absl::InvalidArgumentError(absl::StrCat(camera, ": ", c.status().message()));
+    topt.camera = *c;
+  }
+  return topt;
+}
+
+StatusOr<TrackPipelineResult> RunTrackPipeline(const TumSequence& seq, Tracker* tracker,
+                                               PoseSource* poses,
+                                               const std::vector<FrameDetections>& file_dets,
+                                               KeyframeStage& stage,
+                                               const TrackPipelineOptions& o) {
+  if ((tracker == nullptr) == (poses == nullptr)) {
+    return absl::InvalidArgumentError("give exactly one of a tracker and a pose source");
+  }
+  TrackPipelineResult r;
+  const size_t n = o.max_frames > 0 ? std::min(o.max_frames, seq.frames.size()) : seq.frames.size();
+  for (size_t i = 0; i < n; ++i) {
+    const TumFrame& f = seq.frames[i];
+    cv::Mat bgr = cv::imread(f.rgb_path, cv::IMREAD_COLOR);
+    cv::Mat depth = cv::imread(f.depth_path, cv::IMREAD_UNCHANGED);
+    if (bgr.empty() || depth.empty()) {
+      spdlog::warn("frame {}: unreadable image, skipped", i);
+      continue;
+    }
+    ++r.frames;
+    bool from_file = false;
+    std::vector<Detection2D> dets = PriorFor(f, file_dets, stage, o.max_box_age_ns, &from_file);
+    StatusOr<FrameResult> fr = tracker ? tracker->Track(bgr, depth, f.rgb_t_ns, &dets)
+                                       : poses->At(f.rgb_t_ns);
+    if (!fr.ok()) {
+      spdlog::warn("frame {}: {}", i, std::string(fr.status().message()));
+      continue;
+    }
+    r.track_ms += fr->track_ms;
+    if (o.progress) Progress(i, n, r.keyframes, *fr);
+    if (!fr->tracked) {
+      ++r.lost;
+      continue;
+    }
+    ++r.tracked;
+    r.trajectory.push_back({f.rgb_t_ns, fr->T_odom_cam});
+    if (!fr->keyframe) continue;
+    ++r.keyframes;
+    r.keyframe_trajectory.push_back({f.rgb_t_ns, fr->T_odom_cam});
+    KeyframeData kf;
+    kf.t_ns = f.rgb_t_ns;
+    kf.T_odom_cam = fr->T_odom_cam;
+    kf.bgr = bgr;
+    kf.depth_u16 = depth;
+    if (from_file) kf.detections = std::move(dets);  // else: the stage's detector fills them
+    kf.segment = fr->segment;
+    if (auto g = GravityInCamAt(seq.accel, f.rgb_t_ns); g.ok()) kf.gravity_cam = *g;
+    LOCI_RETURN_IF_ERROR(stage.Push(std::move(kf)));
+  }
+  return r;
+}
+
+}  // namespace loci
