@@ -28,7 +28,7 @@ struct EvalObjectsArgs {
   std::string gt, groundtruth, db, server, config;
   std::vector<std::string> classes;
   double max_match_m = 0.3;
-  bool json = false, no_ask = false;
+  bool json = false, no_ask = false, all = false;
 };
 
 // The map to evaluate and a way to ask it.
@@ -42,14 +42,15 @@ struct MapUnderTest {
   std::shared_ptr<server::MapperSource> source;
 };
 
-StatusOr<MapUnderTest> FromDb(const std::string& db, const server::ServerOptions& options) {
+StatusOr<MapUnderTest> FromDb(const std::string& db, const server::ServerOptions& options,
+                               bool confirmed_only) {
   server::SqliteStoreOptions so;
   so.read_only = true;
   LOCI_ASSIGN_OR_RETURN(auto store, server::SqliteStore::Open(db, so));
   MapUnderTest m;
   m.mapper = std::make_shared<server::Mapper>(options.map);
   LOCI_RETURN_IF_ERROR(server::ReplayStore(*store, *m.mapper, nullptr).status());
-  m.objects = m.mapper->Snapshot(/*confirmed_only=*/true);
+  m.objects = m.mapper->Snapshot(confirmed_only);
   for (auto& [robot, traj] : m.mapper->Trajectories()) m.keyframes.push_back(traj);
   m.adapter = std::make_shared<server::QueryAdapter>(server::QueryAdapterOptions{});
   m.source = std::make_shared<server::MapperSource>(*m.mapper);
@@ -61,7 +62,7 @@ StatusOr<MapUnderTest> FromDb(const std::string& db, const server::ServerOptions
   return m;
 }
 
-StatusOr<MapUnderTest> FromServer(const std::string& address) {
+StatusOr<MapUnderTest> FromServer(const std::string& address, bool confirmed_only) {
   grpc::ChannelArguments args;
   args.SetMaxReceiveMessageSize(-1);
   std::shared_ptr<loci::v1::Query::Stub> stub = loci::v1::Query::NewStub(
@@ -74,7 +75,7 @@ StatusOr<MapUnderTest> FromServer(const std::string& address) {
     grpc::ClientContext ctx;
     deadline(&ctx);
     loci::v1::FindObjectsRequest req;
-    req.set_confirmed_only(true);
+    req.set_confirmed_only(confirmed_only);
     loci::v1::FindObjectsResponse resp;
     const grpc::Status s = stub->FindObjects(&ctx, req, &resp);
     if (!s.ok()) return absl::UnavailableError(absl::StrCat(address, ": ", s.error_message()));
@@ -128,6 +129,7 @@ nlohmann::json ToJson(const report::GroundTruthEval& e) {
   return {{"metric", "objects"},
           {"alignment_ate_rmse_m", e.alignment.trans_m.rmse},
           {"alignment_pairs", e.alignment.pairs},
+          {"up_error_deg", e.up_error_deg},
           {"precision", r.precision},
           {"recall", r.recall},
           {"f1", r.f1},
@@ -162,7 +164,7 @@ int RunEvalObjects(const EvalObjectsArgs& a) {
   Status st = options.FromYamlFile(a.config.empty() ? SourceDir() + "/config/server.yaml"
                                                     : a.config);
   if (!st.ok()) return Fail(2, st.message());
-  auto map = a.db.empty() ? FromServer(a.server) : FromDb(a.db, options);
+  auto map = a.db.empty() ? FromServer(a.server, !a.all) : FromDb(a.db, options, !a.all);
   if (!map.ok()) return Fail(1, map.status().message());
   report::GroundTruthEvalInput in;
   in.objects = map->objects;
@@ -220,6 +222,7 @@ void RegisterEvalObjectsCommand(CLI::App& app) {
                 "classes to evaluate (default: mapped, non-dynamic classes)");
   c->add_option("--radius", args->max_match_m, "matching radius, m")->capture_default_str();
   c->add_flag("--no-ask", args->no_ask, "skip the X-on-Y questions");
+  c->add_flag("--all", args->all, "also evaluate unconfirmed candidate objects");
   c->add_flag("--json", args->json, "print JSON");
   c->callback([args] { ExitCode() = RunEvalObjects(*args); });
 }

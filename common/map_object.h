@@ -30,8 +30,8 @@ struct MapObject {
   uint32_t observation_count = 0;
   uint32_t point_count = 0;
   bool confirmed = false;
-  // Negative evidence: keyframes that should have seen it but did not, and the existence
-  // belief (hits + 1) / (hits + misses + 2).
+  // Negative evidence: keyframes that should have seen it but did not, and the share of the
+  // keyframes that saw or should have seen it that did: hits / (hits + misses).
   uint32_t missed_views = 0;
   double existence = 0;
 };

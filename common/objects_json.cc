@@ -24,6 +24,7 @@ StatusOr<GroundTruthScene> ReadObjectsJson(const std::string& path) {
   try {
     const nlohmann::json j = nlohmann::json::parse(in);
     if (j.contains("up")) scene.up = ToVec(j["up"]);
+    if (j.contains("up_world")) scene.up = ToVec(j["up_world"]).normalized();
     std::vector<std::string> on_names;
     for (const auto& o : j.at("objects")) {
       GroundTruthObject g;

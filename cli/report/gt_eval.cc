@@ -5,6 +5,7 @@
 #include <absl/strings/str_join.h>
 
 #include <algorithm>
+#include <cmath>
 
 namespace loci::report {
 namespace {
@@ -60,7 +61,11 @@ StatusOr<GroundTruthEval> EvaluateAgainstGroundTruth(const GroundTruthEvalInput&
   std::vector<MapObject> in_world = in.objects;
   for (MapObject& o : in_world) o.centroid_m = e.alignment.T_gt_est * o.centroid_m;
   e.objects = server::EvaluateObjects(in_world, in.gt, in.options);
+  e.objects_world = in_world;
   e.radius_m = in.options.max_match_m;
+  const Vec3d map_up_world = e.alignment.T_gt_est.linear() * Vec3d::UnitZ();
+  e.up_error_deg =
+      std::acos(std::clamp(map_up_world.dot(in.gt.up.normalized()), -1.0, 1.0)) * 180.0 / M_PI;
   if (in.ask) {
     e.on_pairs = CheckOnPairs(in, e.objects);
     for (const OnPairCheck& c : e.on_pairs) e.on_right += c.right;
@@ -72,8 +77,9 @@ StatusOr<GroundTruthEval> EvaluateAgainstGroundTruth(const GroundTruthEvalInput&
 std::string FormatGroundTruthEval(const GroundTruthEval& e) {
   const server::ObjectEvalResult& r = e.objects;
   std::string s = absl::StrFormat(
-      "alignment: keyframe trajectory vs ground truth, %zu pairs, ATE rmse %.4f m\n",
-      e.alignment.pairs, e.alignment.trans_m.rmse);
+      "alignment: keyframe trajectory vs ground truth, %zu pairs, ATE rmse %.4f m; map +z is "
+      "%.1f deg from the ground truth's up\n",
+      e.alignment.pairs, e.alignment.trans_m.rmse, e.up_error_deg);
   absl::StrAppendFormat(&s, "%-14s %4s %4s %5s %4s %4s %4s %7s\n", "class", "gt", "low", "map",
                         "tp", "fp", "fn", "neutral");
   for (const server::ClassEval& c : r.classes) {
@@ -88,14 +94,25 @@ std::string FormatGroundTruthEval(const GroundTruthEval& e) {
                         r.true_positives, r.mean_centroid_error_m, r.median_centroid_error_m,
                         r.max_centroid_error_m);
   for (const auto& m : r.matches) {
-    absl::StrAppendFormat(&s, "  %-14s %-18s -> #%-4d %.3f m%s\n", m.class_name, m.gt_name,
-                          m.object_id, m.centroid_error_m, m.neutral ? " (low: not counted)" : "");
+    const MapObject* o = nullptr;
+    for (const MapObject& w : e.objects_world) o = w.id == m.object_id ? &w : o;
+    absl::StrAppendFormat(&s, "  %-14s %-18s -> #%-4d %.3f m  %u views, %u missed, existence %.2f%s\n",
+                          m.class_name, m.gt_name, m.object_id, m.centroid_error_m,
+                          o ? o->observation_count : 0, o ? o->missed_views : 0,
+                          o ? o->existence : 0.0, m.neutral ? " (low: not counted)" : "");
   }
   if (!r.missed_gt_names.empty()) {
     absl::StrAppend(&s, "  missed: ", absl::StrJoin(r.missed_gt_names, ", "), "\n");
   }
-  if (!r.false_positive_ids.empty()) {
-    absl::StrAppend(&s, "  false positives: #", absl::StrJoin(r.false_positive_ids, ", #"), "\n");
+  for (int64_t id : r.false_positive_ids) {
+    for (const MapObject& o : e.objects_world) {
+      if (o.id != id) continue;
+      absl::StrAppendFormat(&s, "  false positive #%d %s at (%.2f, %.2f, %.2f) world, %u views, "
+                            "%u missed, existence %.2f, size %.2f m\n", id, o.class_name,
+                            o.centroid_m.x(), o.centroid_m.y(), o.centroid_m.z(),
+                            o.observation_count, o.missed_views, o.existence,
+                            (o.aabb_max_m - o.aabb_min_m).maxCoeff());
+    }
   }
   if (!e.on_pairs.empty()) {
     absl::StrAppendFormat(&s, "X-on-Y answers right: %d of %zu (%.0f %%)\n", e.on_right,

@@ -31,10 +31,14 @@ struct OnPairCheck {
 struct GroundTruthEval {
   AteResult alignment;  // keyframe trajectory vs groundtruth.txt; T_gt_est maps map -> world
   server::ObjectEvalResult objects;
+  std::vector<MapObject> objects_world;  // the evaluated objects, centroids in the world frame
   std::vector<OnPairCheck> on_pairs;
   int on_right = 0;
   double on_share = 0;  // on_right / on_pairs.size() (0 when none)
   double radius_m = 0;  // the matching radius used
+  // Angle between the map's +z, carried into the world by the alignment, and the ground
+  // truth's up (deg): how level the map frame is.
+  double up_error_deg = 0;
 };
 
 struct GroundTruthEvalInput {

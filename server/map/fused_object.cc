@@ -66,9 +66,15 @@ void FusedObject::Observe(const std::string& class_name, double score, int64_t s
   if (track_id != 0) tracks_.insert({session_row, track_id});
 }
 
-void FusedObject::UpdateConfirmed(int confirm_observations, double min_existence) {
+double FusedObject::ExistenceLlr(const ExistenceModel& m) const {
+  return observation_count() * std::log(m.p_real / m.p_false) +
+         misses_ * std::log((1 - m.p_real) / (1 - m.p_false));
+}
+
+void FusedObject::UpdateConfirmed(int confirm_observations, const ExistenceModel& m,
+                                  double min_llr) {
   confirmed_ = static_cast<int>(keyframes_.size()) >= confirm_observations &&
-               existence() >= min_existence;
+               ExistenceLlr(m) >= min_llr;
 }
 
 std::unordered_set<VoxelKey> FusedObject::KeysAt(double voxel_m) const {

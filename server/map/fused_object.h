@@ -3,6 +3,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cstdint>
 #include <set>
 #include <string>
@@ -53,12 +54,19 @@ class FusedObject {
                const std::string& robot, int64_t keyframe_id, int64_t t_ns);
   // Records a keyframe that should have seen the object but did not (visibility.h).
   void Miss() { ++misses_; }
-  // Confirmed: seen in at least confirm_observations keyframes and, once it has been expected in
-  // views, an existence of at least min_existence.
-  void UpdateConfirmed(int confirm_observations, double min_existence);
-  // Existence belief: (hits + 1) / (hits + misses + 2), hits = keyframes that saw it.
+  // Existence as a sequential test between "a real object, detected in a view with probability
+  // p_real" and "a false detection, repeated with probability p_false": the log-likelihood
+  // ratio of the hits (keyframes that saw it) and misses. A weak detector that finds a real book
+  // in one view of six still accumulates evidence; a one-off false box does not.
+  struct ExistenceModel {
+    double p_real = 0.15, p_false = 0.03;
+  };
+  double ExistenceLlr(const ExistenceModel& m) const;
+  // Confirmed: seen in at least confirm_observations keyframes and an LLR of at least min_llr.
+  void UpdateConfirmed(int confirm_observations, const ExistenceModel& m, double min_llr);
+  // Hits / (hits + misses), for display.
   double existence() const {
-    return (observation_count() + 1.0) / (observation_count() + misses_ + 2.0);
+    return observation_count() / std::max(1.0, double(observation_count()) + misses_);
   }
   uint32_t misses() const { return misses_; }
   // Up to 48 of the object's supported points (map frame), and its largest half extent, m.

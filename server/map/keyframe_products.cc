@@ -160,6 +160,15 @@ pcl::PointCloud<pcl::PointXYZRGB> ObjectCloud(const cv::Mat& bgr, const cv::Mat&
                               o.sor_min_voxels * voxel_m);
 }
 
+// Median z (depth) of a camera-frame cloud.
+double MedianDepthM(const pcl::PointCloud<pcl::PointXYZRGB>& cloud) {
+  if (cloud.empty()) return 0;
+  std::vector<float> z(cloud.size());
+  for (size_t i = 0; i < cloud.size(); ++i) z[i] = cloud[i].z;
+  std::nth_element(z.begin(), z.begin() + z.size() / 2, z.end());
+  return z[z.size() / 2];
+}
+
 // Longest side of the points' 5-95 % box (a few stray points do not count).
 double RobustExtentM(const pcl::PointCloud<pcl::PointXYZRGB>& cloud) {
   if (cloud.size() < 2) return 0;
@@ -217,7 +226,8 @@ KeyframeProducts BuildKeyframeProducts(const cv::Mat& bgr, const cv::Mat& depth_
   for (int i = 0; i < static_cast<int>(detections.size()); ++i) {
     const Detection2D& d = detections[i];
     if (options.IsDynamic(d.class_name) || d.score < options.observation.min_score ||
-        !options.IsMapped(d.class_name)) {
+        !options.IsMapped(d.class_name) ||
+        std::min(d.box_px.width, d.box_px.height) < options.observation.min_box_px) {
       continue;
     }
     ObjectObservation obs;
@@ -229,6 +239,7 @@ KeyframeProducts BuildKeyframeProducts(const cv::Mat& bgr, const cv::Mat& depth_
                                MaskRect(d.box_px, depth_m.cols, depth_m.rows), camera, options);
     if (static_cast<int>(obs.cloud_kf.size()) < options.observation.min_points) continue;
     if (RobustExtentM(obs.cloud_kf) > options.MaxSizeM(d.class_name)) continue;
+    if (MedianDepthM(obs.cloud_kf) > options.observation.max_object_depth_m) continue;
     products.observations.push_back(std::move(obs));
     label_to_observation[i + 1] = static_cast<uint32_t>(products.observations.size());
   }

@@ -28,6 +28,8 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "sor_stddev_mul", &observation.sor_stddev_mul));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "sor_min_voxels", &observation.sor_min_voxels));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_points", &observation.min_points));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_box_px", &observation.min_box_px));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_object_depth_m", &observation.max_object_depth_m));
   }
   if (const YAML::Node n = node["fusion"]) {
     LOCI_RETURN_IF_ERROR(
@@ -50,9 +52,10 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_size_ratio", &fusion.max_size_ratio));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "label_universe", &fusion.label_universe));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_likelihood", &fusion.min_likelihood));
-    LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_existence", &fusion.min_existence));
-    LOCI_RETURN_IF_ERROR(ReadOptional(n, "remove_existence", &fusion.remove_existence));
-    LOCI_RETURN_IF_ERROR(ReadOptional(n, "remove_min_misses", &fusion.remove_min_misses));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "existence_p_real", &fusion.existence_p_real));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "existence_p_false", &fusion.existence_p_false));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "confirm_llr", &fusion.confirm_llr));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "remove_llr", &fusion.remove_llr));
     if (const YAML::Node v = n["visibility"]) {
       VisibilityOptions& o = fusion.visibility;
       LOCI_RETURN_IF_ERROR(ReadOptional(v, "min_visible_fraction", &o.min_visible_fraction));
@@ -126,11 +129,11 @@ Status MapOptions::Validate() const {
     return bad("fusion.support_cell_m > 0.001 and fusion.min_support_fraction in [0, 1]");
   }
   if (fusion.label_universe < 2) return bad("fusion.label_universe >= 2");
-  if (!(fusion.min_existence >= 0 && fusion.min_existence <= 1) ||
-      !(fusion.remove_existence >= 0 && fusion.remove_existence <= fusion.min_existence)) {
-    return bad("fusion: 0 <= remove_existence <= min_existence <= 1");
+  if (!(fusion.existence_p_false > 0 && fusion.existence_p_false < fusion.existence_p_real &&
+        fusion.existence_p_real < 1)) {
+    return bad("fusion: 0 < existence_p_false < existence_p_real < 1");
   }
-  if (fusion.remove_min_misses < 1) return bad("fusion.remove_min_misses >= 1");
+  if (!(fusion.remove_llr < fusion.confirm_llr)) return bad("fusion: remove_llr < confirm_llr");
   if (frame.settle_keyframes < 1 || frame.settle_keyframes > 1000) {
     return bad("frame.settle_keyframes in [1, 1000]");
   }

@@ -43,6 +43,11 @@ struct ObservationOptions {
   // view loses its rim and the fused box shrinks where only rims reach (the far side) (3.0).
   double sor_min_voxels = 3.0;
   int min_points = 20;  // observations with fewer filtered points are dropped (20)
+  // Observation quality: boxes whose shorter side is below min_box_px (20) and objects whose
+  // median depth is beyond max_object_depth_m (3.5 m; Kinect-class depth noise grows with z^2
+  // and a detector's precision falls on small, far boxes) are not fused.
+  double min_box_px = 20;
+  double max_object_depth_m = 3.5;
 };
 
 // Association of observations with objects and merging (paper 000 3.3).
@@ -80,12 +85,15 @@ struct FusionOptions {
   int label_universe = 13;       // K, classes the detector can report (mapped classes) (13)
   double min_likelihood = 0.05;  // detection scores are clamped to [this, 1 - this] (0.05)
   // Existence from negative evidence (visibility.h): every keyframe that should have seen an
-  // object but did not is a miss; existence = (hits + 1) / (hits + misses + 2). An object is
-  // confirmed only with existence >= min_existence (0.3); it is removed when its existence falls
-  // below remove_existence (0.15) after at least remove_min_misses misses (8).
-  double min_existence = 0.3;
-  double remove_existence = 0.15;
-  int remove_min_misses = 8;
+  // object but did not is a miss. Existence is the log-likelihood ratio of "real, detected in a
+  // view with probability existence_p_real (0.15)" against "false, a box that recurs with
+  // probability existence_p_false (0.03)": each hit adds log(0.15/0.03) = 1.61, each miss
+  // log(0.85/0.97) = -0.13. An object is confirmed with at least confirm_observations hits and
+  // an LLR >= confirm_llr (2.0); it is removed when the LLR falls to remove_llr (-4.0).
+  double existence_p_real = 0.15;
+  double existence_p_false = 0.03;
+  double confirm_llr = 2.0;
+  double remove_llr = -4.0;
   VisibilityOptions visibility;
 };
 

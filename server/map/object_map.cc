@@ -101,7 +101,7 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
     object.AddPoints(obs.points_m);
     object.Observe(obs.class_name, obs.score, obs.session_row, obs.track_id, obs.robot,
                    obs.keyframe_id, obs.t_ns);
-    object.UpdateConfirmed(options_.confirm_observations, options_.min_existence);
+    object.UpdateConfirmed(options_.confirm_observations, Existence(), options_.confirm_llr);
     changes->push_back({kind, best_id, 0, {}});
     ids.push_back(MergeDuplicates(best_id, changes));
   }
@@ -137,7 +137,7 @@ int64_t ObjectMap::MergeDuplicates(int64_t id, std::vector<ObjectChange>* change
       // The older object survives, so ids handed out earlier stay valid where possible.
       const int64_t keep = std::min(id, other_id), drop = std::max(id, other_id);
       objects_.at(keep).Absorb(objects_.at(drop));
-      objects_.at(keep).UpdateConfirmed(options_.confirm_observations, options_.min_existence);
+      objects_.at(keep).UpdateConfirmed(options_.confirm_observations, Existence(), options_.confirm_llr);
       ObjectChange removed{ObjectChange::Kind::kRemoved, drop, 0, objects_.at(drop).Snapshot()};
       objects_.erase(drop);
       merged_into_[drop] = keep;
@@ -162,9 +162,8 @@ void ObjectMap::ObserveView(const KeyframeView& view, const std::vector<int64_t>
       continue;
     }
     object.Miss();
-    object.UpdateConfirmed(options_.confirm_observations, options_.min_existence);
-    if (object.misses() >= static_cast<uint32_t>(options_.remove_min_misses) &&
-        object.existence() < options_.remove_existence) {
+    object.UpdateConfirmed(options_.confirm_observations, Existence(), options_.confirm_llr);
+    if (object.ExistenceLlr(Existence()) <= options_.remove_llr) {
       gone.push_back(id);
     }
   }

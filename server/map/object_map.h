@@ -82,6 +82,9 @@ class ObjectMap {
   size_t confirmed_count() const;
 
  private:
+  FusedObject::ExistenceModel Existence() const {
+    return {options_.existence_p_real, options_.existence_p_false};
+  }
   // Largest half extents within FusionOptions::max_size_ratio of each other.
   bool SizeCompatible(double half_a_m, double half_b_m) const;
   // Merges duplicates of `id` into the older object (a kMerged change for the survivor, then a
