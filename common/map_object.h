@@ -9,6 +9,8 @@
 
 #include <Eigen/Core>
 
+#include "common/se3.h"
+
 namespace loci {
 
 struct MapObject {
@@ -35,5 +37,9 @@ struct MapObject {
   uint32_t missed_views = 0;
   double existence = 0;
 };
+
+// The object expressed in another frame: T_b_a maps its frame a to frame b. Centroid, oriented
+// box and R_map_box move rigidly; the axis-aligned box becomes the box of the moved corners.
+MapObject Transformed(MapObject o, const SE3d& T_b_a);
 
 }  // namespace loci

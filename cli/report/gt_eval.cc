@@ -58,8 +58,8 @@ StatusOr<GroundTruthEval> EvaluateAgainstGroundTruth(const GroundTruthEvalInput&
             [](const StampedPose& a, const StampedPose& b) { return a.t_ns < b.t_ns; });
   GroundTruthEval e;
   LOCI_ASSIGN_OR_RETURN(e.alignment, ComputeAte(in.groundtruth, stacked));
-  std::vector<MapObject> in_world = in.objects;
-  for (MapObject& o : in_world) o.centroid_m = e.alignment.T_gt_est * o.centroid_m;
+  std::vector<MapObject> in_world;
+  for (const MapObject& o : in.objects) in_world.push_back(Transformed(o, e.alignment.T_gt_est));
   e.objects = server::EvaluateObjects(in_world, in.gt, in.options);
   e.objects_world = in_world;
   e.radius_m = in.options.max_match_m;

@@ -87,10 +87,9 @@ MapRun RunMapper(const server::MapOptions& map_options, const std::vector<Keyfra
   return run;
 }
 
-// Objects expressed in the ground-truth frame: only the centroid is moved (the report compares
-// centroids).
-std::vector<MapObject> ToGroundTruthFrame(std::vector<MapObject> objects, const SE3d& T_gt_est) {
-  for (MapObject& o : objects) o.centroid_m = T_gt_est * o.centroid_m;
+// Objects expressed in the ground-truth frame.
+std::vector<MapObject> ToGroundTruthFrame(std::vector<MapObject> objects, const SE3d& T_gt_map) {
+  for (MapObject& o : objects) o = Transformed(o, T_gt_map);
   return objects;
 }
 

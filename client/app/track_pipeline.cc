@@ -65,10 +65,15 @@ StatusOr<TrackerOptions> LoadTrackerOptions(const std::string& client_config,
   }
   const std::string camera = tum_dir + "/camera.yaml";
   if (access(camera.c_str(), F_OK) == 0) {
+    // The sequence's own intrinsics (a `camera:` section, or the keys at the top level) and
+    // depth units.
     LOCI_ASSIGN_OR_RETURN(YAML::Node node, LoadYamlFile(camera));
-    auto c = CameraFromYaml(node);
+    auto c = CameraFromYaml(node["camera"] ? node["camera"] : node);
     if (!c.ok()) return absl::InvalidArgumentError(absl::StrCat(camera, ": ", c.status().message()));
     topt.camera = *c;
+    if (Status s = ReadOptional(node, "depth_scale", &topt.depth_scale); !s.ok()) {
+      return absl::InvalidArgumentError(absl::StrCat(camera, ": ", s.message()));
+    }
   }
   return topt;
 }

@@ -342,6 +342,7 @@ TEST(ObjectMap, WeightedScoreRespectsThreshold) {
   opt.score_threshold = 0.9;  // now one criterion alone is not enough
   opt.merge_centroid_m = 0;   // isolate association from duplicate merging
   opt.merge_containment = 2;
+  opt.assoc_containment = 1;  // and the partial-view criterion: b lies 70 % inside a
   ObjectMap map(opt, 0.01);
   std::vector<ObjectChange> changes;
   const auto a = map.Integrate({Obs(1, {0, 0, 1}, 0.05, 1)}, &changes);

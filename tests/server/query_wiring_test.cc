@@ -195,7 +195,13 @@ TEST(QueryWiring, SynthSceneRelationsCountsAndTransportsAgree) {
   s.map->Flush();
 
   // Ground truth objects that made it into the map: matched by the object evaluation.
-  const std::vector<MapObject> mapped = s.map->mapper().Snapshot(true);
+  // Matched in the synth world (the map frame is it levelled and anchored at the first
+  // keyframe); relations are asked of the map itself.
+  const SE3d T_world_map = s.map->mapper().MapFromBaseFrame().inverse();
+  std::vector<MapObject> mapped;
+  for (const MapObject& o : s.map->mapper().Snapshot(true)) {
+    mapped.push_back(Transformed(o, T_world_map));
+  }
   ObjectEvalOptions eo;
   for (const auto& c : options.map.mapped_classes) {
     if (!options.map.IsDynamic(c)) eo.classes.push_back(c);

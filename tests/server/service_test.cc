@@ -151,20 +151,28 @@ TEST_F(ServiceTest, IngestAcksDeduplicatesAndAnswersQueries) {
   loci::v1::FindObjectsResponse found;
   ASSERT_TRUE(query_->FindObjects(&c1, find, &found).ok());
   ASSERT_EQ(found.objects_size(), 3);
+  // Positions come in the map frame: the box world levelled (here already z up) and anchored
+  // at the first keyframe.
+  const SE3d T_map_world = server_->mapper().MapFromBaseFrame();
+  const SE3d T_world_map = T_map_world.inverse();
   int64_t cup_id = 0;
   for (const auto& o : found.objects()) {
     if (o.class_name() == "cup") {
       cup_id = o.id();
-      EXPECT_NEAR(o.centroid_m().x(), 0.04, 0.02);
-      EXPECT_NEAR(o.centroid_m().z(), 0.06, 0.02);
+      const Vec3d c_world =
+          T_world_map * Vec3d(o.centroid_m().x(), o.centroid_m().y(), o.centroid_m().z());
+      EXPECT_NEAR(c_world.x(), 0.04, 0.02);
+      EXPECT_NEAR(c_world.z(), 0.06, 0.02);
       EXPECT_EQ(o.robots(0), "robot1");
     }
   }
   ASSERT_NE(cup_id, 0);
   // Radius filter around the book, class filter.
   grpc::ClientContext c2;
-  find.mutable_near_center_m()->set_x(-0.35);
-  find.mutable_near_center_m()->set_y(0.075);
+  const Vec3d book_map = T_map_world * Vec3d(-0.35, 0.075, 0.0);
+  find.mutable_near_center_m()->set_x(book_map.x());
+  find.mutable_near_center_m()->set_y(book_map.y());
+  find.mutable_near_center_m()->set_z(book_map.z());
   find.set_radius_m(0.1);
   found.Clear();
   ASSERT_TRUE(query_->FindObjects(&c2, find, &found).ok());
