@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -36,6 +37,9 @@ struct MapObject {
   // keyframes that saw or should have seen it that did: hits / (hits + misses).
   uint32_t missed_views = 0;
   double existence = 0;
+  // Height (map z, z up) of the object's densest horizontal layer of points: the top of a
+  // table whose box also caught a monitor foot or a chair back. NaN when unknown.
+  double top_surface_z_m = std::numeric_limits<double>::quiet_NaN();
 };
 
 // The object expressed in another frame: T_b_a maps its frame a to frame b. Centroid, oriented

@@ -15,7 +15,8 @@ double IntervalGap(double a0, double a1, double b0, double b1) {
 
 }  // namespace
 
-GravityFrame::GravityFrame(const Vec3d& up_map) {
+GravityFrame::GravityFrame(const Vec3d& up_map, std::vector<std::string> flat_top_classes)
+    : flat_top_classes_(std::move(flat_top_classes)) {
   up_map_ = up_map.norm() > 1e-9 ? up_map.normalized() : Vec3d::UnitZ();
   identity_ = (up_map_ - Vec3d::UnitZ()).norm() < 1e-9;
   R_g_map_ = identity_ ? Mat3d::Identity() : RotationAligningToZ(up_map_);
@@ -43,6 +44,13 @@ ObjectGeom GravityFrame::Geom(const MapObject& o) const {
     g.centroid_g = R_g_map_ * o.centroid_m;
   }
   g.size_m = g.box.Size().maxCoeff();
+  g.top_z = g.box.max.z();
+  if (identity_ && std::isfinite(o.top_surface_z_m) &&
+      std::find(flat_top_classes_.begin(), flat_top_classes_.end(), o.class_name) !=
+          flat_top_classes_.end() &&
+      o.top_surface_z_m > g.box.min.z() && o.top_surface_z_m <= g.box.max.z()) {
+    g.top_z = o.top_surface_z_m;
+  }
   return g;
 }
 

@@ -28,6 +28,9 @@ struct BoxG {
 struct ObjectGeom {
   int64_t id = 0;
   std::string class_name;
+  // Height of the surface things rest on: the box top, or for flat-top furniture (tables) the
+  // object's densest horizontal layer when the map knows it.
+  double top_z = 0;
   BoxG box;
   Vec3d centroid_g = Vec3d::Zero();
   double size_m = 0;
@@ -50,7 +53,10 @@ struct Viewpoint {
 class GravityFrame {
  public:
   // `up_map`: unit up direction in the map frame (normalised here; must be non-zero).
-  explicit GravityFrame(const Vec3d& up_map);
+  // flat_top_classes: furniture whose top surface is its densest horizontal layer (tables).
+  explicit GravityFrame(const Vec3d& up_map,
+                        std::vector<std::string> flat_top_classes = {"dining table", "desk",
+                                                                     "bench", "bed"});
 
   const Vec3d& up_map() const { return up_map_; }
   const Mat3d& R_g_map() const { return R_g_map_; }
@@ -70,6 +76,7 @@ class GravityFrame {
   Vec3d up_map_;
   Mat3d R_g_map_;
   bool identity_ = false;
+  std::vector<std::string> flat_top_classes_;
 };
 
 // Area (m^2) of the intersection of the two footprints.

@@ -155,6 +155,7 @@ StatusOr<QueryOptions> QueryOptionsFromYaml(const YAML::Node& node, const QueryO
       ReadOptional(rel, "next_to_level_tolerance_m", &r.next_to_level_tolerance_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(rel, "inside_min_fraction", &r.inside_min_fraction));
   LOCI_RETURN_IF_ERROR(ReadOptional(rel, "inside_containers", &r.inside_containers));
+  LOCI_RETURN_IF_ERROR(ReadOptional(rel, "under_anchors", &r.under_anchors));
   LOCI_RETURN_IF_ERROR(ReadOptional(rel, "inside_max_size_ratio", &r.inside_max_size_ratio));
   LOCI_RETURN_IF_ERROR(ReadOptional(rel, "between_factor", &r.between_factor));
   LOCI_RETURN_IF_ERROR(ReadOptional(rel, "between_min_m", &r.between_min_m));

@@ -27,6 +27,10 @@ struct RelationOptions {
   double on_min_overlap = 0.5;
   // under: minimal fraction of the subject's footprint below the anchor's footprint. Default 0.2.
   double under_min_overlap = 0.2;
+  // under: only these classes have room under them (a keyboard is not "under" a monitor whose
+  // box reaches over it). COCO names plus common furniture words.
+  std::vector<std::string> under_anchors = {"dining table", "desk",  "bench", "bed",  "couch",
+                                            "chair",        "shelf", "cabinet", "sink", "toilet"};
   // above / below: minimal footprint overlap, as a fraction of the smaller footprint. Default 0.2.
   double above_min_overlap = 0.2;
   // above / below: the subject may reach this far into the anchor's height range (m). Default 0.05.

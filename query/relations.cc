@@ -128,7 +128,7 @@ RelationResult RelationEvaluator::Evaluate(RelationKind kind, const ObjectGeom& 
 
 RelationResult RelationEvaluator::On(const ObjectGeom& s, const ObjectGeom& a, bool ev) const {
   RelationResult r;
-  const double gap = s.box.min.z() - a.box.max.z();
+  const double gap = s.box.min.z() - a.top_z;
   const double overlap = FootprintFraction(s, a);
   // Penetration (negative gap) is common in fused boxes that caught a few support points, so it
   // is scored with twice the sigma.
@@ -138,11 +138,11 @@ RelationResult RelationEvaluator::On(const ObjectGeom& s, const ObjectGeom& a, b
   // keyboard on a desk is not "on" the taller chair tucked under the desk). Not its centre: the
   // fused centre of a thin object (keyboard, 3 cm) can sit at the surface height.
   r.holds = std::abs(gap) <= opt_.on_max_gap_m && overlap >= opt_.on_min_overlap &&
-            s.box.max.z() > a.box.max.z() && s.size_m > 0;
+            s.box.max.z() > a.top_z && s.size_m > 0;
   r.distance_m = std::abs(gap);
   if (ev) {
     r.evidence = absl::StrFormat("bottom %s the top surface (z %.2f m), footprint overlap %.2f",
-                                 AboveBelow(gap), a.box.max.z(), overlap);
+                                 AboveBelow(gap), a.top_z, overlap);
   }
   return r;
 }
@@ -152,7 +152,9 @@ RelationResult RelationEvaluator::Under(const ObjectGeom& s, const ObjectGeom& a
   const double overlap = FootprintFraction(s, a);
   const double depth = a.box.max.z() - s.centroid_g.z();  // centre below the anchor's top
   r.confidence = 0.5 + 0.5 * Clamp01(overlap / std::max(0.6, opt_.under_min_overlap));
-  r.holds = overlap >= opt_.under_min_overlap && depth > opt_.vertical_tolerance_m &&
+  const bool shelter = std::find(opt_.under_anchors.begin(), opt_.under_anchors.end(),
+                                 a.class_name) != opt_.under_anchors.end();
+  r.holds = shelter && overlap >= opt_.under_min_overlap && depth > opt_.vertical_tolerance_m &&
             s.box.min.z() < a.box.max.z() - opt_.vertical_tolerance_m &&
             s.box.FootprintArea() <= a.box.FootprintArea() * 1.5;
   r.distance_m = std::max(0.0, a.box.min.z() - s.box.max.z());

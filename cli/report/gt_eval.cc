@@ -108,10 +108,11 @@ std::string FormatGroundTruthEval(const GroundTruthEval& e) {
     for (const MapObject& o : e.objects_world) {
       if (o.id != id) continue;
       absl::StrAppendFormat(&s, "  false positive #%d %s at (%.2f, %.2f, %.2f) world, %u views, "
-                            "%u missed, existence %.2f, size %.2f m\n", id, o.class_name,
-                            o.centroid_m.x(), o.centroid_m.y(), o.centroid_m.z(),
+                            "%u missed, existence %.2f, size %.2f m, z %.2f..%.2f m\n", id,
+                            o.class_name, o.centroid_m.x(), o.centroid_m.y(), o.centroid_m.z(),
                             o.observation_count, o.missed_views, o.existence,
-                            (o.aabb_max_m - o.aabb_min_m).maxCoeff());
+                            (o.aabb_max_m - o.aabb_min_m).maxCoeff(), o.aabb_min_m.z(),
+                            o.aabb_max_m.z());
     }
   }
   if (!e.on_pairs.empty()) {

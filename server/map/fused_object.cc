@@ -111,6 +111,43 @@ std::vector<ColoredPoint> FusedObject::Cloud() const {
   return out;
 }
 
+namespace {
+
+// Centre of the [trim, 1 - trim] quantile box of the points (trim 0 = their full box).
+Eigen::Vector3d TrimmedBoxCentre(const std::vector<Eigen::Vector3d>& pts, double trim) {
+  Eigen::Vector3d c;
+  std::vector<double> v(pts.size());
+  const size_t lo = static_cast<size_t>(trim * (pts.size() - 1));
+  const size_t hi = pts.size() - 1 - lo;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (size_t i = 0; i < pts.size(); ++i) v[i] = pts[i][axis];
+    std::nth_element(v.begin(), v.begin() + lo, v.end());
+    const double a = v[lo];
+    std::nth_element(v.begin(), v.begin() + hi, v.end());
+    c[axis] = 0.5 * (a + v[hi]);
+  }
+  return c;
+}
+
+// Centre of the 2 cm z layer holding the most points (the map frame is z up).
+double DensestLayerZ(const std::vector<Eigen::Vector3d>& pts) {
+  constexpr double kLayerM = 0.02;
+  std::unordered_map<int64_t, int> layers;
+  int64_t best = 0;
+  int best_n = 0;
+  for (const Eigen::Vector3d& p : pts) {
+    const int64_t k = static_cast<int64_t>(std::floor(p.z() / kLayerM));
+    const int n = ++layers[k];
+    if (n > best_n || (n == best_n && k > best)) {
+      best = k;
+      best_n = n;
+    }
+  }
+  return (best + 0.5) * kLayerM;
+}
+
+}  // namespace
+
 void FusedObject::RecomputeGeometry() {
   if (voxels_.empty()) return;
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -131,7 +168,7 @@ void FusedObject::RecomputeGeometry() {
     aabb_max_m_ = aabb_max_m_.cwiseMax(p);
   }
   const Eigen::Vector3d mean = sum / static_cast<double>(pts.size());
-  centroid_m_ = centroid_from_box_ ? Eigen::Vector3d(0.5 * (aabb_min_m_ + aabb_max_m_)) : mean;
+  centroid_m_ = centroid_from_box_ ? TrimmedBoxCentre(pts, support_.centroid_trim) : mean;
   // Oriented box from the principal axes of the fused points.
   Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
   for (const auto& p : pts) cov += (p - mean) * (p - mean).transpose();
@@ -148,6 +185,7 @@ void FusedObject::RecomputeGeometry() {
   R_map_box_ = R;
   obb_center_m_ = mean + R * (0.5 * (lo + hi));
   obb_half_m_ = 0.5 * (hi - lo);
+  top_surface_z_m_ = DensestLayerZ(pts);
   sample_m_.clear();
   const size_t stride = std::max<size_t>(1, pts.size() / 48);
   for (size_t i = 0; i < pts.size(); i += stride) sample_m_.push_back(pts[i]);
@@ -174,6 +212,7 @@ MapObject FusedObject::Snapshot() const {
   o.confirmed = confirmed_;
   o.missed_views = misses_;
   o.existence = existence();
+  o.top_surface_z_m = top_surface_z_m_;
   return o;
 }
 

@@ -32,6 +32,9 @@ struct ColoredPoint {
 struct SupportOptions {
   double cell_m = 0.05;
   double min_fraction = 0.1;
+  // The box-centre centroid uses the [trim, 1 - trim] quantiles of the supported points per
+  // axis, so a few stray supported voxels do not move it (0 = the full box).
+  double centroid_trim = 0.0;
 };
 
 class FusedObject {
@@ -121,6 +124,7 @@ class FusedObject {
   Eigen::Vector3d obb_center_m_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d obb_half_m_ = Eigen::Vector3d::Zero();
   Eigen::Matrix3d R_map_box_ = Eigen::Matrix3d::Identity();
+  double top_surface_z_m_ = 0;
   int64_t first_seen_ns_ = 0;
   int64_t last_seen_ns_ = 0;
   std::set<std::string> robots_;

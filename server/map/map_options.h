@@ -27,7 +27,7 @@ struct CloudOptions {
 
 // Object observations in a keyframe (paper 002 3.3: box + depth segmentation, or the mask).
 struct ObservationOptions {
-  double min_score = 0.3;  // detections below this score are ignored (0.3)
+  double min_score = 0.2;  // detections below this score are ignored (0.2)
   // Object pixels of a detection that comes without a mask (detection::SegmentObjectDepth;
   // depth_scale is unused: the server works in metres).
   detection::MaskOptions mask;
@@ -82,6 +82,9 @@ struct FusionOptions {
   // (FusedObject SupportOptions); min_support_fraction 0 = every voxel (0.1).
   double support_cell_m = 0.05;
   double min_support_fraction = 0.1;
+  // The box-centre centroid from the [trim, 1 - trim] quantiles of the supported points per
+  // axis (FusedObject SupportOptions); 0 = the full box (0.05).
+  double centroid_trim = 0.05;
   int label_universe = 13;       // K, classes the detector can report (mapped classes) (13)
   double min_likelihood = 0.05;  // detection scores are clamped to [this, 1 - this] (0.05)
   // Existence from negative evidence (visibility.h): every keyframe that should have seen an

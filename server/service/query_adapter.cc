@@ -102,6 +102,33 @@ loci::v1::AskResponse QueryAdapter::Ask(const loci::v1::AskRequest& request,
   return ToProto(engine_.Ask(text, *index, query::AskContext{now_ns, request.robot_name()}));
 }
 
+void QueryAdapter::EstimateUp(const QueryMapSource& source, std::optional<Vec3d>* up,
+                              std::string* up_source) const {
+  // Gravity from accelerometers is tilted by the robots' own accelerations (~1 deg), enough to
+  // sink a cup into a 1.6 m table top in the gravity frame; floor and table-top planes give the
+  // direction to a fraction of a degree. So: planes near gravity refine it; without gravity
+  // planes near the configured up give it; else the configured up.
+  const std::optional<Vec3d> gravity = source.GravityUp();
+  const Vec3d prior = gravity ? *gravity : options_.query.default_up_map;
+  const std::optional<Vec3d> planes = EstimateUpFromPlanes(
+      source.CloudPoints(options_.up_planes.voxel_m), prior, options_.up_planes);
+  if (gravity) {
+    const bool refine =
+        planes && planes->dot(*gravity) >= std::cos(options_.up_refine_max_deg * M_PI / 180.0);
+    *up = refine ? *planes : *gravity;
+    *up_source = refine ? "gravity+planes" : "gravity";
+  } else {
+    *up = planes ? *planes : options_.query.default_up_map;
+    *up_source = planes ? "planes" : "config";
+  }
+  // Snap a near-vertical up to the map's +z: the engine then measures relations on the
+  // mapper's axis-aligned boxes; for any other up it turns to the PCA boxes, which tilt with a
+  // table's legs and would sink the objects on it.
+  if ((*up)->normalized().dot(Vec3d::UnitZ()) >= std::cos(options_.up_snap_deg * M_PI / 180.0)) {
+    *up = Vec3d::UnitZ();
+  }
+}
+
 std::shared_ptr<const query::MapIndex> QueryAdapter::IndexFor(const QueryMapSource& source) {
   // Version key: every integrated keyframe moves its robot's latest pose stamp. Read before the
   // snapshot, so a keyframe landing in between only makes the next Ask rebuild.
@@ -117,30 +144,15 @@ std::shared_ptr<const query::MapIndex> QueryAdapter::IndexFor(const QueryMapSour
     std::lock_guard<std::mutex> lock(mu_);  // another asker may have built it meanwhile
     if (cached_index_ && cached_key_ == key) return cached_index_;
   }
-  // Gravity from accelerometers is tilted by the robots' own accelerations (~1 deg), enough to
-  // sink a cup into a 1.6 m table top in the gravity frame; floor and table-top planes give the
-  // direction to a fraction of a degree. So: planes near gravity refine it; without gravity
-  // planes near the configured up give it; else the configured up.
-  const std::optional<Vec3d> gravity = source.GravityUp();
-  const Vec3d prior = gravity ? *gravity : options_.query.default_up_map;
-  const std::optional<Vec3d> planes =
-      EstimateUpFromPlanes(source.CloudPoints(options_.up_planes.voxel_m), prior, options_.up_planes);
+  // The server's map frame is levelled when it is built (server/map/map_frame.h): its z is up.
+  const std::string levelled = source.LevelledBy();
   std::optional<Vec3d> up;
   std::string up_source;
-  if (gravity) {
-    const bool refine =
-        planes && planes->dot(*gravity) >= std::cos(options_.up_refine_max_deg * M_PI / 180.0);
-    up = refine ? *planes : *gravity;
-    up_source = refine ? "gravity+planes" : "gravity";
-  } else {
-    up = planes ? *planes : options_.query.default_up_map;
-    up_source = planes ? "planes" : "config";
-  }
-  // Snap a near-vertical up to the map's +z: the engine then measures relations on the
-  // mapper's axis-aligned boxes; for any other up it turns to the PCA boxes, which tilt with a
-  // table's legs and would sink the objects on it.
-  if (up->normalized().dot(Vec3d::UnitZ()) >= std::cos(options_.up_snap_deg * M_PI / 180.0)) {
+  if (!levelled.empty()) {
     up = Vec3d::UnitZ();
+    up_source = "map frame (" + levelled + ")";
+  } else {
+    EstimateUp(source, &up, &up_source);
   }
   std::vector<query::Viewpoint> viewpoints;
   for (const auto& [robot, pose] : poses) viewpoints.push_back({robot, pose.T_map_cam, pose.t_ns});

@@ -38,6 +38,8 @@ class QueryMapSource {
   virtual std::vector<Eigen::Vector3f> CloudPoints(double voxel_m) const = 0;
   // Extra version salt for sources whose poses do not change (0 for the mapper).
   virtual uint64_t VersionSalt() const { return 0; }
+  // How the source's map frame was levelled ("" = not levelled: up is estimated here).
+  virtual std::string LevelledBy() const { return ""; }
 };
 
 // A source that reads the running server's Mapper.
@@ -50,6 +52,7 @@ class MapperSource final : public QueryMapSource {
   }
   std::optional<Vec3d> GravityUp() const override { return mapper_.UpDirection(); }
   std::vector<Eigen::Vector3f> CloudPoints(double voxel_m) const override;
+  std::string LevelledBy() const override { return mapper_.FrameSource(); }
 
  private:
   const Mapper& mapper_;
@@ -86,14 +89,19 @@ class QueryAdapter final : public QueryEngine {
   // Same on any map source. Thread-safe.
   loci::v1::AskResponse Ask(const loci::v1::AskRequest& request, const QueryMapSource& source);
 
-  // Where the last index's up direction came from: "gravity+planes" (gravity refined by the
-  // horizontal planes), "gravity", "planes" or "config".
+  // Where the last index's up direction came from: "map frame (HOW)" for the server's levelled
+  // map, else "gravity+planes" (gravity refined by the horizontal planes), "gravity", "planes"
+  // or "config".
   std::string up_source() const;
   // Index builds so far (tests: the cache holds per map version).
   uint64_t index_builds() const;
 
  private:
   std::shared_ptr<const query::MapIndex> IndexFor(const QueryMapSource& source);
+  // Up of a source whose map is not levelled: its gravity refined by planes, else planes, else
+  // the configured up; snapped to +z within up_snap_deg.
+  void EstimateUp(const QueryMapSource& source, std::optional<Vec3d>* up,
+                  std::string* up_source) const;
 
   QueryAdapterOptions options_;
   query::QueryEngine engine_;

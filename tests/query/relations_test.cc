@@ -109,6 +109,23 @@ TEST_F(RelationsTest, Inside) {
   const ObjectGeom cup = frame_.Geom(Box(54, "cup", {0, 0, 0}, {0.1, 0.1, 0.12}));
   const ObjectGeom pen = frame_.Geom(Box(55, "pen", {0.04, 0.04, 0.01}, {0.05, 0.05, 0.09}));
   EXPECT_TRUE(eval_.Evaluate(RelationKind::kInside, pen, cup).holds);
+  // Nor is it "under" the monitor: monitors have no room under them.
+  EXPECT_FALSE(eval_.Evaluate(RelationKind::kUnder, kb, tv).holds);
+}
+
+// A fused desk whose box also caught a monitor (top at 1.2 m) still carries things on its top
+// surface, the densest layer of its points.
+TEST_F(RelationsTest, OnTheTopSurfaceOfAFlatTopTable) {
+  MapObject desk = Box(60, "dining table", {0, 0, 0}, {1.2, 0.8, 1.2});
+  const MapObject keyboard = Box(61, "keyboard", {0.3, 0.2, 0.75}, {0.75, 0.35, 0.78});
+  EXPECT_FALSE(eval_.Evaluate(RelationKind::kOn, frame_.Geom(keyboard), frame_.Geom(desk)).holds);
+  desk.top_surface_z_m = 0.75;
+  const RelationResult r = eval_.Evaluate(RelationKind::kOn, frame_.Geom(keyboard), frame_.Geom(desk));
+  EXPECT_TRUE(r.holds) << r.evidence;
+  // Only for flat-top furniture: a monitor's densest layer is not a surface.
+  MapObject tv = Box(62, "tv", {0, 0, 0.7}, {1.2, 0.8, 1.2});
+  tv.top_surface_z_m = 0.75;
+  EXPECT_FALSE(eval_.Evaluate(RelationKind::kOn, frame_.Geom(keyboard), frame_.Geom(tv)).holds);
 }
 
 TEST_F(RelationsTest, Between) {

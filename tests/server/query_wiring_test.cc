@@ -215,7 +215,7 @@ TEST(QueryWiring, SynthSceneRelationsCountsAndTransportsAgree) {
 
   // The keyframes carry gravity, refined by the floor and table-top planes.
   EXPECT_EQ(s.Ask("list all objects").count(), static_cast<int64_t>(mapped.size()));
-  EXPECT_EQ(s.adapter->up_source(), "gravity+planes");
+  EXPECT_EQ(s.adapter->up_source(), "map frame (gravity+planes)");
 
   // Every "on" relation among mapped objects.
   std::map<int64_t, std::set<int64_t>> on_gt;  // support map id -> map ids on it
