@@ -41,8 +41,8 @@ class FixedMapEngine final : public server::QueryEngine {
  public:
   FixedMapEngine(std::vector<MapObject> objects, const query::Viewpoint& view, int64_t now_ns)
       : source_(std::move(objects), view), adapter_(Options(now_ns)) {}
-  loci::v1::AskResponse Ask(const loci::v1::AskRequest& request,
-                            const server::MapServer&) override {
+  StatusOr<loci::v1::AskResponse> Ask(const loci::v1::AskRequest& request,
+                                      const server::MapServer&) override {
     return adapter_.Ask(request, source_);
   }
 
@@ -92,7 +92,7 @@ StatusOr<GrpcBenchResult> RunGrpcAskBench(std::vector<MapObject> objects,
       req.set_text(text);
       loci::v1::AskResponse resp;
       const grpc::Status st = s->Ask(&ctx, req, &resp);
-      if (!st.ok() || resp.status().code() != 0) failures.fetch_add(1);
+      if (!st.ok()) failures.fetch_add(1);
     };
     ask(stub.get(), questions.front());  // connect and build the index outside the timings
 

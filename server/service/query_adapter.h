@@ -82,9 +82,12 @@ class QueryAdapter final : public QueryEngine {
  public:
   explicit QueryAdapter(QueryAdapterOptions options);
 
-  loci::v1::AskResponse Ask(const loci::v1::AskRequest& request, const MapServer& server) override;
-  // Same on any map source. Thread-safe.
-  loci::v1::AskResponse Ask(const loci::v1::AskRequest& request, const QueryMapSource& source);
+  StatusOr<loci::v1::AskResponse> Ask(const loci::v1::AskRequest& request,
+                                      const MapServer& server) override;
+  // Same on any map source. Thread-safe. INVALID_ARGUMENT for a question that is too long, not
+  // UTF-8, or not understood (the message lists the known words).
+  StatusOr<loci::v1::AskResponse> Ask(const loci::v1::AskRequest& request,
+                                      const QueryMapSource& source);
 
   // Where the last index's up direction came from: "gravity+planes" (gravity refined by the
   // horizontal planes), "gravity", "planes" or "config".
@@ -105,7 +108,8 @@ class QueryAdapter final : public QueryEngine {
   std::mutex build_mu_;  // one build at a time; concurrent askers wait and reuse it
 };
 
-// Converts an engine answer to the wire message (shared by gRPC and HTTP).
+// Converts an engine answer to the wire message (its status is not part of it: the caller
+// returns a failed result as the call's status).
 loci::v1::AskResponse ToProto(const query::AskResult& result);
 
 }  // namespace loci::server

@@ -55,7 +55,8 @@ class QueryService final : public loci::v1::Query::Service {
   std::shared_ptr<QueryEngine> engine_;
 };
 
-// absl status -> grpc status (same code numbering).
+// absl status <-> grpc status (same code numbering).
 grpc::Status ToGrpc(const Status& s);
+Status FromGrpc(const grpc::Status& s);
 
 }  // namespace loci::server
