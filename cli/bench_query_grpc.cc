@@ -78,10 +78,10 @@ StatusOr<GrpcBenchResult> RunGrpcAskBench(std::vector<MapObject> objects,
   GrpcBenchResult out;
   {
     LOCI_ASSIGN_OR_RETURN(auto map_server, server::MapServer::Open(options));
-    LOCI_ASSIGN_OR_RETURN(auto grpc, server::GrpcServer::Start(map_server.get(), "127.0.0.1:0",
-                                                               options.max_message_mb));
-    grpc->query_service().SetQueryEngine(
-        std::make_shared<FixedMapEngine>(std::move(objects), view, now_ns));
+    LOCI_ASSIGN_OR_RETURN(auto grpc,
+                          server::GrpcServer::Start(
+                              map_server.get(), "127.0.0.1:0", options.max_message_mb,
+                              std::make_shared<FixedMapEngine>(std::move(objects), view, now_ns)));
     auto channel = grpc::CreateChannel("127.0.0.1:" + std::to_string(grpc->port()),
                                        grpc::InsecureChannelCredentials());
     auto stub = loci::v1::Query::NewStub(channel);

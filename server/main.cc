@@ -94,14 +94,13 @@ int main(int argc, char** argv) {
     std::cerr << "error: " << server.status().message() << "\n";
     return 1;
   }
-  auto grpc =
-      loci::server::GrpcServer::Start(server->get(), options.listen, options.max_message_mb);
+  auto grpc = loci::server::GrpcServer::Start(
+      server->get(), options.listen, options.max_message_mb,
+      std::make_shared<loci::server::QueryAdapter>(std::move(query_options)));
   if (!grpc.ok()) {
     std::cerr << "error: " << grpc.status().message() << "\n";
     return 1;
   }
-  (*grpc)->query_service().SetQueryEngine(
-      std::make_shared<loci::server::QueryAdapter>(std::move(query_options)));
   std::unique_ptr<loci::server::HttpApi> http_api;
   if (options.http != "off") {
     auto h = loci::server::HttpApi::Start(&(*grpc)->query_service(), options.http);

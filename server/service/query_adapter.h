@@ -2,7 +2,7 @@
 // latest robot poses), indexes it once per map version and converts AskResult to AskResponse.
 //
 //   auto adapter = std::make_shared<QueryAdapter>(QueryAdapterOptions{});
-//   grpc_server->query_service().SetQueryEngine(adapter);
+//   auto grpc = GrpcServer::Start(&map_server, "127.0.0.1:0", 64, adapter);
 #pragma once
 
 #include <cstdint>

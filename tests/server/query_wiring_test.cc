@@ -48,13 +48,12 @@ struct LiveServer {
     auto m = MapServer::Open(options);
     ASSERT_TRUE(m.ok()) << m.status();
     map = std::move(*m);
-    auto g = GrpcServer::Start(map.get(), "127.0.0.1:0", 64);
-    ASSERT_TRUE(g.ok()) << g.status();
-    grpc = std::move(*g);
     QueryAdapterOptions qo;
     qo.now_ns = [now_ns] { return now_ns; };  // fixed: "seen N s ago" equal over both transports
     adapter = std::make_shared<QueryAdapter>(qo);
-    grpc->query_service().SetQueryEngine(adapter);
+    auto g = GrpcServer::Start(map.get(), "127.0.0.1:0", 64, adapter);
+    ASSERT_TRUE(g.ok()) << g.status();
+    grpc = std::move(*g);
     auto h = HttpApi::Start(&grpc->query_service(), "127.0.0.1:0");
     ASSERT_TRUE(h.ok()) << h.status();
     http = std::move(*h);
@@ -86,10 +85,11 @@ struct LiveServer {
   loci::v1::AskResponse Ask(const std::string& text) {
     const auto [s, resp] = AskGrpc(text);
     EXPECT_TRUE(s.ok()) << text << ": " << s.error_message();
-    EXPECT_EQ(status, 200) << text;
     const auto [status, body] = Get("/api/ask?q=" + httplib::detail::encode_query_param(text));
+    EXPECT_EQ(status, 200) << text;
     EXPECT_EQ(body, ProtoToJson(resp)) << text;
     return resp;
+  }
 
   // Asks a question the server must refuse: a failed gRPC call, and over HTTP 400 with the same
   // code and message as {"error": {...}}. Returns the gRPC status.
@@ -102,7 +102,6 @@ struct LiveServer {
     EXPECT_EQ(j["error"]["code"], "INVALID_ARGUMENT") << body;
     EXPECT_EQ(j["error"]["message"], s.error_message()) << body;
     return s;
-  }
   }
 };
 
