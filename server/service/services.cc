@@ -133,6 +133,8 @@ grpc::Status QueryService::WatchObjects(grpc::ServerContext* ctx,
                                         grpc::ServerWriter<loci::v1::ObjectEvent>* writer) {
   auto queue = std::make_shared<ObjectEventQueue>(1024);
   server_->Subscribe(queue);
+  // Initial metadata tells the client that the watch is registered: every later event comes.
+  writer->SendInitialMetadata();
   while (!ctx->IsCancelled()) {
     std::optional<ObjectEventOut> e = queue->PopFor(std::chrono::milliseconds(200));
     if (!e) continue;

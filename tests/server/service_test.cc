@@ -5,7 +5,6 @@
 
 #include <filesystem>
 #include <map>
-#include <thread>
 
 #include "common/image_codec.h"
 #include "loci/v1/mapping.grpc.pb.h"
@@ -305,9 +304,9 @@ TEST_F(ServiceTest, ResumeAfterRestartReturnsLastStoredSeqAndSameObjects) {
 
 TEST_F(ServiceTest, WatchObjectsStreamsCreatedEvents) {
   grpc::ClientContext watch_ctx;
+  watch_ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
   auto reader = query_->WatchObjects(&watch_ctx, {});
-  // The watcher is registered once the call is running on the server.
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  reader->WaitForInitialMetadata();  // sent once the watcher is registered
   const std::string session = Open();
   grpc::Status st;
   Send({Frame(session, 0)}, &st);
