@@ -72,16 +72,19 @@ TEST(MapClientClose, ReturnsAtItsDeadlineWhileAWriteIsBlocked) {
   int port = 0;
   grpc::ServerBuilder builder;
   builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);
+  // Small HTTP/2 windows that never grow: the client's Writes stall after a few kB.
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_BDP_PROBE, 0);
+  builder.AddChannelArgument(GRPC_ARG_HTTP2_STREAM_LOOKAHEAD_BYTES, 16 * 1024);
   builder.RegisterService(&service);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   ASSERT_GT(port, 0);
 
   MapClientOptions o;
   o.server = "127.0.0.1:" + std::to_string(port);
-  o.max_unacked = 4;
+  o.max_unacked = 8;
   auto client = MapClient::Connect(o, PinholeCamera::TumFr1(), 5000.0);
   ASSERT_TRUE(client.ok()) << client.status();
-  for (int i = 0; i < 4; ++i) ASSERT_TRUE((*client)->Send(NoiseKeyframe(i + 1)).ok());
+  for (int i = 0; i < 8; ++i) ASSERT_TRUE((*client)->Send(NoiseKeyframe(i + 1)).ok());
   service.WaitForStream();
 
   constexpr double kTimeoutS = 1.0;
@@ -90,7 +93,7 @@ TEST(MapClientClose, ReturnsAtItsDeadlineWhileAWriteIsBlocked) {
   const double took_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_EQ(closed.code(), absl::StatusCode::kDeadlineExceeded) << closed;
-  EXPECT_NE(closed.message().find("4 keyframes not acknowledged"), std::string::npos) << closed;
+  EXPECT_NE(closed.message().find("8 keyframes not acknowledged"), std::string::npos) << closed;
   EXPECT_GE(took_s, kTimeoutS * 0.9);
   EXPECT_LT(took_s, kTimeoutS + 1.0);
   EXPECT_TRUE(service.WaitForCancel(std::chrono::seconds(10)));  // the server saw the cancel
