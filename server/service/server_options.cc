@@ -40,7 +40,7 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
     for (const auto& kv : sessions) {
       const std::string robot = kv.first.as<std::string>();
       LOCI_RETURN_IF_ERROR(
-          CheckKnownKeys(kv.second, "sessions." + robot, {"t_map_odom_m", "q_map_odom_wxyz"}));
+          CheckKnownKeys(kv.second, "sessions." + robot, {"t_base_odom_m", "q_base_odom_wxyz"}));
       std::vector<double> t{0, 0, 0}, q{1, 0, 0, 0};
       LOCI_RETURN_IF_ERROR(ReadOptional(kv.second, "t_base_odom_m", &t));
       LOCI_RETURN_IF_ERROR(ReadOptional(kv.second, "q_base_odom_wxyz", &q));
