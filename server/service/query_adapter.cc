@@ -63,6 +63,13 @@ loci::v1::AskResponse ToProto(const query::AskResult& result) {
   return out;
 }
 
+loci::v1::AskResponse AnswerOrError(const StatusOr<loci::v1::AskResponse>& answer) {
+  if (answer.ok()) return *answer;
+  loci::v1::AskResponse out;
+  out.set_answer(absl::StrCat("(error: ", answer.status().message(), ")"));
+  return out;
+}
+
 QueryAdapter::QueryAdapter(QueryAdapterOptions options)
     : options_(std::move(options)), engine_(options_.query) {}
 

@@ -112,4 +112,8 @@ class QueryAdapter final : public QueryEngine {
 // returns a failed result as the call's status).
 loci::v1::AskResponse ToProto(const query::AskResult& result);
 
+// For evaluation tools that print an answer line either way: the response, or one whose answer
+// is "(error: MESSAGE)" (as they show a failed Ask over gRPC).
+loci::v1::AskResponse AnswerOrError(const StatusOr<loci::v1::AskResponse>& answer);
+
 }  // namespace loci::server
