@@ -30,16 +30,17 @@ cmd_setup() {
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
 }
 
+# Extra arguments are CMake cache settings, e.g. -DLOCI_WERROR=ON (kept in the build's cache).
 cmd_build() {
   log "build: $BUILD_DIR ($JOBS jobs)"
-  cmake -S "$ROOT" -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE="${LOCI_BUILD_TYPE:-Release}" >/dev/null
+  cmake -S "$ROOT" -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE="${LOCI_BUILD_TYPE:-Release}" "$@" >/dev/null
   cmake --build "$BUILD_DIR" -j "$JOBS"
   log "build: binaries in $BUILD_DIR/bin"
 }
 
 cmd_test() {
   cmd_setup
-  cmd_build
+  cmd_build -DLOCI_WERROR=ON  # CI fails on a compiler warning
   log "test: ctest"
   cd "$BUILD_DIR"
   ctest --output-on-failure -j "$JOBS" --timeout 900 "$@"
@@ -56,7 +57,8 @@ usage() {
 usage: ./loci.sh COMMAND
   setup   install the Debian packages listed in scripts/debian-packages.txt (idempotent)
   build   configure and build (Release) into build/; binaries in build/bin
-  test    setup + build + run the test suite (ctest)
+  test    setup + build with warnings as errors + run the test suite (ctest; arguments go to
+          ctest, e.g. ./loci.sh test -L unit)
   demo    setup + build, then run the main job: server + client on a real TUM sequence, queries
   clean   remove build/
 USAGE

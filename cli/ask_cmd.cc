@@ -1,15 +1,14 @@
 // `loci ask "QUESTION" [--server HOST:PORT] [--robot NAME] [--json]`: asks a running
 // loci-server (gRPC Query.Ask) and prints the answer sentence with the matching objects, or the
-// AskResponse as proto JSON (the same JSON as GET /api/ask).
-#include <grpcpp/create_channel.h>
-
-#include <chrono>
+// AskResponse as proto JSON (the same JSON as GET /api/ask). A question the server cannot take
+// fails the call (INVALID_ARGUMENT): the message on stderr, or the HTTP API's error JSON with
+// --json; exit code 1.
 #include <cstdio>
 #include <string>
 
 #include "cli/commands.h"
-#include "loci/v1/query.grpc.pb.h"
-#include "server/http/proto_json.h"
+#include "cli/query_client.h"
+#include "proto/json.h"
 
 namespace loci::cli {
 namespace {
@@ -23,28 +22,18 @@ struct AskArgs {
 };
 
 int RunAsk(const AskArgs& a) {
-  auto stub =
-      loci::v1::Query::NewStub(grpc::CreateChannel(a.server, grpc::InsecureChannelCredentials()));
+  auto stub = ConnectQuery(a.server);
   grpc::ClientContext ctx;
-  ctx.set_deadline(std::chrono::system_clock::now() +
-                   std::chrono::milliseconds(static_cast<int64_t>(a.timeout_s * 1e3)));
+  SetDeadline(&ctx, a.timeout_s);
   loci::v1::AskRequest req;
   req.set_text(a.question);
   req.set_robot_name(a.robot);
   loci::v1::AskResponse resp;
   const grpc::Status s = stub->Ask(&ctx, req, &resp);
-  if (!s.ok()) {
-    std::fprintf(stderr, "error: cannot reach loci-server at %s: %s\n", a.server.c_str(),
-                 s.error_message().c_str());
-    return 1;
-  }
+  if (!s.ok()) return ReportFailure(a.server, s, a.json);
   if (a.json) {
-    std::printf("%s\n", server::ProtoToJson(resp).c_str());
-    return resp.status().code() == 0 ? 0 : 1;
-  }
-  if (resp.status().code() != 0) {
-    std::fprintf(stderr, "error: %s\n", resp.status().message().c_str());
-    return 1;
+    std::printf("%s\n", ProtoToJson(resp).c_str());
+    return 0;
   }
   std::printf("%s\n", resp.answer().c_str());
   for (const auto& o : resp.objects()) {

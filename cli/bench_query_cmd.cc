@@ -4,7 +4,6 @@
 // over gRPC on loopback against an in-process server answering from the same map
 // (cli/bench_query_grpc.h; `--grpc-queries 0` skips it).
 #include <stdlib.h>
-#include <time.h>
 
 #include <algorithm>
 #include <atomic>
@@ -18,6 +17,7 @@
 #include "cli/bench_query_grpc.h"
 #include "cli/commands.h"
 #include "common/config.h"
+#include "common/time.h"
 #include "query/query_engine.h"
 #include "query/synthetic_map.h"
 
@@ -39,13 +39,6 @@ double Percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
   return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
-}
-
-// CPU time of the calling thread (ms): the engine's own cost, unaffected by other processes.
-double ThreadCpuMs() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
 
 double MsSince(Clock::time_point t0) {

@@ -41,8 +41,8 @@ class FixedMapEngine final : public server::QueryEngine {
  public:
   FixedMapEngine(std::vector<MapObject> objects, const query::Viewpoint& view, int64_t now_ns)
       : source_(std::move(objects), view), adapter_(Options(now_ns)) {}
-  loci::v1::AskResponse Ask(const loci::v1::AskRequest& request,
-                            const server::MapServer&) override {
+  StatusOr<loci::v1::AskResponse> Ask(const loci::v1::AskRequest& request,
+                                      const server::MapServer&) override {
     return adapter_.Ask(request, source_);
   }
 
@@ -78,10 +78,10 @@ StatusOr<GrpcBenchResult> RunGrpcAskBench(std::vector<MapObject> objects,
   GrpcBenchResult out;
   {
     LOCI_ASSIGN_OR_RETURN(auto map_server, server::MapServer::Open(options));
-    LOCI_ASSIGN_OR_RETURN(auto grpc, server::GrpcServer::Start(map_server.get(), "127.0.0.1:0",
-                                                               options.max_message_mb));
-    grpc->query_service().SetQueryEngine(
-        std::make_shared<FixedMapEngine>(std::move(objects), view, now_ns));
+    LOCI_ASSIGN_OR_RETURN(auto grpc,
+                          server::GrpcServer::Start(
+                              map_server.get(), "127.0.0.1:0", options.max_message_mb,
+                              std::make_shared<FixedMapEngine>(std::move(objects), view, now_ns)));
     auto channel = grpc::CreateChannel("127.0.0.1:" + std::to_string(grpc->port()),
                                        grpc::InsecureChannelCredentials());
     auto stub = loci::v1::Query::NewStub(channel);
@@ -92,7 +92,7 @@ StatusOr<GrpcBenchResult> RunGrpcAskBench(std::vector<MapObject> objects,
       req.set_text(text);
       loci::v1::AskResponse resp;
       const grpc::Status st = s->Ask(&ctx, req, &resp);
-      if (!st.ok() || resp.status().code() != 0) failures.fetch_add(1);
+      if (!st.ok()) failures.fetch_add(1);
     };
     ask(stub.get(), questions.front());  // connect and build the index outside the timings
 

@@ -57,7 +57,7 @@ StatusOr<MapUnderTest> FromDb(const std::string& db, const server::ServerOptions
   m.ask = [adapter = m.adapter, source = m.source](const std::string& q) {
     loci::v1::AskRequest req;
     req.set_text(q);
-    return adapter->Ask(req, *source);
+    return server::AnswerOrError(adapter->Ask(req, *source));
   };
   return m;
 }

@@ -2,17 +2,14 @@
 // table (id, class, confidence, centroid, extent, last seen, robots); `loci stats [--server
 // HOST:PORT] [--json]`: its counters. Both over gRPC; --json prints the proto JSON (the same as
 // GET /api/objects and GET /api/stats).
-#include <grpcpp/create_channel.h>
-
-#include <chrono>
 #include <cstdio>
 #include <ctime>
 #include <string>
 #include <vector>
 
 #include "cli/commands.h"
-#include "loci/v1/query.grpc.pb.h"
-#include "server/http/proto_json.h"
+#include "cli/query_client.h"
+#include "proto/json.h"
 
 namespace loci::cli {
 namespace {
@@ -29,26 +26,6 @@ struct ObjectsArgs : ServerArgs {
   bool confirmed_only = false;
 };
 
-void SetDeadline(grpc::ClientContext* ctx, double timeout_s) {
-  ctx->set_deadline(std::chrono::system_clock::now() +
-                    std::chrono::milliseconds(static_cast<int64_t>(timeout_s * 1e3)));
-}
-
-std::unique_ptr<loci::v1::Query::Stub> Connect(const std::string& server) {
-  return loci::v1::Query::NewStub(grpc::CreateChannel(server, grpc::InsecureChannelCredentials()));
-}
-
-int Failed(const std::string& server, const grpc::Status& s) {
-  if (s.error_code() == grpc::StatusCode::UNAVAILABLE ||
-      s.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED) {
-    std::fprintf(stderr, "error: cannot reach loci-server at %s: %s\n", server.c_str(),
-                 s.error_message().c_str());
-  } else {
-    std::fprintf(stderr, "error: %s\n", s.error_message().c_str());
-  }
-  return 1;
-}
-
 // UTC wall time of a stamp, "2026-11-21 08:47:59" ("-" for 0).
 std::string Stamp(int64_t t_ns) {
   if (t_ns <= 0) return "-";
@@ -61,7 +38,7 @@ std::string Stamp(int64_t t_ns) {
 }
 
 int RunObjects(const ObjectsArgs& a) {
-  auto stub = Connect(a.server);
+  auto stub = ConnectQuery(a.server);
   grpc::ClientContext ctx;
   SetDeadline(&ctx, a.timeout_s);
   loci::v1::FindObjectsRequest req;
@@ -70,9 +47,9 @@ int RunObjects(const ObjectsArgs& a) {
   req.set_confirmed_only(a.confirmed_only);
   loci::v1::FindObjectsResponse resp;
   const grpc::Status s = stub->FindObjects(&ctx, req, &resp);
-  if (!s.ok()) return Failed(a.server, s);
+  if (!s.ok()) return ReportFailure(a.server, s, a.json);
   if (a.json) {
-    std::printf("%s\n", server::ProtoToJson(resp).c_str());
+    std::printf("%s\n", ProtoToJson(resp).c_str());
     return 0;
   }
   std::printf("%6s  %-16s %5s  %-22s %-18s %-19s %s\n", "id", "class", "conf", "centroid (m)",
@@ -96,14 +73,14 @@ int RunObjects(const ObjectsArgs& a) {
 }
 
 int RunStats(const ServerArgs& a) {
-  auto stub = Connect(a.server);
+  auto stub = ConnectQuery(a.server);
   grpc::ClientContext ctx;
   SetDeadline(&ctx, a.timeout_s);
   loci::v1::GetStatsResponse resp;
   const grpc::Status s = stub->GetStats(&ctx, loci::v1::GetStatsRequest(), &resp);
-  if (!s.ok()) return Failed(a.server, s);
+  if (!s.ok()) return ReportFailure(a.server, s, a.json);
   if (a.json) {
-    std::printf("%s\n", server::ProtoToJson(resp).c_str());
+    std::printf("%s\n", ProtoToJson(resp).c_str());
     return 0;
   }
   std::printf("sessions           %llu\n", static_cast<unsigned long long>(resp.sessions()));

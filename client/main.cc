@@ -25,7 +25,7 @@ namespace {
 struct Args {
   std::string tum_dir, server = "127.0.0.1:50051", robot = "robot", config, trajectory, keyframes;
   std::string poses, detections, model;
-  bool offline = false, no_progress = false, live = false;
+  bool offline = false, no_progress = false, live = false, strict_config = false;
   int max_frames = 0;
 };
 
@@ -205,7 +205,9 @@ int main(int argc, char** argv) {
   app.add_option("--max-frames", a.max_frames, "stop after N frames (0 = all)");
   app.add_flag("--no-progress", a.no_progress, "no progress on stderr");
   app.add_option("--log-level", log_level, "trace|debug|info|warn|error");
+  app.add_flag("--strict-config", a.strict_config, "unknown keys in the YAML files are errors");
   CLI11_PARSE(app, argc, argv);
+  loci::SetStrictConfig(a.strict_config);
   spdlog::set_level(spdlog::level::from_str(log_level));
   return loci::Run(a);
 }

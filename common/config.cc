@@ -1,9 +1,49 @@
 #include "common/config.h"
 
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <atomic>
 #include <cstdlib>
 #include <filesystem>
 
+#include "absl/strings/str_join.h"
+
 namespace loci {
+namespace {
+
+std::atomic<bool> g_strict_config{false};
+thread_local const std::string* t_config_file = nullptr;
+
+}  // namespace
+
+void SetStrictConfig(bool strict) { g_strict_config.store(strict); }
+bool StrictConfig() { return g_strict_config.load(); }
+
+ConfigFileScope::ConfigFileScope(std::string path)
+    : path_(std::move(path)), previous_(t_config_file) {
+  t_config_file = &path_;
+}
+
+ConfigFileScope::~ConfigFileScope() { t_config_file = previous_; }
+
+Status CheckKnownKeys(const YAML::Node& node, const std::string& section,
+                      std::span<const char* const> known) {
+  if (!node || !node.IsMap()) return absl::OkStatus();
+  const std::string file = t_config_file ? *t_config_file : "config";
+  const std::string where =
+      section.empty() ? "at the top level" : absl::StrCat("in '", section, "'");
+  std::vector<std::string> problems;
+  for (const auto& kv : node) {
+    const std::string key = kv.first.Scalar();
+    if (std::find(known.begin(), known.end(), key) != known.end()) continue;
+    problems.push_back(absl::StrCat(file, ":", kv.first.Mark().line + 1, ": unknown key '", key,
+                                    "' ", where, " (known: ", absl::StrJoin(known, ", "), ")"));
+    if (!StrictConfig()) spdlog::warn("{}", problems.back());
+  }
+  if (problems.empty() || !StrictConfig()) return absl::OkStatus();
+  return absl::InvalidArgumentError(absl::StrJoin(problems, "; "));
+}
 
 StatusOr<YAML::Node> LoadYamlFile(const std::string& path) {
   if (!std::filesystem::exists(path)) {
@@ -27,6 +67,8 @@ StatusOr<PinholeCamera> CameraPreset(const std::string& name) {
 StatusOr<PinholeCamera> CameraFromYaml(const YAML::Node& node) {
   if (!node) return absl::InvalidArgumentError("camera: missing");
   if (node.IsScalar()) return CameraPreset(node.as<std::string>());
+  LOCI_RETURN_IF_ERROR(
+      CheckKnownKeys(node, "camera", {"preset", "fx", "fy", "cx", "cy", "width", "height"}));
   PinholeCamera cam;
   if (node["preset"]) {
     LOCI_ASSIGN_OR_RETURN(cam, CameraPreset(node["preset"].as<std::string>()));

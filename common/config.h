@@ -2,9 +2,11 @@
 // fields and a FromYaml(node) that fills only the keys present, so defaults live in one place.
 #pragma once
 
-#include <string>
-
 #include <yaml-cpp/yaml.h>
+
+#include <initializer_list>
+#include <span>
+#include <string>
 
 #include "common/camera.h"
 #include "common/status.h"
@@ -26,7 +28,33 @@ Status ReadOptional(const YAML::Node& node, const char* key, T* out) {
   return absl::OkStatus();
 }
 
-// Camera from a node {fx, fy, cx, cy, width, height} or a named preset "tum_fr1|2|3".
+// Unknown keys: each FromYaml lists the keys of its sections, and a key outside the list (a
+// misspelling) is reported with file, line, section and key: spdlog::warn, or with strict
+// checking (`--strict-config` of loci-server and loci-track) an InvalidArgument error.
+// Absent and non-map nodes pass.
+Status CheckKnownKeys(const YAML::Node& node, const std::string& section,
+                      std::span<const char* const> known);
+inline Status CheckKnownKeys(const YAML::Node& node, const std::string& section,
+                             std::initializer_list<const char*> known) {
+  return CheckKnownKeys(node, section, std::span<const char* const>(known.begin(), known.size()));
+}
+// Process-wide: unknown keys are errors (true) or warnings (false, the default).
+void SetStrictConfig(bool strict);
+bool StrictConfig();
+// Names the file that CheckKnownKeys reports on this thread while the scope lives (nestable).
+class ConfigFileScope {
+ public:
+  explicit ConfigFileScope(std::string path);
+  ~ConfigFileScope();
+  ConfigFileScope(const ConfigFileScope&) = delete;
+  ConfigFileScope& operator=(const ConfigFileScope&) = delete;
+
+ private:
+  std::string path_;
+  const std::string* previous_;
+};
+
+// Camera from a node {preset, fx, fy, cx, cy, width, height} or a named preset "tum_fr1|2|3".
 StatusOr<PinholeCamera> CameraFromYaml(const YAML::Node& node);
 StatusOr<PinholeCamera> CameraPreset(const std::string& name);
 

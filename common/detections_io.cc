@@ -110,19 +110,7 @@ Status WriteDetectionsJsonl(const std::string& path, const std::vector<FrameDete
 
 const FrameDetections* FindDetections(const std::vector<FrameDetections>& frames, int64_t t_ns,
                                       int64_t max_dt_ns) {
-  auto it = std::lower_bound(frames.begin(), frames.end(), t_ns,
-                             [](const FrameDetections& f, int64_t t) { return f.t_ns < t; });
-  const FrameDetections* best = nullptr;
-  int64_t best_dt = max_dt_ns + 1;
-  for (auto c : {it, it == frames.begin() ? it : std::prev(it)}) {
-    if (c == frames.end()) continue;
-    const int64_t dt = std::llabs(c->t_ns - t_ns);
-    if (dt < best_dt) {
-      best_dt = dt;
-      best = &*c;
-    }
-  }
-  return best_dt <= max_dt_ns ? best : nullptr;
+  return NearestByTime<FrameDetections>(frames, t_ns, max_dt_ns);
 }
 
 }  // namespace loci

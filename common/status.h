@@ -1,4 +1,5 @@
-// Error handling for library code: absl::Status / absl::StatusOr (see CONVENTIONS.md).
+// Error handling for library code: absl::Status / absl::StatusOr (docs/architecture.md,
+// "Conventions").
 // Services map these to grpc::Status; CHECK-style aborts are for internal invariants only.
 #pragma once
 

@@ -9,8 +9,22 @@
 
 namespace loci::detection {
 
+// The keys FromYaml reads, per section (CheckKnownKeys warns about any other).
+constexpr const char* kMaskKeys[] = {"depth_scale",           "min_depth_m",
+                                     "max_depth_m",           "bin_width_rel",
+                                     "centre_sigma_rel",      "min_bin_fraction",
+                                     "max_gap_bins",          "min_pixels",
+                                     "largest_component",     "morph_kernel_px",
+                                     "remove_support_plane",  "plane_tolerance_m",
+                                     "plane_tolerance_sigma", "max_background_planes",
+                                     "min_plane_support",     "min_outside_fraction",
+                                     "min_object_fraction",   "max_centre_fraction",
+                                     "horizontal_max_deg",    "support_min_rise_m",
+                                     "support_classes",       "flat_top_classes"};
+
 StatusOr<MaskOptions> MaskOptions::FromYaml(const YAML::Node& node) {
   MaskOptions o;
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(node, "mask", kMaskKeys));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "depth_scale", &o.depth_scale));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "min_depth_m", &o.min_depth_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "max_depth_m", &o.max_depth_m));

@@ -30,12 +30,27 @@ StatusOr<std::vector<std::string>> ReadStringList(const YAML::Node& node, const 
 
 }  // namespace
 
+// The keys FromYaml reads, per section (CheckKnownKeys warns about any other).
+constexpr const char* kDetectorKeys[] = {"type",
+                                         "model",
+                                         "class_names",
+                                         "input_size_px",
+                                         "num_threads",
+                                         "score_threshold",
+                                         "nms_iou",
+                                         "detections_file",
+                                         "max_dt_s",
+                                         "classes_file",
+                                         "class_score_thresholds",
+                                         "classes"};
+
 StatusOr<DetectorOptions> DetectorOptions::FromYaml(const YAML::Node& node,
                                                     const std::string& base_dir_in) {
   const std::string base_dir = base_dir_in.empty() ? SourceDir() : base_dir_in;
   DetectorOptions o;
   if (!node) return o;
   if (!node.IsMap()) return absl::InvalidArgumentError("detector: expected a map");
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(node, "detector", kDetectorKeys));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "type", &o.type));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "model", &o.model_path));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "class_names", &o.class_names_path));

@@ -11,8 +11,27 @@ namespace {
 constexpr double kForbidden = 1e9;
 }  // namespace
 
+// The keys FromYaml reads, per section (CheckKnownKeys warns about any other).
+constexpr const char* kTrackerKeys[] = {"n_init",
+                                        "max_age",
+                                        "min_iou",
+                                        "mahalanobis_gate",
+                                        "max_appearance_distance",
+                                        "motion_weight",
+                                        "max_cascade_cost",
+                                        "max_iou_distance",
+                                        "appearance_momentum",
+                                        "std_weight_position",
+                                        "std_weight_velocity",
+                                        "min_position_std_px",
+                                        "min_velocity_std_px",
+                                        "hue_bins",
+                                        "saturation_bins",
+                                        "min_saturation"};
+
 StatusOr<TrackerOptions> TrackerOptions::FromYaml(const YAML::Node& node) {
   TrackerOptions o;
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(node, "tracker", kTrackerKeys));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "n_init", &o.n_init));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "max_age", &o.max_age));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "min_iou", &o.min_iou));

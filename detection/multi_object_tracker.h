@@ -57,13 +57,13 @@ struct Track {
   enum class State { kTentative, kConfirmed };
   int64_t id = 0;  // 0 until confirmed; then unique, monotonic, >= 1
   int class_id = -1;
-  std::string class_name;
+  std::string class_name{};
   State state = State::kTentative;
   int hits = 0;               // matched updates
   int age = 0;                // updates since creation
   int time_since_update = 0;  // updates since the last match (0 = matched this update)
   KalmanBoxFilter kf;
-  cv::Mat feature;          // appearance histogram (EMA); empty without images
+  cv::Mat feature{};        // appearance histogram (EMA); empty without images
   int64_t internal_id = 0;  // unique for every track, tentative ones included
 };
 

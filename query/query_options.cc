@@ -133,11 +133,50 @@ std::string QueryOptions::Validate() const {
   return "";
 }
 
+// The keys FromYaml reads, per section (CheckKnownKeys warns about any other).
+constexpr const char* kQueryKeys[] = {"classes",
+                                      "synonyms",
+                                      "irregular_plurals",
+                                      "default_up_map",
+                                      "up_from_viewpoints",
+                                      "grid_cell_m",
+                                      "min_object_confidence",
+                                      "confirmed_only",
+                                      "max_result_objects",
+                                      "sentence_max_items",
+                                      "relations"};
+constexpr const char* kRelationKeys[] = {"on_gap_sigma_m",
+                                         "on_max_gap_m",
+                                         "on_min_overlap",
+                                         "under_min_overlap",
+                                         "above_min_overlap",
+                                         "vertical_tolerance_m",
+                                         "near_factor",
+                                         "near_min_m",
+                                         "near_max_m",
+                                         "next_to_factor",
+                                         "next_to_min_m",
+                                         "next_to_max_m",
+                                         "next_to_level_tolerance_m",
+                                         "inside_min_fraction",
+                                         "inside_containers",
+                                         "under_anchors",
+                                         "inside_max_size_ratio",
+                                         "between_factor",
+                                         "between_min_m",
+                                         "directional_half_angle_deg",
+                                         "directional_factor",
+                                         "directional_min_m",
+                                         "directional_max_m",
+                                         "min_confidence"};
+
 StatusOr<QueryOptions> QueryOptionsFromYaml(const YAML::Node& node, const QueryOptions& base) {
   QueryOptions o = base;
   if (!node) return o;
   if (!node.IsMap()) return absl::InvalidArgumentError("query options: expected a YAML map");
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(node, "", kQueryKeys));
   const YAML::Node rel = node["relations"];
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(rel, "relations", kRelationKeys));
   RelationOptions& r = o.relations;
   LOCI_RETURN_IF_ERROR(ReadOptional(rel, "on_gap_sigma_m", &r.on_gap_sigma_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(rel, "on_max_gap_m", &r.on_max_gap_m));
@@ -194,6 +233,7 @@ StatusOr<QueryOptions> QueryOptionsFromYaml(const YAML::Node& node, const QueryO
 
 StatusOr<QueryOptions> LoadQueryOptions(const std::string& path) {
   LOCI_ASSIGN_OR_RETURN(YAML::Node node, LoadYamlFile(path));
+  const ConfigFileScope scope(path);
   auto o = QueryOptionsFromYaml(node);
   if (!o.ok()) return absl::InvalidArgumentError(absl::StrCat(path, ": ", o.status().message()));
   return o;

@@ -61,7 +61,8 @@ class SceneBuilder {
       Add(items[k].first, base, Size(items[k].second.x(), items[k].second.y(), items[k].second.z()),
           table);
     }
-    const GroundTruthObject& t = Get(table);
+    // Copies: Add appends to the object vector, which may reallocate under a reference.
+    const GroundTruthObject t = Get(table);
     Add("chair", {t.centroid_m.x() - 0.4, t.aabb_max_m.y() + 0.05, 0}, Size(0.45, 0.45, 0.9), 0);
     Add("chair", {t.centroid_m.x() + 0.4, t.aabb_min_m.y() - 0.45, 0}, Size(0.45, 0.45, 0.9), 0);
     if (Coin(0.5)) {
@@ -74,7 +75,7 @@ class SceneBuilder {
     Add("keyboard", OnTop(desk, 0.45, 0.3), Size(0.44, 0.14, 0.03), desk);
     Add("mouse", OnTop(desk, 0.8, 0.3), Size(0.06, 0.1, 0.04), desk);
     if (Coin(0.5)) Add("cup", OnTop(desk, 0.12, 0.35), Size(0.08, 0.08, 0.1), desk);
-    const GroundTruthObject& d = Get(desk);
+    const GroundTruthObject d = Get(desk);
     // Seat partly under the desk; the back stays clear of the keyboard.
     Add("chair", {d.centroid_m.x(), d.aabb_min_m.y() - 0.1, 0}, Size(0.45, 0.45, 0.9), 0);
     // Shelf with books on top, a couch and a plant.

@@ -19,9 +19,10 @@
 namespace {
 
 loci::StatusOr<std::shared_ptr<loci::detection::Detector>> MakeServerDetector(
-    const loci::server::ServerOptions& options) {
+    const loci::server::ServerOptions& options, const std::string& config_path) {
   if (!options.detector_enabled) return std::shared_ptr<loci::detection::Detector>();
 #ifdef LOCI_HAVE_DETECTION
+  const loci::ConfigFileScope scope(config_path);
   LOCI_ASSIGN_OR_RETURN(auto det_options, loci::detection::DetectorOptions::FromYaml(
                                               options.detector_config, loci::SourceDir()));
   LOCI_ASSIGN_OR_RETURN(auto detector, loci::detection::MakeDetector(det_options));
@@ -39,6 +40,7 @@ loci::StatusOr<std::shared_ptr<loci::detection::Detector>> MakeServerDetector(
 int main(int argc, char** argv) {
   CLI::App app{"loci-server: semantic map server for robot fleets"};
   std::string config_path, listen, db, http, query_config, log_level = "info";
+  bool strict_config = false;
   app.add_option("--config", config_path, "YAML config (see config/server.yaml)")
       ->check(CLI::ExistingFile);
   app.add_option("--listen", listen, "gRPC address HOST:PORT [127.0.0.1:50051]");
@@ -47,8 +49,11 @@ int main(int argc, char** argv) {
   app.add_option("--query-config", query_config,
                  "query engine YAML (see config/query.yaml) [built-in defaults]")
       ->check(CLI::ExistingFile);
+  app.add_flag("--strict-config", strict_config,
+               "unknown keys in the YAML files are errors (default: warnings)");
   app.add_option("--log-level", log_level, "trace|debug|info|warn|error")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  loci::SetStrictConfig(strict_config);
   // Logs go to stderr: stdout carries only the "listening on HOST:PORT" line for scripts.
   spdlog::set_default_logger(spdlog::stderr_color_mt("loci-server"));
   spdlog::set_level(spdlog::level::from_str(log_level));
@@ -79,7 +84,7 @@ int main(int argc, char** argv) {
   sigaddset(&signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
-  auto detector = MakeServerDetector(options);
+  auto detector = MakeServerDetector(options, config_path);
   if (!detector.ok()) {
     std::cerr << "error: " << detector.status().message() << "\n";
     return 2;
@@ -89,14 +94,13 @@ int main(int argc, char** argv) {
     std::cerr << "error: " << server.status().message() << "\n";
     return 1;
   }
-  auto grpc =
-      loci::server::GrpcServer::Start(server->get(), options.listen, options.max_message_mb);
+  auto grpc = loci::server::GrpcServer::Start(
+      server->get(), options.listen, options.max_message_mb,
+      std::make_shared<loci::server::QueryAdapter>(std::move(query_options)));
   if (!grpc.ok()) {
     std::cerr << "error: " << grpc.status().message() << "\n";
     return 1;
   }
-  (*grpc)->query_service().SetQueryEngine(
-      std::make_shared<loci::server::QueryAdapter>(std::move(query_options)));
   std::unique_ptr<loci::server::HttpApi> http_api;
   if (options.http != "off") {
     auto h = loci::server::HttpApi::Start(&(*grpc)->query_service(), options.http);

@@ -198,7 +198,7 @@ void PartsAabb(const std::vector<Primitive>& parts, const SE3d& T_world_obj, Vec
   for (const Primitive& p : parts) {
     const SE3d T = T_world_obj * p.T_obj_prim;
     const Mat3d& R = T.linear();
-    Vec3d half;
+    Vec3d half = Vec3d::Zero();
     for (int i = 0; i < 3; ++i) {
       switch (p.shape) {
         case Shape::kBox:

@@ -262,7 +262,7 @@ void RenderRows(const Scene& scene, const SE3d& T_world_cam, const PinholeCamera
       const Vec3d d_w = R_wc * d_cam;
       const Vec3d p_w = o_w + t * d_w;
       Vec3d n_w;
-      double u, v;
+      double u = 0, v = 0;
       const Texture* tex;
       if (who[x] < 0) {
         RoomSurface(scene, face[x], p_w, &n_w, &u, &v);
@@ -270,7 +270,7 @@ void RenderRows(const Scene& scene, const SE3d& T_world_cam, const PinholeCamera
         inst[x] = 0;
       } else {
         const Posed& p = posed[who[x]];
-        Vec3d n_loc;
+        Vec3d n_loc = Vec3d::Zero();
         SurfaceAt(*p.prim, p.t_prim_cam + t * (p.R_prim_cam * d_cam), &n_loc, &u, &v);
         n_w = p.R_world_prim * n_loc;
         tex = &scene.textures[p.prim->texture];

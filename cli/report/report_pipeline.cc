@@ -145,7 +145,7 @@ StatusOr<GroundTruthEval> EvaluateHandMade(const ReportOptions& o, const server:
   in.ask = [adapter, source](const std::string& q) {
     loci::v1::AskRequest req;
     req.set_text(q);
-    return adapter->Ask(req, *source);
+    return server::AnswerOrError(adapter->Ask(req, *source));
   };
   return EvaluateAgainstGroundTruth(in);
 }

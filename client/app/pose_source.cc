@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "common/time.h"
+
 namespace loci {
 
 StatusOr<std::unique_ptr<PoseSource>> PoseSource::FromFile(const std::string& path,
@@ -21,15 +23,8 @@ StatusOr<std::unique_ptr<PoseSource>> PoseSource::FromFile(const std::string& pa
 StatusOr<FrameResult> PoseSource::At(int64_t t_ns) {
   FrameResult r;
   r.t_ns = t_ns;
-  auto it = std::lower_bound(poses_.begin(), poses_.end(), t_ns,
-                             [](const StampedPose& p, int64_t t) { return p.t_ns < t; });
-  const StampedPose* best = nullptr;
-  if (it != poses_.end()) best = &*it;
-  if (it != poses_.begin()) {
-    const StampedPose* prev = &*(it - 1);
-    if (!best || t_ns - prev->t_ns < best->t_ns - t_ns) best = prev;
-  }
-  if (!best || std::llabs(best->t_ns - t_ns) > max_dt_ns_) {
+  const StampedPose* best = NearestByTime<StampedPose>(poses_, t_ns, max_dt_ns_);
+  if (!best) {
     r.state = TrackState::kLost;
     return r;
   }

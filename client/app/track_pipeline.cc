@@ -51,6 +51,7 @@ StatusOr<TrackerOptions> LoadTrackerOptions(const std::string& client_config,
   const std::string cfg = client_config.empty() ? SourceDir() + "/config/client.yaml"
                                                 : client_config;
   if (auto node = LoadYamlFile(cfg); node.ok()) {
+    const ConfigFileScope scope(cfg);
     if (Status s = topt.FromYaml((*node)["tracker"]); !s.ok()) {
       return absl::InvalidArgumentError(absl::StrCat(cfg, ": ", s.message()));
     }
@@ -68,6 +69,7 @@ StatusOr<TrackerOptions> LoadTrackerOptions(const std::string& client_config,
     // The sequence's own intrinsics (a `camera:` section, or the keys at the top level) and
     // depth units.
     LOCI_ASSIGN_OR_RETURN(YAML::Node node, LoadYamlFile(camera));
+    const ConfigFileScope scope(camera);
     auto c = CameraFromYaml(node["camera"] ? node["camera"] : node);
     if (!c.ok()) return absl::InvalidArgumentError(absl::StrCat(camera, ": ", c.status().message()));
     topt.camera = *c;

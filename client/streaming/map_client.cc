@@ -38,8 +38,35 @@ struct MapClient::Impl {
   std::map<int64_t, Entry> unacked;
   bool closing = false;
   bool stop = false;
+  bool sender_done = false;
+  // The call the sender thread is in (stream or resume), so that Close can cancel it.
+  grpc::ClientContext* active_call = nullptr;
   MapClientStats stats;
   std::thread sender;
+
+  // Registers `ctx` as the active call while alive; a stopped client cancels it at once.
+  class ActiveCall {
+   public:
+    ActiveCall(Impl* impl, grpc::ClientContext* ctx) : impl_(impl) {
+      std::lock_guard<std::mutex> lock(impl_->mu);
+      impl_->active_call = ctx;
+      if (impl_->stop) ctx->TryCancel();
+    }
+    ~ActiveCall() {
+      std::lock_guard<std::mutex> lock(impl_->mu);
+      impl_->active_call = nullptr;
+    }
+
+   private:
+    Impl* impl_;
+  };
+
+  // Stops the sender and cancels its call (a Write blocked by flow control, a resume). Needs mu.
+  void StopLocked() {
+    stop = true;
+    if (active_call) active_call->TryCancel();
+    cv.notify_all();
+  }
 
   Status OpenSession(bool resume, int64_t* last_stored_seq) {
     v1::OpenSessionRequest req;
@@ -57,6 +84,7 @@ struct MapClient::Impl {
     v1::OpenSessionResponse resp;
     grpc::ClientContext ctx;
     ctx.set_deadline(DeadlineIn(opt.rpc_timeout_s));
+    const ActiveCall active(this, &ctx);
     const grpc::Status s = stub->OpenSession(&ctx, req, &resp);
     if (!s.ok()) {
       return absl::UnavailableError(absl::StrCat("OpenSession: ", s.error_message()));
@@ -71,6 +99,7 @@ struct MapClient::Impl {
   // Returns true when finished cleanly (closing and all acked).
   bool RunStream() {
     grpc::ClientContext ctx;
+    const ActiveCall active(this, &ctx);
     auto stream = stub->StreamKeyframes(&ctx);
     bool broken = false;
     std::thread reader([&] {
@@ -151,6 +180,13 @@ struct MapClient::Impl {
   }
 
   void SenderLoop() {
+    SendUntilDone();
+    std::lock_guard<std::mutex> lock(mu);
+    sender_done = true;
+    cv.notify_all();
+  }
+
+  void SendUntilDone() {
     double backoff_s = opt.initial_backoff_s;
     bool first = true;
     while (true) {
@@ -227,8 +263,7 @@ StatusOr<std::unique_ptr<MapClient>> MapClient::Connect(const MapClientOptions& 
 MapClient::~MapClient() {
   {
     std::lock_guard<std::mutex> lock(impl_->mu);
-    impl_->stop = true;
-    impl_->cv.notify_all();
+    impl_->StopLocked();
   }
   if (impl_->sender.joinable()) impl_->sender.join();
 }
@@ -248,26 +283,31 @@ StatusOr<int64_t> MapClient::Send(KeyframeData keyframe) {
 }
 
 Status MapClient::Close(double timeout_s) {
+  const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                           std::chrono::duration<double>(timeout_s));
   std::unique_lock<std::mutex> lock(impl_->mu);
   impl_->closing = true;
   impl_->cv.notify_all();
-  const bool all = impl_->cv.wait_for(lock, std::chrono::duration<double>(timeout_s),
-                                      [&] { return impl_->unacked.empty(); });
+  const bool all = impl_->cv.wait_until(lock, deadline, [&] { return impl_->unacked.empty(); });
   const size_t left = impl_->unacked.size();
-  if (!all) impl_->stop = true;
-  impl_->cv.notify_all();
+  // The sender ends its stream once everything is acknowledged; at the deadline, whatever it
+  // is blocked in (a Write the server does not read, a resume) is cancelled.
+  if (!impl_->cv.wait_until(lock, deadline, [&] { return impl_->sender_done; })) {
+    impl_->StopLocked();
+  }
   lock.unlock();
   if (impl_->sender.joinable()) impl_->sender.join();
+  if (!all) {  // the session stays open: a later client may resume it
+    return absl::DeadlineExceededError(
+        absl::StrCat(left, " keyframes not acknowledged within ", timeout_s, " s"));
+  }
   v1::CloseSessionRequest req;
   req.set_session_id(session_id());
   v1::CloseSessionResponse resp;
   grpc::ClientContext ctx;
-  ctx.set_deadline(DeadlineIn(impl_->opt.rpc_timeout_s));
+  ctx.set_deadline(std::min(DeadlineIn(impl_->opt.rpc_timeout_s),
+                            std::chrono::system_clock::now() + (deadline - Clock::now())));
   const grpc::Status s = impl_->stub->CloseSession(&ctx, req, &resp);
-  if (!all) {
-    return absl::DeadlineExceededError(
-        absl::StrCat(left, " keyframes not acknowledged within ", timeout_s, " s"));
-  }
   if (!s.ok()) return absl::UnavailableError(absl::StrCat("CloseSession: ", s.error_message()));
   return absl::OkStatus();
 }

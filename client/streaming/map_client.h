@@ -74,8 +74,10 @@ class MapClient {
   // Queues a keyframe (seq = 0, 1, 2... in call order, continuing after a resume) and returns
   // its seq. Blocks while max_unacked keyframes are waiting; Unavailable after Close.
   StatusOr<int64_t> Send(KeyframeData keyframe);
-  // Waits up to timeout_s for every ack, ends the stream and closes the session. Returns
-  // DeadlineExceeded (with the count) when some keyframes were not acknowledged.
+  // Waits up to timeout_s for every ack, ends the stream and closes the session. At the
+  // deadline the stream is cancelled, even mid-Write, so Close returns within timeout_s (plus
+  // the cancellation): DeadlineExceeded with the count of keyframes not acknowledged, and the
+  // session left open for a later resume.
   Status Close(double timeout_s = 60.0);
 
   MapClientStats stats() const;

@@ -10,8 +10,17 @@ namespace loci {
 namespace {
 
 struct Reprojection {
-  Reprojection(const PinholeCamera& cam, double u, double v, double ur, double bf, double w)
-      : fx(cam.fx), fy(cam.fy), cx(cam.cx), cy(cam.cy), u(u), v(v), ur(ur), bf(bf), w(w) {}
+  Reprojection(const PinholeCamera& cam, double u_px, double v_px, double ur_px, double bf_px_m,
+               double weight)
+      : fx(cam.fx),
+        fy(cam.fy),
+        cx(cam.cx),
+        cy(cam.cy),
+        u(u_px),
+        v(v_px),
+        ur(ur_px),
+        bf(bf_px_m),
+        w(weight) {}
   template <typename T>
   bool operator()(const T* pose, const T* point, T* r) const {
     T p[3];

@@ -4,6 +4,36 @@
 
 namespace loci {
 
+// The keys FromYaml reads, per section (CheckKnownKeys warns about any other).
+constexpr const char* kTrackerKeys[] = {"depth_scale",
+                                        "min_depth_m",
+                                        "max_depth_m",
+                                        "depth_edge_ratio",
+                                        "local_map_keyframes",
+                                        "search_radius_px",
+                                        "refine_radius_px",
+                                        "max_hamming",
+                                        "match_ratio",
+                                        "min_inliers",
+                                        "lost_frames_before_reset",
+                                        "virtual_baseline_m",
+                                        "local_ba_keyframes",
+                                        "local_ba_iterations",
+                                        "pnp_iterations",
+                                        "pnp_reproj_px",
+                                        "camera",
+                                        "orb",
+                                        "keyframes",
+                                        "dynamic"};
+constexpr const char* kOrbKeys[] = {"num_features", "fast_threshold", "num_levels",
+                                    "scale_factor", "grid_cols",      "grid_rows"};
+constexpr const char* kKeyframeKeys[] = {"min_rotation_rad",   "min_translation_m",
+                                         "max_covisibility",   "min_new_points",
+                                         "min_tracked_points", "max_frames_between"};
+constexpr const char* kDynamicKeys[] = {
+    "enabled",   "epipolar_sigma_px",    "depth_sigma_at_1m",
+    "threshold", "weight_outside_boxes", "prior_dynamic_weight"};
+
 Status TrackerOptions::Validate() const {
   LOCI_RETURN_IF_ERROR(camera.Validate());
   if (!(depth_scale > 0)) return absl::InvalidArgumentError("depth_scale must be > 0");
@@ -27,6 +57,7 @@ Status TrackerOptions::Validate() const {
 
 Status TrackerOptions::FromYaml(const YAML::Node& n) {
   if (!n) return absl::OkStatus();
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(n, "tracker", kTrackerKeys));
   if (n["camera"]) {
     LOCI_ASSIGN_OR_RETURN(camera, CameraFromYaml(n["camera"]));
   }
@@ -35,6 +66,7 @@ Status TrackerOptions::FromYaml(const YAML::Node& n) {
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_depth_m", &max_depth_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "depth_edge_ratio", &depth_edge_ratio));
   const YAML::Node o = n["orb"];
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(o, "tracker.orb", kOrbKeys));
   LOCI_RETURN_IF_ERROR(ReadOptional(o, "num_features", &orb.num_features));
   LOCI_RETURN_IF_ERROR(ReadOptional(o, "fast_threshold", &orb.fast_threshold));
   LOCI_RETURN_IF_ERROR(ReadOptional(o, "num_levels", &orb.num_levels));
@@ -42,6 +74,7 @@ Status TrackerOptions::FromYaml(const YAML::Node& n) {
   LOCI_RETURN_IF_ERROR(ReadOptional(o, "grid_cols", &orb.grid_cols));
   LOCI_RETURN_IF_ERROR(ReadOptional(o, "grid_rows", &orb.grid_rows));
   const YAML::Node k = n["keyframes"];
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(k, "tracker.keyframes", kKeyframeKeys));
   LOCI_RETURN_IF_ERROR(ReadOptional(k, "min_rotation_rad", &keyframes.min_rotation_rad));
   LOCI_RETURN_IF_ERROR(ReadOptional(k, "min_translation_m", &keyframes.min_translation_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(k, "max_covisibility", &keyframes.max_covisibility));
@@ -49,6 +82,7 @@ Status TrackerOptions::FromYaml(const YAML::Node& n) {
   LOCI_RETURN_IF_ERROR(ReadOptional(k, "min_tracked_points", &keyframes.min_tracked_points));
   LOCI_RETURN_IF_ERROR(ReadOptional(k, "max_frames_between", &keyframes.max_frames_between));
   const YAML::Node d = n["dynamic"];
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(d, "tracker.dynamic", kDynamicKeys));
   LOCI_RETURN_IF_ERROR(ReadOptional(d, "enabled", &dynamic.enabled));
   LOCI_RETURN_IF_ERROR(ReadOptional(d, "epipolar_sigma_px", &dynamic.epipolar_sigma_px));
   LOCI_RETURN_IF_ERROR(ReadOptional(d, "depth_sigma_at_1m", &dynamic.depth_sigma_at_1m));

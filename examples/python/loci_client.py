@@ -55,10 +55,14 @@ def fmt_object(o):
 
 
 def ask(stub, pb, args):
-    resp = stub.Ask(pb.AskRequest(text=args.question, robot_name=args.robot or ""),
-                    timeout=args.timeout)
-    if resp.status.code != 0:
-        print(f"[{resp.status.code}] {resp.status.message or resp.answer}")
+    import grpc
+    try:
+        resp = stub.Ask(pb.AskRequest(text=args.question, robot_name=args.robot or ""),
+                        timeout=args.timeout)
+    except grpc.RpcError as e:
+        if e.code() != grpc.StatusCode.INVALID_ARGUMENT:
+            raise
+        print(f"[{e.code().name}] {e.details()}")  # a question the server cannot take
         return 1
     print(resp.answer)
     print(f"intent {resp.intent}, count {resp.count}")

@@ -6,64 +6,48 @@
 #include <charconv>
 #include <cmath>
 
-#include "server/http/proto_json.h"
+#include "proto/json.h"
 
 namespace loci::server {
 namespace {
 
 constexpr const char* kJson = "application/json";
 
-const char* CodeName(int code) {
-  static const char* kNames[] = {"OK",
-                                 "CANCELLED",
-                                 "UNKNOWN",
-                                 "INVALID_ARGUMENT",
-                                 "DEADLINE_EXCEEDED",
-                                 "NOT_FOUND",
-                                 "ALREADY_EXISTS",
-                                 "PERMISSION_DENIED",
-                                 "RESOURCE_EXHAUSTED",
-                                 "FAILED_PRECONDITION",
-                                 "ABORTED",
-                                 "OUT_OF_RANGE",
-                                 "UNIMPLEMENTED",
-                                 "INTERNAL",
-                                 "UNAVAILABLE",
-                                 "DATA_LOSS",
-                                 "UNAUTHENTICATED"};
-  return code >= 0 && code <= 16 ? kNames[code] : "UNKNOWN";
-}
-
-int HttpStatus(int grpc_code) {
-  switch (grpc_code) {
-    case 0:
+int HttpStatus(absl::StatusCode code) {
+  switch (code) {
+    case absl::StatusCode::kOk:
       return 200;
-    case 3:
-    case 11:
+    case absl::StatusCode::kInvalidArgument:
+    case absl::StatusCode::kOutOfRange:
       return 400;
-    case 5:
+    case absl::StatusCode::kNotFound:
       return 404;
-    case 9:
+    case absl::StatusCode::kFailedPrecondition:
       return 409;
-    case 12:
+    case absl::StatusCode::kUnimplemented:
       return 501;
-    case 14:
+    case absl::StatusCode::kUnavailable:
       return 503;
     default:
       return 500;
   }
 }
 
-void SendError(httplib::Response& res, int grpc_code, const std::string& message) {
-  res.status = HttpStatus(grpc_code);
-  res.set_content(ErrorJson(CodeName(grpc_code), message), kJson);
+// A failed status as HTTP: its status code and {"error": {"code", "message"}}.
+void SendError(httplib::Response& res, const Status& status) {
+  res.status = HttpStatus(status.code());
+  res.set_content(ErrorJson(status), kJson);
 }
 
 void SendGrpc(httplib::Response& res, const grpc::Status& s,
               const google::protobuf::Message& message) {
-  if (!s.ok()) return SendError(res, s.error_code(), s.error_message());
+  if (!s.ok()) return SendError(res, FromGrpc(s));
   res.status = 200;
   res.set_content(ProtoToJson(message), kJson);
+}
+
+void SendInvalid(httplib::Response& res, const std::string& message) {
+  SendError(res, absl::InvalidArgumentError(message));
 }
 
 bool ParseDouble(const std::string& s, double* out) {
@@ -125,20 +109,16 @@ void HttpApi::Shutdown() {
 void HttpApi::Route() {
   http_->Get("/api/ask", [this](const httplib::Request& req, httplib::Response& res) {
     if (!req.has_param("q")) {
-      return SendError(res, 3,
-                       "missing query parameter q (the question), e.g. /api/ask?q=where+"
-                       "is+the+book");
+      return SendInvalid(res,
+                         "missing query parameter q (the question), e.g. /api/ask?q=where+"
+                         "is+the+book");
     }
     loci::v1::AskRequest ask;
     ask.set_text(req.get_param_value("q"));
     ask.set_robot_name(req.get_param_value("robot"));
     loci::v1::AskResponse resp;
     grpc::ServerContext ctx;
-    const grpc::Status s = service_->Ask(&ctx, &ask, &resp);
-    if (!s.ok()) return SendError(res, s.error_code(), s.error_message());
-    // The body is the AskResponse itself, so HTTP and gRPC carry the same JSON.
-    res.status = HttpStatus(resp.status().code());
-    res.set_content(ProtoToJson(resp), kJson);
+    SendGrpc(res, service_->Ask(&ctx, &ask, &resp), resp);
   });
   http_->Get("/api/objects", [this](const httplib::Request& req, httplib::Response& res) {
     loci::v1::FindObjectsRequest find;
@@ -154,21 +134,21 @@ void HttpApi::Route() {
     if (req.has_param("min_confidence")) {
       double c = 0;
       if (!ParseDouble(req.get_param_value("min_confidence"), &c) || c < 0 || c > 1) {
-        return SendError(res, 3, "min_confidence must be a number in [0, 1]");
+        return SendInvalid(res, "min_confidence must be a number in [0, 1]");
       }
       find.set_min_confidence(c);
     }
     if (req.has_param("confirmed_only")) {
       bool b = false;
       if (!ParseBool(req.get_param_value("confirmed_only"), &b)) {
-        return SendError(res, 3, "confirmed_only must be 0, 1, true or false");
+        return SendInvalid(res, "confirmed_only must be 0, 1, true or false");
       }
       find.set_confirmed_only(b);
     }
     if (req.has_param("limit")) {
       uint32_t limit = 0;
       if (!ParseInt(req.get_param_value("limit"), &limit)) {
-        return SendError(res, 3, "limit must be a non-negative integer");
+        return SendInvalid(res, "limit must be a non-negative integer");
       }
       find.set_limit(limit);
     }
@@ -181,13 +161,13 @@ void HttpApi::Route() {
     loci::v1::GetObjectRequest get;
     int64_t id = 0;
     if (!ParseInt(req.matches[1].str(), &id)) {
-      return SendError(res, 3, "object id must be an integer, got '" + req.matches[1].str() + "'");
+      return SendInvalid(res, "object id must be an integer, got '" + req.matches[1].str() + "'");
     }
     get.set_id(id);
     if (req.has_param("with_cloud")) {
       bool b = false;
       if (!ParseBool(req.get_param_value("with_cloud"), &b)) {
-        return SendError(res, 3, "with_cloud must be 0, 1, true or false");
+        return SendInvalid(res, "with_cloud must be 0, 1, true or false");
       }
       get.set_with_cloud(b);
     }
@@ -204,14 +184,16 @@ void HttpApi::Route() {
   // Unknown paths and methods: JSON 404 instead of httplib's empty body.
   http_->set_error_handler([](const httplib::Request& req, httplib::Response& res) {
     if (res.status == 404 && res.body.empty()) {
-      res.set_content(ErrorJson("NOT_FOUND", "no endpoint " + req.method + " " + req.path +
-                                                 "; known: /api/ask, /api/objects, "
-                                                 "/api/objects/{id}, /api/stats"),
+      res.set_content(ErrorJson(absl::NotFoundError("no endpoint " + req.method + " " + req.path +
+                                                    "; known: /api/ask, /api/objects, "
+                                                    "/api/objects/{id}, /api/stats")),
                       kJson);
     }
   });
-  http_->set_exception_handler([](const httplib::Request&, httplib::Response& res,
-                                  std::exception_ptr) { SendError(res, 13, "internal error"); });
+  http_->set_exception_handler(
+      [](const httplib::Request&, httplib::Response& res, std::exception_ptr) {
+        SendError(res, absl::InternalError("internal error"));
+      });
 }
 
 }  // namespace loci::server

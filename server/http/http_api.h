@@ -1,13 +1,14 @@
 // JSON over HTTP for the Query service (cpp-httplib), on its own port next to gRPC. Every
 // endpoint calls the same QueryService method as gRPC and prints its response message with the
-// proto3 JSON mapping (server/http/proto_json.h), so HTTP and gRPC answers agree.
+// proto3 JSON mapping (proto/json.h), so HTTP and gRPC answers agree.
 //
-//   GET /api/ask?q=QUESTION[&robot=NAME]   AskResponse (HTTP 400 when status is INVALID_ARGUMENT)
+//   GET /api/ask?q=QUESTION[&robot=NAME]   AskResponse (400 for a question it cannot take)
 //   GET /api/objects[?class=C[,C2]&min_confidence=X&confirmed_only=1&limit=N]
 //                                          FindObjectsResponse
 //   GET /api/objects/{id}[?with_cloud=1]   GetObjectResponse (404 when unknown)
 //   GET /api/stats                         GetStatsResponse
-// Errors: {"error":{"code":"INVALID_ARGUMENT","message":"..."}} with 400 / 404 / 500.
+// Errors: the gRPC status as {"error":{"code":"INVALID_ARGUMENT","message":"..."}} (code names
+// from absl::StatusCodeToString) with HTTP 400 / 404 / 409 / 500 / 501 / 503.
 #pragma once
 
 #include <memory>

@@ -7,18 +7,12 @@
 #include <limits>
 #include <numeric>
 
+#include "server/map/voxel_key.h"
+
 namespace loci::server {
 namespace {
 
 constexpr uint64_t kEmpty = std::numeric_limits<uint64_t>::max();
-
-uint64_t Pack(int64_t x, int64_t y, int64_t z) {
-  constexpr int64_t kOff = int64_t{1} << 20;
-  constexpr uint64_t kMask = (uint64_t{1} << 21) - 1;
-  return ((static_cast<uint64_t>(x + kOff) & kMask) << 42) |
-         ((static_cast<uint64_t>(y + kOff) & kMask) << 21) |
-         (static_cast<uint64_t>(z + kOff) & kMask);
-}
 
 // Cells of the grid -> runs of point indices sorted by cell; open addressing, linear probing.
 class CellIndex {
@@ -40,7 +34,7 @@ class CellIndex {
       size_t j = i + 1;
       while (j < order_.size() && point_keys[order_[j]] == point_keys[order_[i]]) ++j;
       const uint64_t key = point_keys[order_[i]];
-      size_t slot = Hash(key) & mask_;
+      size_t slot = HashVoxelKey(key) & mask_;
       while (keys_[slot] != kEmpty) slot = (slot + 1) & mask_;
       keys_[slot] = key;
       runs_[slot] = {static_cast<uint32_t>(i), static_cast<uint32_t>(j - i)};
@@ -49,7 +43,7 @@ class CellIndex {
   }
   // Point indices of a cell: [begin, end) into order(); empty when the cell holds none.
   std::pair<const uint32_t*, const uint32_t*> Find(uint64_t key) const {
-    size_t slot = Hash(key) & mask_;
+    size_t slot = HashVoxelKey(key) & mask_;
     while (keys_[slot] != kEmpty) {
       if (keys_[slot] == key) {
         const uint32_t* b = order_.data() + runs_[slot].first;
@@ -61,12 +55,6 @@ class CellIndex {
   }
 
  private:
-  static size_t Hash(uint64_t k) {
-    k ^= k >> 33;
-    k *= 0xff51afd7ed558ccdULL;
-    k ^= k >> 33;
-    return static_cast<size_t>(k);
-  }
   std::vector<uint32_t> order_;
   std::vector<uint64_t> keys_;
   std::vector<std::pair<uint32_t, uint32_t>> runs_;
@@ -92,7 +80,7 @@ std::vector<float> MeanNeighbourDistances(const pcl::PointCloud<PointT>& cloud, 
     cell[i] = Eigen::Vector3i(static_cast<int>(std::floor(p.x * inv)),
                               static_cast<int>(std::floor(p.y * inv)),
                               static_cast<int>(std::floor(p.z * inv)));
-    keys[i] = Pack(cell[i].x(), cell[i].y(), cell[i].z());
+    keys[i] = PackVoxel(cell[i].x(), cell[i].y(), cell[i].z());
   }
   const CellIndex index(keys);
   const int k = std::min<int>(mean_k, static_cast<int>(n) - 1);
@@ -115,7 +103,7 @@ std::vector<float> MeanNeighbourDistances(const pcl::PointCloud<PointT>& cloud, 
           const bool face = std::abs(dx) == r || std::abs(dy) == r;
           // Only the shell of Chebyshev radius r: interior cells were visited before.
           for (int dz = -r; dz <= r; dz += (face ? 1 : std::max(1, 2 * r))) {
-            const auto [b, e] = index.Find(Pack(
+            const auto [b, e] = index.Find(PackVoxel(
                 int64_t{cell[i].x()} + dx, int64_t{cell[i].y()} + dy, int64_t{cell[i].z()} + dz));
             for (const uint32_t* j = b; j != e; ++j) {
               if (*j != i) offer((cloud[*j].getVector3fMap() - p).squaredNorm());

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <ctime>
 #include <future>
 #include <numeric>
 #include <opencv2/imgproc.hpp>
@@ -14,12 +13,6 @@
 #include "server/map/voxel_filter.h"
 
 namespace loci::server {
-
-double ThreadCpuMs() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
 
 cv::Mat LabelPixels(const cv::Mat& depth_m, const std::vector<Detection2D>& detections,
                     const MapOptions& options, const PinholeCamera& camera,

@@ -16,6 +16,7 @@
 #include "common/camera.h"
 #include "common/detections_io.h"
 #include "common/se3.h"
+#include "common/time.h"  // ThreadCpuMs for the stage times
 #include "server/map/map_options.h"
 
 namespace loci::server {
@@ -42,9 +43,6 @@ struct KeyframeProducts {
   // Thread CPU milliseconds of the sub-stages (robust to other load on the machine).
   double labels_ms = 0, objects_ms = 0, backproject_ms = 0, voxel_ms = 0, outlier_ms = 0;
 };
-
-// Thread CPU time in milliseconds (CLOCK_THREAD_CPUTIME_ID), for stage timing.
-double ThreadCpuMs();
 
 // Label image (CV_16SC1) of a keyframe: object pixels from the detections' masks, else from
 // detection::SegmentObjectDepth on the box (with camera and gravity when known); dynamic classes

@@ -6,9 +6,47 @@
 #include "common/config.h"
 
 namespace loci::server {
+namespace {
+
+// The keys FromYaml reads, per section (a key added there belongs here too).
+constexpr const char* kFusionKeys[] = {
+    "max_centroid_distance_m", "centroid_from_box", "min_overlap",          "support_cell_m",
+    "min_support_fraction",    "overlap_voxel_m",   "weight_track",         "weight_centroid",
+    "weight_overlap",          "score_threshold",   "track_gate_m",         "confirm_observations",
+    "merge_centroid_m",        "merge_containment", "merge_across_classes", "assoc_containment",
+    "max_size_ratio",          "label_universe",    "min_likelihood",       "existence_p_real",
+    "existence_p_false",       "confirm_llr",       "remove_llr",           "visibility",
+    "centroid_trim"};
+
+Status CheckMapKeys(const YAML::Node& node) {
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(
+      node, "map",
+      {"dynamic_classes", "mapped_classes", "cloud", "observation", "fusion", "frame", "octomap"}));
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(
+      node["cloud"], "map.cloud",
+      {"min_depth_m", "max_depth_m", "pixel_stride", "voxel_m", "sor_mean_k", "sor_stddev_mul"}));
+  LOCI_RETURN_IF_ERROR(
+      CheckKnownKeys(node["observation"], "map.observation",
+                     {"min_score", "mask", "voxel_m", "max_points", "sor_mean_k", "sor_stddev_mul",
+                      "sor_min_voxels", "min_points", "min_box_px", "max_object_depth_m"}));
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["fusion"], "map.fusion", kFusionKeys));
+  if (const YAML::Node fusion = node["fusion"]) {
+    LOCI_RETURN_IF_ERROR(
+        CheckKnownKeys(fusion["visibility"], "map.fusion.visibility",
+                       {"min_visible_fraction", "occlusion_tol_m", "occlusion_tol_rel", "border_px",
+                        "min_projected_px", "max_depth_m", "excuse_iou"}));
+  }
+  LOCI_RETURN_IF_ERROR(
+      CheckKnownKeys(node["frame"], "map.frame", {"settle_keyframes", "plane_refine_max_deg"}));
+  return CheckKnownKeys(node["octomap"], "map.octomap",
+                        {"enabled", "resolution_m", "max_range_m", "ray_voxel_m"});
+}
+
+}  // namespace
 
 Status MapOptions::FromYaml(const YAML::Node& node) {
   if (!node) return absl::OkStatus();
+  LOCI_RETURN_IF_ERROR(CheckMapKeys(node));
   if (const YAML::Node n = node["cloud"]) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_depth_m", &cloud.min_depth_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_depth_m", &cloud.max_depth_m));

@@ -9,17 +9,12 @@
 #include <unordered_map>
 #include <vector>
 
+#include "server/map/voxel_key.h"
+
 namespace loci::server {
 namespace {
 
 constexpr uint64_t kEmpty = std::numeric_limits<uint64_t>::max();
-
-size_t Hash(uint64_t k) {
-  k ^= k >> 33;
-  k *= 0xff51afd7ed558ccdULL;
-  k ^= k >> 33;
-  return static_cast<size_t>(k);
-}
 
 struct Accumulator {
   double x = 0, y = 0, z = 0;
@@ -45,15 +40,9 @@ pcl::PointCloud<PointT> VoxelAverage(const pcl::PointCloud<PointT>& cloud, doubl
   // (accumulator << 32 | label) -> count, for the rare voxels holding several labels.
   std::unordered_map<uint64_t, uint32_t> others;
   for (const PointT& p : cloud) {
-    constexpr int64_t kOff = int64_t{1} << 20;
-    constexpr uint64_t kMask = (uint64_t{1} << 21) - 1;
-    const uint64_t key =
-        ((static_cast<uint64_t>(static_cast<int64_t>(std::floor(p.x * inv)) + kOff) & kMask)
-         << 42) |
-        ((static_cast<uint64_t>(static_cast<int64_t>(std::floor(p.y * inv)) + kOff) & kMask)
-         << 21) |
-        (static_cast<uint64_t>(static_cast<int64_t>(std::floor(p.z * inv)) + kOff) & kMask);
-    size_t slot = Hash(key) & mask;
+    auto cell = [inv](float v) { return static_cast<int64_t>(std::floor(v * inv)); };
+    const VoxelKey key = PackVoxel(cell(p.x), cell(p.y), cell(p.z));
+    size_t slot = HashVoxelKey(key) & mask;
     while (keys[slot] != kEmpty && keys[slot] != key) slot = (slot + 1) & mask;
     if (keys[slot] == kEmpty) {
       keys[slot] = key;

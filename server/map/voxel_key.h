@@ -4,18 +4,33 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 
 namespace loci::server {
 
 using VoxelKey = uint64_t;
 
+// Integer voxel (or grid cell) coordinates, each in [-2^20, 2^20), packed into one key.
+inline VoxelKey PackVoxel(int64_t ix, int64_t iy, int64_t iz) {
+  constexpr int64_t kOff = int64_t{1} << 20;
+  constexpr uint64_t kMask = (uint64_t{1} << 21) - 1;
+  return ((static_cast<uint64_t>(ix + kOff) & kMask) << 42) |
+         ((static_cast<uint64_t>(iy + kOff) & kMask) << 21) |
+         (static_cast<uint64_t>(iz + kOff) & kMask);
+}
+
 inline VoxelKey KeyOf(const Eigen::Vector3d& p_m, double voxel_m) {
-  auto axis = [voxel_m](double v) {
-    const int64_t i = static_cast<int64_t>(std::floor(v / voxel_m)) + (int64_t{1} << 20);
-    return static_cast<uint64_t>(i) & ((uint64_t{1} << 21) - 1);
-  };
-  return (axis(p_m.x()) << 42) | (axis(p_m.y()) << 21) | axis(p_m.z());
+  auto cell = [voxel_m](double v) { return static_cast<int64_t>(std::floor(v / voxel_m)); };
+  return PackVoxel(cell(p_m.x()), cell(p_m.y()), cell(p_m.z()));
+}
+
+// Bucket hash of a key for open-addressing tables (murmur3 finaliser, first half).
+inline size_t HashVoxelKey(VoxelKey k) {
+  k ^= k >> 33;
+  k *= 0xff51afd7ed558ccdULL;
+  k ^= k >> 33;
+  return static_cast<size_t>(k);
 }
 
 // Centre of a voxel in metres.

@@ -10,7 +10,8 @@ namespace loci::server {
 
 StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(MapServer* server,
                                                         const std::string& listen,
-                                                        int max_message_mb) {
+                                                        int max_message_mb,
+                                                        std::shared_ptr<QueryEngine> engine) {
   if (listen.find(':') == std::string::npos) {
     return absl::InvalidArgumentError(
         absl::StrCat("listen address '", listen, "' must be HOST:PORT"));
@@ -19,7 +20,7 @@ StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(MapServer* server,
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   std::unique_ptr<GrpcServer> g(new GrpcServer());
   g->mapping_ = std::make_unique<MappingService>(server);
-  g->query_ = std::make_unique<QueryService>(server);
+  g->query_ = std::make_unique<QueryService>(server, std::move(engine));
   grpc::ServerBuilder builder;
   builder.AddListeningPort(listen, grpc::InsecureServerCredentials(), &g->port_);
   // Larger messages are refused by gRPC with RESOURCE_EXHAUSTED before reaching the handlers.

@@ -14,9 +14,11 @@ namespace loci::server {
 
 class GrpcServer {
  public:
-  // Binds `listen` (HOST:PORT, port 0 = any free port) and starts serving `server`.
+  // Binds `listen` (HOST:PORT, port 0 = any free port) and starts serving `server`; `engine`
+  // answers Ask (null: Ask is UNIMPLEMENTED).
   static StatusOr<std::unique_ptr<GrpcServer>> Start(MapServer* server, const std::string& listen,
-                                                     int max_message_mb);
+                                                     int max_message_mb,
+                                                     std::shared_ptr<QueryEngine> engine = nullptr);
   ~GrpcServer();
 
   int port() const { return port_; }

@@ -151,8 +151,9 @@ loci::v1::KeyframeAck MapServer::Ingest(const loci::v1::Keyframe& kf) {
   }
   auto inserted = store_->InsertKeyframe(*record);
   const auto t2 = std::chrono::steady_clock::now();
-  validate_ms_total_ = validate_ms_total_ + (cpu1 - cpu0);
-  store_ms_total_ = store_ms_total_ + std::chrono::duration<double, std::milli>(t2 - t1).count();
+  // fetch_add: `x = x + y` on an atomic loses updates when several streams ingest at once.
+  validate_ms_total_.fetch_add(cpu1 - cpu0);
+  store_ms_total_.fetch_add(std::chrono::duration<double, std::milli>(t2 - t1).count());
   ++accepted_count_;
   if (!inserted.ok()) {
     spdlog::error("keyframe {} of {} not stored: {}", kf.seq(), kf.session_id(),
@@ -199,9 +200,8 @@ void MapServer::WorkerLoop() {
       spdlog::warn("detector failed on keyframe {}: {}", kf->keyframe_id, s.ToString());
     }
     mapper_->Integrate(*kf);
-    mapping_ms_total_ =
-        mapping_ms_total_ +
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    mapping_ms_total_.fetch_add(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     ++mapping_count_;
     std::lock_guard<std::mutex> lock(progress_mu_);
     ++mapped_;

@@ -81,6 +81,7 @@ class MapServer {
   std::condition_variable progress_cv_;
   uint64_t enqueued_ = 0;  // guarded by progress_mu_
   uint64_t mapped_ = 0;    // guarded by progress_mu_
+  // Stage time sums (ms), added with fetch_add by every ingest stream and the worker.
   std::atomic<double> mapping_ms_total_{0};
   std::atomic<uint64_t> mapping_count_{0};
   std::atomic<double> validate_ms_total_{0};

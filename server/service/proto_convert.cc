@@ -5,23 +5,9 @@
 namespace loci::server {
 namespace {
 
-void SetVec(const Eigen::Vector3d& v, loci::v1::Vec3* out) {
-  out->set_x(v.x());
-  out->set_y(v.y());
-  out->set_z(v.z());
-}
 Eigen::Vector3d GetVec(const loci::v1::Vec3& v) { return {v.x(), v.y(), v.z()}; }
 
 }  // namespace
-
-void ToProto(const SE3d& in, loci::v1::Pose* out) {
-  SetVec(in.translation(), out->mutable_t_m());
-  const Quatd q = QuatOf(in);
-  out->set_qw(q.w());
-  out->set_qx(q.x());
-  out->set_qy(q.y());
-  out->set_qz(q.z());
-}
 
 void ToProto(const MapObject& in, loci::v1::Object* out) {
   out->set_id(in.id);
@@ -32,11 +18,11 @@ void ToProto(const MapObject& in, loci::v1::Object* out) {
     l->set_class_name(name);
     l->set_probability(p);
   }
-  SetVec(in.centroid_m, out->mutable_centroid_m());
-  SetVec(in.aabb_min_m, out->mutable_aabb()->mutable_min_m());
-  SetVec(in.aabb_max_m, out->mutable_aabb()->mutable_max_m());
-  SetVec(in.obb_center_m, out->mutable_obb()->mutable_center_m());
-  SetVec(in.obb_half_extent_m, out->mutable_obb()->mutable_half_extent_m());
+  ToProto(in.centroid_m, out->mutable_centroid_m());
+  ToProto(in.aabb_min_m, out->mutable_aabb()->mutable_min_m());
+  ToProto(in.aabb_max_m, out->mutable_aabb()->mutable_max_m());
+  ToProto(in.obb_center_m, out->mutable_obb()->mutable_center_m());
+  ToProto(in.obb_half_extent_m, out->mutable_obb()->mutable_half_extent_m());
   SE3d R = SE3d::Identity();
   R.linear() = in.R_map_box;
   ToProto(R, out->mutable_obb()->mutable_r_map_box());

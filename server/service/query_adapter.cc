@@ -38,13 +38,6 @@ bool IsValidUtf8(const std::string& s) {
   return true;
 }
 
-loci::v1::AskResponse Rejected(const Status& status) {
-  loci::v1::AskResponse out;
-  ToProto(status, out.mutable_status());
-  out.set_answer(std::string(status.message()));
-  return out;
-}
-
 }  // namespace
 
 std::vector<Eigen::Vector3f> MapperSource::CloudPoints(double voxel_m) const {
@@ -55,7 +48,6 @@ std::vector<Eigen::Vector3f> MapperSource::CloudPoints(double voxel_m) const {
 
 loci::v1::AskResponse ToProto(const query::AskResult& result) {
   loci::v1::AskResponse out;
-  ToProto(result.status, out.mutable_status());
   out.set_answer(result.answer);
   for (const MapObject& o : result.objects) ToProto(o, out.add_objects());
   for (const query::RelationResult& r : result.relations) {
@@ -71,24 +63,31 @@ loci::v1::AskResponse ToProto(const query::AskResult& result) {
   return out;
 }
 
+loci::v1::AskResponse AnswerOrError(const StatusOr<loci::v1::AskResponse>& answer) {
+  if (answer.ok()) return *answer;
+  loci::v1::AskResponse out;
+  out.set_answer(absl::StrCat("(error: ", answer.status().message(), ")"));
+  return out;
+}
+
 QueryAdapter::QueryAdapter(QueryAdapterOptions options)
     : options_(std::move(options)), engine_(options_.query) {}
 
-loci::v1::AskResponse QueryAdapter::Ask(const loci::v1::AskRequest& request,
-                                        const MapServer& server) {
+StatusOr<loci::v1::AskResponse> QueryAdapter::Ask(const loci::v1::AskRequest& request,
+                                                  const MapServer& server) {
   return Ask(request, MapperSource(server.mapper()));
 }
 
-loci::v1::AskResponse QueryAdapter::Ask(const loci::v1::AskRequest& request,
-                                        const QueryMapSource& source) {
+StatusOr<loci::v1::AskResponse> QueryAdapter::Ask(const loci::v1::AskRequest& request,
+                                                  const QueryMapSource& source) {
   const std::string& text = request.text();
   if (text.size() > options_.max_question_bytes) {
-    return Rejected(absl::InvalidArgumentError(
-        absl::StrCat("question is ", text.size(), " bytes long; at most ",
-                     options_.max_question_bytes, " are accepted")));
+    return absl::InvalidArgumentError(absl::StrCat("question is ", text.size(),
+                                                   " bytes long; at most ",
+                                                   options_.max_question_bytes, " are accepted"));
   }
   if (!IsValidUtf8(text) || !IsValidUtf8(request.robot_name())) {
-    return Rejected(absl::InvalidArgumentError("question and robot name must be UTF-8 text"));
+    return absl::InvalidArgumentError("question and robot name must be UTF-8 text");
   }
   const std::shared_ptr<const query::MapIndex> index = IndexFor(source);
   int64_t now_ns = options_.now_ns ? options_.now_ns() : NowNs();
@@ -99,7 +98,10 @@ loci::v1::AskResponse QueryAdapter::Ask(const loci::v1::AskRequest& request,
   if (newest_kf_ns > 0 && now_ns - newest_kf_ns > SecondsToNs(options_.replay_age_s)) {
     now_ns = newest_kf_ns;
   }
-  return ToProto(engine_.Ask(text, *index, query::AskContext{now_ns, request.robot_name()}));
+  const query::AskResult result =
+      engine_.Ask(text, *index, query::AskContext{now_ns, request.robot_name()});
+  if (!result.status.ok()) return result.status;
+  return ToProto(result);
 }
 
 void QueryAdapter::EstimateUp(const QueryMapSource& source, std::optional<Vec3d>* up,

@@ -2,7 +2,7 @@
 // latest robot poses), indexes it once per map version and converts AskResult to AskResponse.
 //
 //   auto adapter = std::make_shared<QueryAdapter>(QueryAdapterOptions{});
-//   grpc_server->query_service().SetQueryEngine(adapter);
+//   auto grpc = GrpcServer::Start(&map_server, "127.0.0.1:0", 64, adapter);
 #pragma once
 
 #include <cstdint>
@@ -85,9 +85,12 @@ class QueryAdapter final : public QueryEngine {
  public:
   explicit QueryAdapter(QueryAdapterOptions options);
 
-  loci::v1::AskResponse Ask(const loci::v1::AskRequest& request, const MapServer& server) override;
-  // Same on any map source. Thread-safe.
-  loci::v1::AskResponse Ask(const loci::v1::AskRequest& request, const QueryMapSource& source);
+  StatusOr<loci::v1::AskResponse> Ask(const loci::v1::AskRequest& request,
+                                      const MapServer& server) override;
+  // Same on any map source. Thread-safe. INVALID_ARGUMENT for a question that is too long, not
+  // UTF-8, or not understood (the message lists the known words).
+  StatusOr<loci::v1::AskResponse> Ask(const loci::v1::AskRequest& request,
+                                      const QueryMapSource& source);
 
   // Where the last index's up direction came from: "map frame (HOW)" for the server's levelled
   // map, else "gravity+planes" (gravity refined by the horizontal planes), "gravity", "planes"
@@ -113,7 +116,12 @@ class QueryAdapter final : public QueryEngine {
   std::mutex build_mu_;  // one build at a time; concurrent askers wait and reuse it
 };
 
-// Converts an engine answer to the wire message (shared by gRPC and HTTP).
+// Converts an engine answer to the wire message (its status is not part of it: the caller
+// returns a failed result as the call's status).
 loci::v1::AskResponse ToProto(const query::AskResult& result);
+
+// For evaluation tools that print an answer line either way: the response, or one whose answer
+// is "(error: MESSAGE)" (as they show a failed Ask over gRPC).
+loci::v1::AskResponse AnswerOrError(const StatusOr<loci::v1::AskResponse>& answer);
 
 }  // namespace loci::server

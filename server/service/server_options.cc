@@ -9,7 +9,12 @@ namespace loci::server {
 
 Status ServerOptions::FromYamlFile(const std::string& path) {
   LOCI_ASSIGN_OR_RETURN(YAML::Node root, LoadYamlFile(path));
+  const ConfigFileScope scope(path);
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(root, "", {"server", "detector", "map", "sessions"}));
   if (const YAML::Node s = root["server"]) {
+    LOCI_RETURN_IF_ERROR(CheckKnownKeys(s, "server",
+                                        {"listen", "db", "http", "max_message_mb", "queue_capacity",
+                                         "max_detections", "max_image_px", "classes_file"}));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "listen", &listen));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "db", &db_path));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "http", &http));
@@ -26,13 +31,16 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
   config_dir = std::filesystem::path(path).parent_path().string();
   if (const YAML::Node d = root["detector"]) {
     LOCI_RETURN_IF_ERROR(ReadOptional(d, "enabled", &detector_enabled));
-    detector_config = d;
+    detector_config = YAML::Clone(d);  // the detector's own keys (checked when it is made)
+    detector_config.remove("enabled");
   }
   LOCI_RETURN_IF_ERROR(LoadClasses());
   LOCI_RETURN_IF_ERROR(map.FromYaml(root["map"]));
   if (const YAML::Node sessions = root["sessions"]) {
     for (const auto& kv : sessions) {
       const std::string robot = kv.first.as<std::string>();
+      LOCI_RETURN_IF_ERROR(
+          CheckKnownKeys(kv.second, "sessions." + robot, {"t_base_odom_m", "q_base_odom_wxyz"}));
       std::vector<double> t{0, 0, 0}, q{1, 0, 0, 0};
       LOCI_RETURN_IF_ERROR(ReadOptional(kv.second, "t_base_odom_m", &t));
       LOCI_RETURN_IF_ERROR(ReadOptional(kv.second, "q_base_odom_wxyz", &q));
@@ -59,6 +67,9 @@ Status ServerOptions::LoadClasses() {
     return absl::NotFoundError(absl::StrCat("classes file not found: ", file));
   }
   LOCI_ASSIGN_OR_RETURN(YAML::Node node, LoadYamlFile(file));
+  const ConfigFileScope scope(file);
+  // dynamic_weight is loci-track's (TrackerOptions::ClassWeightsFromYaml).
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(node, "", {"mapped", "dynamic_classes", "dynamic_weight"}));
   return map.ClassesFromYaml(node);
 }
 

@@ -15,7 +15,7 @@ namespace loci::server {
 struct ServerOptions {
   std::string listen = "127.0.0.1:50051";  // gRPC address, HOST:PORT (port 0 = any free port)
   std::string db_path = "loci.db";         // SQLite database file
-  std::string http = "off";                // HTTP/JSON API address or "off" (query issue)
+  std::string http = "off";                // HTTP/JSON API address HOST:PORT or "off"
   int max_message_mb = 64;                 // largest gRPC message accepted, MiB (64)
   int queue_capacity = 32;                 // keyframes waiting for the mapping worker (32)
   int max_detections = 512;                // detections per keyframe accepted (512)

@@ -24,6 +24,11 @@ grpc::Status ToGrpc(const Status& s) {
   return grpc::Status(static_cast<grpc::StatusCode>(s.code()), std::string(s.message()));
 }
 
+Status FromGrpc(const grpc::Status& s) {
+  if (s.ok()) return absl::OkStatus();
+  return Status(static_cast<absl::StatusCode>(s.error_code()), s.error_message());
+}
+
 grpc::Status MappingService::OpenSession(grpc::ServerContext*,
                                          const loci::v1::OpenSessionRequest* req,
                                          loci::v1::OpenSessionResponse* resp) {
@@ -55,13 +60,13 @@ grpc::Status MappingService::CloseSession(grpc::ServerContext*,
 
 grpc::Status QueryService::Ask(grpc::ServerContext*, const loci::v1::AskRequest* req,
                                loci::v1::AskResponse* resp) {
-  if (engine_) {
-    *resp = engine_->Ask(*req, *server_);
-    return grpc::Status::OK;
+  if (!engine_) {
+    return grpc::Status(grpc::StatusCode::UNIMPLEMENTED,
+                        "this server answers no questions (no query engine); use FindObjects");
   }
-  ToProto(absl::FailedPreconditionError(
-              "natural-language queries arrive with the query engine; use FindObjects"),
-          resp->mutable_status());
+  StatusOr<loci::v1::AskResponse> answer = engine_->Ask(*req, *server_);
+  if (!answer.ok()) return ToGrpc(answer.status());
+  *resp = std::move(*answer);
   return grpc::Status::OK;
 }
 
@@ -128,6 +133,8 @@ grpc::Status QueryService::WatchObjects(grpc::ServerContext* ctx,
                                         grpc::ServerWriter<loci::v1::ObjectEvent>* writer) {
   auto queue = std::make_shared<ObjectEventQueue>(1024);
   server_->Subscribe(queue);
+  // Initial metadata tells the client that the watch is registered: every later event comes.
+  writer->SendInitialMetadata();
   while (!ctx->IsCancelled()) {
     std::optional<ObjectEventOut> e = queue->PopFor(std::chrono::milliseconds(200));
     if (!e) continue;

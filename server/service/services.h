@@ -28,9 +28,9 @@ class MappingService final : public loci::v1::Mapping::Service {
 
 class QueryService final : public loci::v1::Query::Service {
  public:
-  explicit QueryService(MapServer* server) : server_(server) {}
-  // Installs the natural-language engine used by Ask (null = none).
-  void SetQueryEngine(std::shared_ptr<QueryEngine> engine) { engine_ = std::move(engine); }
+  // `engine` answers Ask (null: Ask is UNIMPLEMENTED). Both are fixed before serving starts.
+  QueryService(MapServer* server, std::shared_ptr<QueryEngine> engine)
+      : server_(server), engine_(std::move(engine)) {}
 
   grpc::Status Ask(grpc::ServerContext* ctx, const loci::v1::AskRequest* req,
                    loci::v1::AskResponse* resp) override;
@@ -51,11 +51,12 @@ class QueryService final : public loci::v1::Query::Service {
                                loci::v1::GetTrajectoriesResponse* resp) override;
 
  private:
-  MapServer* server_;
-  std::shared_ptr<QueryEngine> engine_;
+  MapServer* const server_;
+  const std::shared_ptr<QueryEngine> engine_;
 };
 
-// absl status -> grpc status (same code numbering).
+// absl status <-> grpc status (same code numbering).
 grpc::Status ToGrpc(const Status& s);
+Status FromGrpc(const grpc::Status& s);
 
 }  // namespace loci::server

@@ -2,69 +2,22 @@
 
 #include <sqlite3.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <iterator>
 #include <utility>
 
 #include "common/time.h"
 #include "server/storage/schema_sql.h"
+#include "server/storage/sqlite_util.h"
 
 namespace loci::server {
 namespace {
 
-Status SqlError(sqlite3* db, const std::string& what) {
-  return absl::InternalError(absl::StrCat("sqlite: ", what, ": ", sqlite3_errmsg(db)));
-}
-
-// A prepared statement, finalised on destruction.
-class Stmt {
- public:
-  Stmt(sqlite3* db, const char* sql) : db_(db) {
-    rc_ = sqlite3_prepare_v2(db, sql, -1, &stmt_, nullptr);
-  }
-  ~Stmt() { sqlite3_finalize(stmt_); }
-  Status status() const { return rc_ == SQLITE_OK ? absl::OkStatus() : SqlError(db_, "prepare"); }
-  Stmt& Bind(int i, int64_t v) {
-    sqlite3_bind_int64(stmt_, i, v);
-    return *this;
-  }
-  Stmt& Bind(int i, double v) {
-    sqlite3_bind_double(stmt_, i, v);
-    return *this;
-  }
-  Stmt& BindText(int i, const std::string& v) {
-    sqlite3_bind_text(stmt_, i, v.data(), static_cast<int>(v.size()), SQLITE_TRANSIENT);
-    return *this;
-  }
-  Stmt& BindBlob(int i, const std::string& v) {
-    sqlite3_bind_blob(stmt_, i, v.data(), static_cast<int>(v.size()), SQLITE_STATIC);
-    return *this;
-  }
-  int Step() { return sqlite3_step(stmt_); }
-  int64_t Int(int c) const { return sqlite3_column_int64(stmt_, c); }
-  double Real(int c) const { return sqlite3_column_double(stmt_, c); }
-  bool IsNull(int c) const { return sqlite3_column_type(stmt_, c) == SQLITE_NULL; }
-  std::string Text(int c) const {
-    const void* p = sqlite3_column_blob(stmt_, c);
-    return p ? std::string(static_cast<const char*>(p), sqlite3_column_bytes(stmt_, c))
-             : std::string();
-  }
-
- private:
-  sqlite3* db_;
-  sqlite3_stmt* stmt_ = nullptr;
-  int rc_;
-};
-
-Status Exec(sqlite3* db, const std::string& sql) {
-  char* err = nullptr;
-  if (sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &err) != SQLITE_OK) {
-    std::string msg = err ? err : "unknown";
-    sqlite3_free(err);
-    return absl::InternalError(absl::StrCat("sqlite: ", msg));
-  }
-  return absl::OkStatus();
-}
+using sqlite::Exec;
+using sqlite::SqlError;
+using sqlite::Stmt;
+using sqlite::Transaction;
 
 SE3d PoseFrom(const Stmt& s, int c) {
   return MakeSE3(Vec3d(s.Real(c), s.Real(c + 1), s.Real(c + 2)),
@@ -98,10 +51,23 @@ constexpr char kSessionColumns[] =
 }  // namespace
 
 SqliteStore::SqliteStore(std::string path, SqliteStoreOptions options)
-    : path_(std::move(path)), options_(options) {}
+    : path_(std::move(path)),
+      options_(options),
+      readers_([this] { return OpenConnection(); },
+               static_cast<size_t>(std::max(0, options.max_idle_readers))) {}
 
-SqliteStore::~SqliteStore() {
-  for (auto& [tid, db] : connections_) sqlite3_close_v2(db);
+SqliteStore::~SqliteStore() { sqlite3_close_v2(writer_); }
+
+size_t SqliteStore::open_connections() const {
+  return readers_.open_count() + (writer_ != nullptr ? 1 : 0);
+}
+
+StatusOr<sqlite3*> SqliteStore::Writer() {
+  if (options_.read_only) return absl::FailedPreconditionError(path_ + " is open read-only");
+  if (writer_ == nullptr) {
+    LOCI_ASSIGN_OR_RETURN(writer_, OpenConnection());
+  }
+  return writer_;
 }
 
 int SqliteStore::LatestSchemaVersion() { return static_cast<int>(std::size(kSchemaMigrations)); }
@@ -112,8 +78,11 @@ StatusOr<std::unique_ptr<SqliteStore>> SqliteStore::Open(const std::string& path
     return absl::NotFoundError(absl::StrCat("database not found: ", path));
   }
   std::unique_ptr<SqliteStore> store(new SqliteStore(path, options));
-  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, store->Connection());
-  if (!options.read_only) LOCI_RETURN_IF_ERROR(store->Migrate(db));
+  if (!options.read_only) {
+    std::lock_guard<std::mutex> lock(store->write_mu_);
+    LOCI_ASSIGN_OR_RETURN(sqlite3 * db, store->Writer());
+    LOCI_RETURN_IF_ERROR(store->Migrate(db));
+  }
   LOCI_ASSIGN_OR_RETURN(int version, store->SchemaVersion());
   if (version > LatestSchemaVersion()) {
     return absl::FailedPreconditionError(absl::StrCat(path, ": schema version ", version,
@@ -144,17 +113,9 @@ StatusOr<sqlite3*> SqliteStore::OpenConnection() const {
   return db;
 }
 
-StatusOr<sqlite3*> SqliteStore::Connection() {
-  std::lock_guard<std::mutex> lock(mu_);
-  auto it = connections_.find(std::this_thread::get_id());
-  if (it != connections_.end()) return it->second;
-  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, OpenConnection());
-  connections_[std::this_thread::get_id()] = db;
-  return db;
-}
-
 Status SqliteStore::Migrate(sqlite3* db) {
-  LOCI_RETURN_IF_ERROR(Exec(db, "BEGIN IMMEDIATE;"));
+  Transaction tx(db);
+  LOCI_RETURN_IF_ERROR(tx.status());
   Status s =
       Exec(db, "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);");
   int version = 0;
@@ -170,15 +131,13 @@ Status SqliteStore::Migrate(sqlite3* db) {
                             v + 1, "');"));
     }
   }
-  if (!s.ok()) {
-    Exec(db, "ROLLBACK;").IgnoreError();
-    return s;
-  }
-  return Exec(db, "COMMIT;");
+  if (!s.ok()) return s;  // rolled back
+  return tx.Commit();
 }
 
 StatusOr<int> SqliteStore::SchemaVersion() {
-  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Connection());
+  LOCI_ASSIGN_OR_RETURN(auto reader, readers_.Acquire());
+  sqlite3* db = reader.get();
   Stmt q(db, "SELECT value FROM meta WHERE key = 'schema_version'");
   if (!q.status().ok()) return 0;  // no meta table: an empty database
   if (q.Step() != SQLITE_ROW) return 0;
@@ -186,8 +145,10 @@ StatusOr<int> SqliteStore::SchemaVersion() {
 }
 
 StatusOr<SessionRecord> SqliteStore::CreateSession(SessionRecord session) {
-  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Connection());
-  LOCI_RETURN_IF_ERROR(Exec(db, "BEGIN IMMEDIATE;"));
+  std::lock_guard<std::mutex> lock(write_mu_);
+  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Writer());
+  Transaction tx(db);
+  LOCI_RETURN_IF_ERROR(tx.status());
   // The public id carries the row id, which is only known after the insert.
   Stmt ins(db,
            "INSERT INTO sessions(session_id, robot_name, client_version, fx, fy, cx, cy, width_px,"
@@ -199,28 +160,21 @@ StatusOr<SessionRecord> SqliteStore::CreateSession(SessionRecord session) {
   ins.Bind(9, session.depth_scale);
   BindPose(ins, 10, session.T_base_odom);
   ins.Bind(17, session.opened_ns);
-  if (ins.Step() != SQLITE_DONE) {
-    Status s = SqlError(db, "insert session");
-    Exec(db, "ROLLBACK;").IgnoreError();
-    return s;
-  }
+  if (ins.Step() != SQLITE_DONE) return SqlError(db, "insert session");
   session.row_id = sqlite3_last_insert_rowid(db);
   session.session_id = absl::StrCat(session.robot_name, "-", session.row_id);
   Stmt upd(db, "UPDATE sessions SET session_id = ? WHERE id = ?");
   upd.BindText(1, session.session_id).Bind(2, session.row_id);
-  if (upd.Step() != SQLITE_DONE) {
-    Status s = SqlError(db, "update session");
-    Exec(db, "ROLLBACK;").IgnoreError();
-    return s;
-  }
-  LOCI_RETURN_IF_ERROR(Exec(db, "COMMIT;"));
+  if (upd.Step() != SQLITE_DONE) return SqlError(db, "update session");
+  LOCI_RETURN_IF_ERROR(tx.Commit());
   session.open = true;
   return session;
 }
 
 StatusOr<std::vector<SessionRecord>> SqliteStore::QuerySessions(const std::string& where_sql,
                                                                 const std::string& arg) {
-  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Connection());
+  LOCI_ASSIGN_OR_RETURN(auto reader, readers_.Acquire());
+  sqlite3* db = reader.get();
   const std::string sql = absl::StrCat("SELECT ", kSessionColumns, " FROM sessions ", where_sql);
   Stmt q(db, sql.c_str());
   LOCI_RETURN_IF_ERROR(q.status());
@@ -266,7 +220,8 @@ StatusOr<std::vector<SessionRecord>> SqliteStore::ListSessions() {
 }
 
 Status SqliteStore::CloseSession(int64_t session_row, int64_t closed_ns) {
-  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Connection());
+  std::lock_guard<std::mutex> lock(write_mu_);
+  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Writer());
   Stmt q(db, "UPDATE sessions SET closed_ns = ? WHERE id = ?");
   LOCI_RETURN_IF_ERROR(q.status());
   q.Bind(1, closed_ns).Bind(2, session_row);
@@ -275,17 +230,15 @@ Status SqliteStore::CloseSession(int64_t session_row, int64_t closed_ns) {
 }
 
 StatusOr<InsertResult> SqliteStore::InsertKeyframe(const KeyframeRecord& kf) {
-  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Connection());
   FrameDetections frame;
   frame.t_ns = kf.t_ns;
   frame.detections = kf.detections;
   const std::string detections_json = DetectionsToJsonLine(frame);
-  LOCI_RETURN_IF_ERROR(Exec(db, "BEGIN IMMEDIATE;"));
-  auto fail = [db](const std::string& what) {
-    Status s = SqlError(db, what);
-    Exec(db, "ROLLBACK;").IgnoreError();
-    return s;
-  };
+  std::lock_guard<std::mutex> lock(write_mu_);
+  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Writer());
+  Transaction tx(db);
+  LOCI_RETURN_IF_ERROR(tx.status());
+  auto fail = [db](const std::string& what) { return SqlError(db, what); };  // rolls back
   InsertResult result;
   {
     Stmt ins(db,
@@ -313,12 +266,13 @@ StatusOr<InsertResult> SqliteStore::InsertKeyframe(const KeyframeRecord& kf) {
     if (q.Step() != SQLITE_ROW) return fail("find duplicate keyframe");
     result.keyframe_id = q.Int(0);
   }
-  LOCI_RETURN_IF_ERROR(Exec(db, "COMMIT;"));
+  LOCI_RETURN_IF_ERROR(tx.Commit());
   return result;
 }
 
 StatusOr<int64_t> SqliteStore::LastStoredSeq(int64_t session_row) {
-  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Connection());
+  LOCI_ASSIGN_OR_RETURN(auto reader, readers_.Acquire());
+  sqlite3* db = reader.get();
   Stmt q(db, "SELECT MAX(seq) FROM keyframes WHERE session = ?");
   LOCI_RETURN_IF_ERROR(q.status());
   q.Bind(1, session_row);
@@ -327,7 +281,8 @@ StatusOr<int64_t> SqliteStore::LastStoredSeq(int64_t session_row) {
 }
 
 StatusOr<uint64_t> SqliteStore::CountKeyframes(std::optional<int64_t> session_row) {
-  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Connection());
+  LOCI_ASSIGN_OR_RETURN(auto reader, readers_.Acquire());
+  sqlite3* db = reader.get();
   Stmt q(db, session_row ? "SELECT COUNT(*) FROM keyframes WHERE session = ?"
                          : "SELECT COUNT(*) FROM keyframes");
   LOCI_RETURN_IF_ERROR(q.status());
@@ -338,7 +293,8 @@ StatusOr<uint64_t> SqliteStore::CountKeyframes(std::optional<int64_t> session_ro
 
 Status SqliteStore::ForEachKeyframe(int64_t after_id,
                                     const std::function<Status(KeyframeRecord)>& fn) {
-  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Connection());
+  LOCI_ASSIGN_OR_RETURN(auto reader, readers_.Acquire());
+  sqlite3* db = reader.get();
   Stmt q(db,
          "SELECT id, session, seq, t_ns, tx, ty, tz, qw, qx, qy, qz, fx, fy, cx, cy, width_px,"
          " height_px, depth_scale, has_gravity, gx, gy, gz, segment, rgb_jpeg, depth_png,"

@@ -1,16 +1,14 @@
-// MapStore on SQLite: WAL journal, one connection per thread (opened lazily), schema migrated
-// from the checked-in server/storage/schema/NNN_*.sql files on open.
+// MapStore on SQLite: WAL journal, one write connection behind a mutex (SQLite runs one writer
+// at a time anyway) and a small pool of read connections, schema migrated from the checked-in
+// server/storage/schema/NNN_*.sql files on open.
 #pragma once
 
 #include <memory>
 #include <mutex>
 #include <string>
-#include <thread>
-#include <unordered_map>
 
 #include "server/storage/map_store.h"
-
-struct sqlite3;
+#include "server/storage/sqlite_pool.h"
 
 namespace loci::server {
 
@@ -20,6 +18,9 @@ struct SqliteStoreOptions {
   int busy_timeout_ms = 5000;
   // Open read-only (exports, offline evaluation): no schema migration, no writes (default false).
   bool read_only = false;
+  // Read connections kept open between reads (default 4); more readers at once open more, which
+  // are closed again after use.
+  int max_idle_readers = 4;
 };
 
 class SqliteStore final : public MapStore {
@@ -47,19 +48,23 @@ class SqliteStore final : public MapStore {
                          const std::function<Status(KeyframeRecord)>& fn) override;
   uint64_t DbBytes() override;
 
+  // Connections open now: the writer and the pooled readers (bounded; tests check it).
+  size_t open_connections() const;
+
  private:
   SqliteStore(std::string path, SqliteStoreOptions options);
-  // The calling thread's connection (opened on first use).
-  StatusOr<sqlite3*> Connection();
   StatusOr<sqlite3*> OpenConnection() const;
+  // The write connection; FailedPrecondition when read-only. Call with write_mu_ held.
+  StatusOr<sqlite3*> Writer();
   Status Migrate(sqlite3* db);
   StatusOr<std::vector<SessionRecord>> QuerySessions(const std::string& where_sql,
                                                      const std::string& arg);
 
   std::string path_;
   SqliteStoreOptions options_;
-  std::mutex mu_;
-  std::unordered_map<std::thread::id, sqlite3*> connections_;  // guarded by mu_
+  std::mutex write_mu_;
+  sqlite3* writer_ = nullptr;  // guarded by write_mu_; null when read-only
+  sqlite::ReadPool readers_;
 };
 
 }  // namespace loci::server

@@ -1,9 +1,12 @@
 // The loci-track program end to end (offline) on the shipped sample, and the dynamic-feature
 // test of paper 004 on exact geometry.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 #include "client/tracking/dynamic_filter.h"
@@ -67,6 +70,34 @@ TEST_F(LociTrackTest, BadInputFailsWithError) {
   EXPECT_NE(RunTrack("--tum " + kSample + " --offline --detections " + Path("none.jsonl")), 0);
   // No server listening: a clear error, not a hang.
   EXPECT_NE(RunTrack("--tum " + kSample + " --detections none --server 127.0.0.1:1"), 0);
+}
+
+TEST_F(LociTrackTest, StrictConfigTurnsAMisspeltKeyIntoAnError) {
+  std::ofstream(Path("client.yaml")) << "tracker:\n  min_depth_m: 0.1\n  max_dept_m: 4.0\n";
+  const std::string run = "--tum " + kSample +
+                          " --offline --detections none --max-frames 3 --config " +
+                          Path("client.yaml");
+  EXPECT_EQ(RunTrack(run), 0);  // a warning only
+  const std::string err = Path("strict.err");
+  const std::string cmd = std::string(LOCI_TRACK_BIN) + " --no-progress " + run +
+                          " --strict-config > /dev/null 2> " + err;
+  const int status = std::system(cmd.c_str());
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << status;
+  std::ifstream in(err);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find(Path("client.yaml") + ":3: unknown key 'max_dept_m' in 'tracker'"),
+            std::string::npos)
+      << text;
+}
+
+TEST(ShippedClientConfig, HasNoUnknownKeys) {
+  auto node = LoadYamlFile(SourceDir() + "/config/client.yaml");
+  ASSERT_TRUE(node.ok()) << node.status();
+  SetStrictConfig(true);
+  TrackerOptions o;
+  const Status s = o.FromYaml((*node)["tracker"]);
+  SetStrictConfig(false);
+  EXPECT_TRUE(s.ok()) << s;
 }
 
 TEST(DynamicFilterTest, MovingPointScoresAboveThresholdStaticBelow) {

@@ -1,8 +1,11 @@
 #include "common/config.h"
 
-#include <filesystem>
-
 #include <gtest/gtest.h>
+#include <spdlog/sinks/ostream_sink.h>
+#include <spdlog/spdlog.h>
+
+#include <filesystem>
+#include <sstream>
 
 namespace loci {
 namespace {
@@ -29,6 +32,79 @@ TEST(Config, BadCameraIsRejected) {
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.status().message().find("fx"), std::string::npos);
   EXPECT_EQ(LoadYamlFile("/nonexistent.yaml").status().code(), absl::StatusCode::kNotFound);
+}
+
+// Captures what spdlog logs while alive (the default logger is swapped and restored).
+class LogCapture {
+ public:
+  LogCapture() : previous_(spdlog::default_logger()) {
+    auto sink = std::make_shared<spdlog::sinks::ostream_sink_mt>(out_);
+    spdlog::set_default_logger(std::make_shared<spdlog::logger>("capture", sink));
+  }
+  ~LogCapture() { spdlog::set_default_logger(previous_); }
+  std::string text() const { return out_.str(); }
+
+ private:
+  std::ostringstream out_;
+  std::shared_ptr<spdlog::logger> previous_;
+};
+
+TEST(ConfigKeys, UnknownKeyWarnsWithFileLineSectionAndKey) {
+  const YAML::Node n = YAML::Load("voxel_m: 0.04\nvoxle_m: 0.02\n");
+  LogCapture log;
+  const ConfigFileScope scope("server.yaml");
+  EXPECT_TRUE(CheckKnownKeys(n, "map.cloud", {"voxel_m", "sor_mean_k"}).ok());
+  const std::string text = log.text();
+  EXPECT_NE(text.find("server.yaml:2: unknown key 'voxle_m' in 'map.cloud'"), std::string::npos)
+      << text;
+  EXPECT_NE(text.find("known: voxel_m, sor_mean_k"), std::string::npos) << text;
+  EXPECT_EQ(text.find("'voxel_m'"), std::string::npos) << "a known key was reported: " << text;
+}
+
+TEST(ConfigKeys, StrictMakesUnknownKeysErrors) {
+  const YAML::Node n = YAML::Load("{a: 1, b: 2, c: 3}");
+  SetStrictConfig(true);
+  const Status strict = CheckKnownKeys(n, "", {"a"});
+  const Status known = CheckKnownKeys(n, "", {"a", "b", "c"});
+  SetStrictConfig(false);
+  EXPECT_EQ(strict.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(strict.message().find("unknown key 'b' at the top level"), std::string::npos) << strict;
+  EXPECT_NE(strict.message().find("unknown key 'c'"), std::string::npos) << strict;
+  EXPECT_TRUE(known.ok()) << known;
+  EXPECT_TRUE(CheckKnownKeys(n, "", {"a"}).ok());  // back to warnings
+}
+
+TEST(ConfigKeys, AbsentAndNonMapNodesPass) {
+  SetStrictConfig(true);
+  EXPECT_TRUE(CheckKnownKeys(YAML::Node(), "s", {"a"}).ok());
+  EXPECT_TRUE(CheckKnownKeys(YAML::Load("[1, 2]"), "s", {"a"}).ok());
+  EXPECT_TRUE(CheckKnownKeys(YAML::Load("scalar"), "s", {"a"}).ok());
+  SetStrictConfig(false);
+}
+
+TEST(ConfigKeys, FileScopesNest) {
+  const YAML::Node n = YAML::Load("{zz: 1}");
+  SetStrictConfig(true);
+  std::string inner, outer;
+  {
+    const ConfigFileScope a("outer.yaml");
+    {
+      const ConfigFileScope b("inner.yaml");
+      inner = std::string(CheckKnownKeys(n, "", {}).message());
+    }
+    outer = std::string(CheckKnownKeys(n, "", {}).message());
+  }
+  SetStrictConfig(false);
+  EXPECT_EQ(inner.rfind("inner.yaml:1:", 0), 0u) << inner;
+  EXPECT_EQ(outer.rfind("outer.yaml:1:", 0), 0u) << outer;
+}
+
+TEST(ConfigKeys, CameraKeysAreChecked) {
+  SetStrictConfig(true);
+  auto cam = CameraFromYaml(YAML::Load("{preset: tum_fr1, fxx: 500}"));
+  SetStrictConfig(false);
+  ASSERT_FALSE(cam.ok());
+  EXPECT_NE(cam.status().message().find("'fxx'"), std::string::npos) << cam.status();
 }
 
 }  // namespace

@@ -1,5 +1,5 @@
-// Builds protocol v1 messages for server tests (the test-side streamer; loci-track's own
-// streamer comes with the client issue).
+// Builds protocol v1 messages for server tests (the test-side streamer; loci-track streams with
+// client/streaming/map_client.h).
 #pragma once
 
 #include <opencv2/core.hpp>

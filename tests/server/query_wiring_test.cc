@@ -10,13 +10,14 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <set>
 
 #include "common/objects_json.h"
 #include "loci/v1/mapping.grpc.pb.h"
 #include "loci/v1/query.grpc.pb.h"
+#include "proto/json.h"
 #include "server/http/http_api.h"
-#include "server/http/proto_json.h"
 #include "server/map/object_eval.h"
 #include "server/service/grpc_server.h"
 #include "server/service/map_server.h"
@@ -47,13 +48,12 @@ struct LiveServer {
     auto m = MapServer::Open(options);
     ASSERT_TRUE(m.ok()) << m.status();
     map = std::move(*m);
-    auto g = GrpcServer::Start(map.get(), "127.0.0.1:0", 64);
-    ASSERT_TRUE(g.ok()) << g.status();
-    grpc = std::move(*g);
     QueryAdapterOptions qo;
     qo.now_ns = [now_ns] { return now_ns; };  // fixed: "seen N s ago" equal over both transports
     adapter = std::make_shared<QueryAdapter>(qo);
-    grpc->query_service().SetQueryEngine(adapter);
+    auto g = GrpcServer::Start(map.get(), "127.0.0.1:0", 64, adapter);
+    ASSERT_TRUE(g.ok()) << g.status();
+    grpc = std::move(*g);
     auto h = HttpApi::Start(&grpc->query_service(), "127.0.0.1:0");
     ASSERT_TRUE(h.ok()) << h.status();
     http = std::move(*h);
@@ -64,14 +64,14 @@ struct LiveServer {
     client = std::make_unique<httplib::Client>("127.0.0.1", http->port());
   }
 
-  loci::v1::AskResponse AskGrpc(const std::string& text) {
+  // Asks over gRPC: the call's status and the response.
+  std::pair<grpc::Status, loci::v1::AskResponse> AskGrpc(const std::string& text) {
     grpc::ClientContext ctx;
     loci::v1::AskRequest req;
     req.set_text(text);
     loci::v1::AskResponse resp;
     const grpc::Status s = query->Ask(&ctx, req, &resp);
-    EXPECT_TRUE(s.ok()) << s.error_message();
-    return resp;
+    return {s, resp};
   }
 
   // GET path (already encoded); returns {HTTP status, body}.
@@ -81,13 +81,27 @@ struct LiveServer {
     return {res->status, res->body};
   }
 
-  // Asks over gRPC and HTTP; expects the same JSON from both.
+  // Asks over gRPC and HTTP; expects an answer, the same JSON from both.
   loci::v1::AskResponse Ask(const std::string& text) {
-    const loci::v1::AskResponse resp = AskGrpc(text);
+    const auto [s, resp] = AskGrpc(text);
+    EXPECT_TRUE(s.ok()) << text << ": " << s.error_message();
     const auto [status, body] = Get("/api/ask?q=" + httplib::detail::encode_query_param(text));
+    EXPECT_EQ(status, 200) << text;
     EXPECT_EQ(body, ProtoToJson(resp)) << text;
-    EXPECT_EQ(status, resp.status().code() == 0 ? 200 : 400) << text;
     return resp;
+  }
+
+  // Asks a question the server must refuse: a failed gRPC call, and over HTTP 400 with the same
+  // code and message as {"error": {...}}. Returns the gRPC status.
+  grpc::Status AskRefused(const std::string& text) {
+    const grpc::Status s = AskGrpc(text).first;
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << text;
+    const auto [status, body] = Get("/api/ask?q=" + httplib::detail::encode_query_param(text));
+    EXPECT_EQ(status, 400) << text;
+    const nlohmann::json j = nlohmann::json::parse(body, nullptr, false);
+    EXPECT_EQ(j["error"]["code"], "INVALID_ARGUMENT") << body;
+    EXPECT_EQ(j["error"]["message"], s.error_message()) << body;
+    return s;
   }
 };
 
@@ -118,10 +132,11 @@ void AskGarbage(LiveServer& s) {
     const auto [status, body] = s.Get("/api/ask?q=" + httplib::detail::encode_query_param(q));
     EXPECT_TRUE(status == 200 || status == 400 || status == 414) << status;
   }
-  const loci::v1::AskResponse big_resp = s.AskGrpc(big);
-  EXPECT_EQ(big_resp.status().code(), 3);                             // INVALID_ARGUMENT: too long
-  const loci::v1::AskResponse after = s.AskGrpc("list all objects");  // still serving
-  EXPECT_EQ(after.status().code(), 0) << after.status().message();
+  const grpc::Status too_long = s.AskGrpc(big).first;
+  EXPECT_EQ(too_long.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(too_long.error_message().find("bytes long"), std::string::npos);
+  const grpc::Status after = s.AskGrpc("list all objects").first;  // still serving
+  EXPECT_TRUE(after.ok()) << after.error_message();
 }
 
 TEST(QueryWiring, EmptyServerHttpErrorsAndGarbage) {
@@ -137,7 +152,9 @@ TEST(QueryWiring, EmptyServerHttpErrorsAndGarbage) {
   EXPECT_EQ(s.Ask("how many chairs are there").count(), 0);
   EXPECT_EQ(s.Get("/api/ask").first, 400);
   EXPECT_NE(s.Get("/api/ask").second.find("\"INVALID_ARGUMENT\""), std::string::npos);
-  EXPECT_EQ(s.Get("/api/objects/12345").first, 404);
+  const auto [missing_status, missing_body] = s.Get("/api/objects/12345");
+  EXPECT_EQ(missing_status, 404);
+  EXPECT_EQ(missing_body, R"({"error":{"code":"NOT_FOUND","message":"no object 12345"}})");
   EXPECT_EQ(s.Get("/api/objects/abc").first, 400);
   EXPECT_EQ(s.Get("/api/objects?min_confidence=2").first, 400);
   EXPECT_EQ(s.Get("/api/nothing").first, 404);
@@ -228,7 +245,6 @@ TEST(QueryWiring, SynthSceneRelationsCountsAndTransportsAgree) {
     const std::string q =
         absl::StrCat("where is the ", o.class_name, " on the ", gt_by_id[o.on_id]->class_name);
     const loci::v1::AskResponse r = s.Ask(q);
-    EXPECT_EQ(r.status().code(), 0) << q << ": " << r.status().message();
     EXPECT_TRUE(Ids(r).count(map_id)) << q << " -> " << r.answer();
     bool relation_found = false;
     for (const auto& rel : r.relations()) {
@@ -258,7 +274,6 @@ TEST(QueryWiring, SynthSceneRelationsCountsAndTransportsAgree) {
   // Negative questions say no.
   const std::string table = gt_by_id[1]->class_name;
   const loci::v1::AskResponse elephant = s.Ask("is there an elephant on the " + table);
-  EXPECT_EQ(elephant.status().code(), 0);
   EXPECT_EQ(elephant.count(), 0);
   EXPECT_TRUE(elephant.objects().empty());
   EXPECT_EQ(s.Ask("how many elephants are there").count(), 0);
@@ -273,10 +288,9 @@ TEST(QueryWiring, SynthSceneRelationsCountsAndTransportsAgree) {
   EXPECT_GE(negatives, 1);
 
   // Unknown words: INVALID_ARGUMENT listing the known classes, 400 over HTTP.
-  const loci::v1::AskResponse unknown = s.Ask("where is the flibbertigibbet");
-  EXPECT_EQ(unknown.status().code(), 3);
-  EXPECT_NE(unknown.status().message().find("dining table"), std::string::npos);
-  EXPECT_NE(unknown.status().message().find("cup"), std::string::npos);
+  const grpc::Status unknown = s.AskRefused("where is the flibbertigibbet");
+  EXPECT_NE(unknown.error_message().find("dining table"), std::string::npos);
+  EXPECT_NE(unknown.error_message().find("cup"), std::string::npos);
 
   // HTTP objects / object / stats carry the gRPC messages' JSON.
   {

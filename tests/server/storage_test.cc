@@ -6,6 +6,7 @@
 
 #include "common/image_codec.h"
 #include "server/storage/sqlite_store.h"
+#include "server/storage/sqlite_util.h"
 
 namespace loci::server {
 namespace {
@@ -128,6 +129,67 @@ TEST(SqliteStore, KeyframeRoundTripAndDuplicates) {
   ASSERT_TRUE(found.ok() && found->has_value());
   EXPECT_TRUE((*found)->T_base_odom.isApprox(s.T_base_odom, 1e-12));
   EXPECT_FALSE((*(*store)->FindSession("nope")).has_value());
+}
+
+TEST(SqliteStore, ManyReaderThreadsKeepTheConnectionCountBounded) {
+  SqliteStoreOptions o;
+  o.max_idle_readers = 2;
+  auto store = SqliteStore::Open(FreshDb("bounded"), o);
+  ASSERT_TRUE(store.ok()) << store.status();
+  SessionRecord s;
+  s.robot_name = "r";
+  s.camera = PinholeCamera::TumFr1();
+  auto session = (*store)->CreateSession(s);
+  ASSERT_TRUE(session.ok());
+  // 16 short-lived threads, each reading and writing: one connection per thread id kept
+  // forever would leave 17 open.
+  for (int round = 0; round < 4; ++round) {
+    std::vector<std::thread> threads;
+    for (int t = 0; t < 4; ++t) {
+      threads.emplace_back([&, seq = round * 4 + t] {
+        EXPECT_TRUE((*store)->InsertKeyframe(MakeKeyframe(session->row_id, seq)).ok());
+        EXPECT_TRUE((*store)->CountKeyframes(std::nullopt).ok());
+        EXPECT_TRUE((*store)->ListSessions().ok());
+      });
+    }
+    for (std::thread& t : threads) t.join();
+  }
+  EXPECT_EQ(*(*store)->CountKeyframes(std::nullopt), 16u);
+  EXPECT_LE((*store)->open_connections(), 1u + 2u);  // the writer + at most 2 idle readers
+}
+
+// A COMMIT can fail (here: a deferred foreign key); the transaction must not stay open.
+TEST(SqliteTransaction, FailedCommitRollsBack) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(":memory:", &db), SQLITE_OK);
+  ASSERT_TRUE(sqlite::Exec(db,
+                           "PRAGMA foreign_keys=ON;"
+                           "CREATE TABLE parent(id INTEGER PRIMARY KEY);"
+                           "CREATE TABLE child(id INTEGER PRIMARY KEY, parent INTEGER REFERENCES"
+                           " parent(id) DEFERRABLE INITIALLY DEFERRED);")
+                  .ok());
+  {
+    sqlite::Transaction tx(db);
+    ASSERT_TRUE(tx.status().ok());
+    ASSERT_TRUE(sqlite::Exec(db, "INSERT INTO child(id, parent) VALUES(1, 42);").ok());
+    const Status commit = tx.Commit();
+    EXPECT_FALSE(commit.ok());
+    EXPECT_NE(commit.message().find("FOREIGN KEY"), std::string::npos) << commit;
+  }
+  EXPECT_NE(sqlite3_get_autocommit(db), 0) << "the failed transaction is still open";
+  {
+    sqlite::Stmt count(db, "SELECT COUNT(*) FROM child");
+    ASSERT_EQ(count.Step(), SQLITE_ROW);
+    EXPECT_EQ(count.Int(0), 0);
+  }
+  {
+    sqlite::Transaction tx(db);  // the connection takes new transactions
+    ASSERT_TRUE(tx.status().ok()) << tx.status();
+    ASSERT_TRUE(sqlite::Exec(db, "INSERT INTO parent(id) VALUES(42);").ok());
+    ASSERT_TRUE(sqlite::Exec(db, "INSERT INTO child(id, parent) VALUES(1, 42);").ok());
+    EXPECT_TRUE(tx.Commit().ok());
+  }
+  sqlite3_close(db);
 }
 
 TEST(SqliteStore, ResumeFindsLatestOpenSessionAndSurvivesReopen) {

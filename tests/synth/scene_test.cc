@@ -107,7 +107,9 @@ TEST(SynthScene, RejectsBadOptionsAndTooManyObjects) {
   o = SceneOptions();
   o.num_objects = 40;  // crowded but must either fit or say so
   auto s = MakeScene(o);
-  if (!s.ok()) EXPECT_EQ(s.status().code(), absl::StatusCode::kFailedPrecondition);
+  if (!s.ok()) {
+    EXPECT_EQ(s.status().code(), absl::StatusCode::kFailedPrecondition);
+  }
 }
 
 TEST(SynthScene, HandHeldSpeedsAndTableInView) {

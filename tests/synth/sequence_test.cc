@@ -157,7 +157,9 @@ TEST_F(SynthSequence, DetectionBoxesAreMaskExtents) {
       EXPECT_EQ(cv::boundingRect(d.mask), cv::Rect(0, 0, r.width, r.height));
       EXPECT_GE(cv::countNonZero(d.mask), 150);
       EXPECT_EQ(d.class_id, CocoClassId(d.class_name));
-      if (coco.size() == 80) EXPECT_EQ(coco[d.class_id], d.class_name);
+      if (coco.size() == 80) {
+        EXPECT_EQ(coco[d.class_id], d.class_name);
+      }
       EXPECT_FLOAT_EQ(d.score, 1.f);
       EXPECT_GT(d.track_id, 0);
     }

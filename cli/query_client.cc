@@ -1,0 +1,35 @@
+#include "cli/query_client.h"
+
+#include <grpcpp/create_channel.h>
+
+#include <chrono>
+#include <cstdio>
+
+#include "proto/json.h"
+
+namespace loci::cli {
+
+std::unique_ptr<loci::v1::Query::Stub> ConnectQuery(const std::string& server) {
+  return loci::v1::Query::NewStub(grpc::CreateChannel(server, grpc::InsecureChannelCredentials()));
+}
+
+void SetDeadline(grpc::ClientContext* ctx, double timeout_s) {
+  ctx->set_deadline(std::chrono::system_clock::now() +
+                    std::chrono::milliseconds(static_cast<int64_t>(timeout_s * 1e3)));
+}
+
+int ReportFailure(const std::string& server, const grpc::Status& s, bool json) {
+  if (json) {
+    const absl::Status status(static_cast<absl::StatusCode>(s.error_code()), s.error_message());
+    std::printf("%s\n", ErrorJson(status).c_str());
+  } else if (s.error_code() == grpc::StatusCode::UNAVAILABLE ||
+             s.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED) {
+    std::fprintf(stderr, "error: cannot reach loci-server at %s: %s\n", server.c_str(),
+                 s.error_message().c_str());
+  } else {
+    std::fprintf(stderr, "error: %s\n", s.error_message().c_str());
+  }
+  return 1;
+}
+
+}  // namespace loci::cli

@@ -1,0 +1,53 @@
+// The loci-server program's start-up: unknown config keys warn, or with --strict-config stop it
+// before it listens (exit code 2) naming the file and the key.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+
+#include <fstream>
+#include <iterator>
+
+#include "tests/support/server_process.h"
+#include "tests/support/temp_dir.h"
+
+namespace loci::testing {
+namespace {
+
+class ServerBinary : public TempDirTest {
+ protected:
+  void SetUp() override {
+    TempDirTest::SetUp();
+    std::ofstream(Path("server.yaml")) << "map:\n  cloud:\n    voxle_m: 0.02\n";
+  }
+  std::string Read(const std::string& name) const {
+    std::ifstream in(Path(name));
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  }
+  ServerProcessOptions Options(std::vector<std::string> extra) const {
+    return {.db = Path("loci.db"),
+            .config = Path("server.yaml"),
+            .extra_args = std::move(extra),
+            .stderr_path = Path("server.err")};
+  }
+};
+
+TEST_F(ServerBinary, UnknownConfigKeyWarnsAndServes) {
+  ServerProcess server(Options({}));
+  ASSERT_GT(server.port(), 0) << Read("server.err");
+  const int status = server.Stop(SIGTERM);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
+  const std::string expected = Path("server.yaml") + ":3: unknown key 'voxle_m' in 'map.cloud'";
+  EXPECT_NE(Read("server.err").find(expected), std::string::npos) << Read("server.err");
+}
+
+TEST_F(ServerBinary, StrictConfigRefusesToStart) {
+  ServerProcess server(Options({"--strict-config"}));
+  EXPECT_EQ(server.port(), 0);  // ended before listening
+  const int status = server.Stop(0);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << status;
+  EXPECT_NE(Read("server.err").find("unknown key 'voxle_m' in 'map.cloud'"), std::string::npos)
+      << Read("server.err");
+}
+
+}  // namespace
+}  // namespace loci::testing

@@ -1,0 +1,69 @@
+// Unknown keys in the server's YAML files: misspellings warn, or fail with strict checking; the
+// shipped configuration files have none.
+#include "server/service/server_options.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "common/config.h"
+#include "detection/detection_config.h"
+#include "query/query_options.h"
+#include "tests/support/temp_dir.h"
+
+namespace loci::server {
+namespace {
+
+class ServerOptionsKeys : public loci::testing::TempDirTest {
+ protected:
+  void TearDown() override {
+    SetStrictConfig(false);
+    TempDirTest::TearDown();
+  }
+  std::string Write(const std::string& text) {
+    std::ofstream(Path("server.yaml")) << text;
+    return Path("server.yaml");
+  }
+};
+
+TEST_F(ServerOptionsKeys, MisspeltKeysWarnOrFailWithFileAndKey) {
+  const std::string path = Write(
+      "server:\n  queue_capacity: 8\n  max_detection: 5\n"
+      "detector:\n  enabled: false\n  score_threshold: 0.3\n"
+      "map:\n  fusion:\n    merge_centroid: 0.2\n"
+      "sessions:\n  robot2:\n    t_map_odom: [1, 0, 0]\n");
+  ServerOptions lenient;
+  ASSERT_TRUE(lenient.FromYamlFile(path).ok());
+  EXPECT_EQ(lenient.queue_capacity, 8);              // the known keys still apply
+  EXPECT_FALSE(lenient.detector_config["enabled"]);  // the detector gets only its own keys
+
+  SetStrictConfig(true);
+  ServerOptions strict;
+  const Status s = strict.FromYamlFile(path);
+  ASSERT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find(path + ":3: unknown key 'max_detection' in 'server'"),
+            std::string::npos)
+      << s;
+  // The first section with an unknown key fails; the map and sessions sections are checked too.
+  ASSERT_TRUE(Write("map:\n  fusion:\n    merge_centroid: 0.2\n") == path);
+  const Status m = ServerOptions().FromYamlFile(path);
+  EXPECT_NE(m.message().find("unknown key 'merge_centroid' in 'map.fusion'"), std::string::npos)
+      << m;
+  ASSERT_TRUE(Write("sessions:\n  robot2:\n    t_map_odom: [1, 0, 0]\n") == path);
+  const Status r = ServerOptions().FromYamlFile(path);
+  EXPECT_NE(r.message().find("unknown key 't_map_odom' in 'sessions.robot2'"), std::string::npos)
+      << r;
+}
+
+TEST_F(ServerOptionsKeys, ShippedConfigFilesHaveNoUnknownKeys) {
+  SetStrictConfig(true);
+  const std::string config = SourceDir() + "/config/";
+  ServerOptions server;
+  EXPECT_TRUE(server.FromYamlFile(config + "server.yaml").ok());
+  EXPECT_TRUE(query::LoadQueryOptions(config + "query.yaml").ok());
+  const auto detection = detection::LoadDetectionConfig(config + "detection.yaml");
+  EXPECT_TRUE(detection.ok()) << detection.status();
+}
+
+}  // namespace
+}  // namespace loci::server
