@@ -44,7 +44,9 @@ StatusOr<GroundTruthScene> ReadObjectsJson(const std::string& path) {
       on_names.push_back(on_by_name ? o["on"].get<std::string>() : "");
       g.on_id = o.contains("on") && o["on"].is_number() ? o["on"].get<int64_t>() : 0;
       g.dynamic = o.value("dynamic", false);
-      g.confidence = o.value("confidence", std::string("high"));
+      // A number is the map export's class confidence (server/map/map_export.h), not a grade.
+      const bool graded = o.contains("confidence") && o["confidence"].is_string();
+      g.confidence = graded ? o["confidence"].get<std::string>() : std::string("high");
       if (g.confidence != "high" && g.confidence != "medium" && g.confidence != "low") {
         throw std::runtime_error("confidence must be high, medium or low: " + g.confidence);
       }

@@ -69,7 +69,8 @@ Status ServerOptions::LoadClasses() {
   LOCI_ASSIGN_OR_RETURN(YAML::Node node, LoadYamlFile(file));
   const ConfigFileScope scope(file);
   // dynamic_weight is loci-track's (TrackerOptions::ClassWeightsFromYaml).
-  LOCI_RETURN_IF_ERROR(CheckKnownKeys(node, "", {"mapped", "dynamic_classes", "dynamic_weight"}));
+  LOCI_RETURN_IF_ERROR(
+      CheckKnownKeys(node, "", {"mapped", "dynamic_classes", "dynamic_weight", "max_size_m"}));
   return map.ClassesFromYaml(node);
 }
 
