@@ -114,17 +114,30 @@ std::vector<ColoredPoint> FusedObject::Cloud() const {
 namespace {
 
 // Centre of the [trim, 1 - trim] quantile box of the points (trim 0 = their full box).
-Eigen::Vector3d TrimmedBoxCentre(const std::vector<Eigen::Vector3d>& pts, double trim) {
+// Centre of the points' extent along one axis (values sorted here). From each end, at most
+// `trim` of the points are dropped, and only those cut off from the rest by an empty gap wider
+// than gap_m: a contiguous part (a table's legs) always counts, a stray cluster (depth bleeding
+// past an edge) does not.
+double GapTrimmedSpanCentre(std::vector<double>& v, double trim, double gap_m) {
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  const size_t max_cut = static_cast<size_t>(trim * static_cast<double>(n - 1));
+  size_t lo = 0;
+  size_t hi = n - 1;
+  for (size_t i = 0; i < max_cut; ++i) {
+    if (v[i + 1] - v[i] > gap_m) lo = i + 1;
+    if (v[n - 1 - i] - v[n - 2 - i] > gap_m) hi = n - 2 - i;
+  }
+  return 0.5 * (v[lo] + v[hi]);
+}
+
+Eigen::Vector3d TrimmedBoxCentre(const std::vector<Eigen::Vector3d>& pts, double trim,
+                                 double gap_m) {
   Eigen::Vector3d c;
   std::vector<double> v(pts.size());
-  const size_t lo = static_cast<size_t>(trim * (pts.size() - 1));
-  const size_t hi = pts.size() - 1 - lo;
   for (int axis = 0; axis < 3; ++axis) {
     for (size_t i = 0; i < pts.size(); ++i) v[i] = pts[i][axis];
-    std::nth_element(v.begin(), v.begin() + lo, v.end());
-    const double a = v[lo];
-    std::nth_element(v.begin(), v.begin() + hi, v.end());
-    c[axis] = 0.5 * (a + v[hi]);
+    c[axis] = GapTrimmedSpanCentre(v, trim, gap_m);
   }
   return c;
 }
@@ -168,7 +181,9 @@ void FusedObject::RecomputeGeometry() {
     aabb_max_m_ = aabb_max_m_.cwiseMax(p);
   }
   const Eigen::Vector3d mean = sum / static_cast<double>(pts.size());
-  centroid_m_ = centroid_from_box_ ? TrimmedBoxCentre(pts, support_.centroid_trim) : mean;
+  const double gap_m = std::max(support_.cell_m, 3 * voxel_m_);
+  centroid_m_ =
+      centroid_from_box_ ? TrimmedBoxCentre(pts, support_.centroid_trim, gap_m) : mean;
   // Oriented box from the principal axes of the fused points.
   Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
   for (const auto& p : pts) cov += (p - mean) * (p - mean).transpose();

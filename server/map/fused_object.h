@@ -32,8 +32,9 @@ struct ColoredPoint {
 struct SupportOptions {
   double cell_m = 0.05;
   double min_fraction = 0.1;
-  // The box-centre centroid uses the [trim, 1 - trim] quantiles of the supported points per
-  // axis, so a few stray supported voxels do not move it (0 = the full box).
+  // The box-centre centroid drops, per axis and end, up to `trim` of the supported points, and
+  // only those split from the rest by an empty gap wider than max(cell_m, 3 voxels), so a few
+  // stray supported voxels do not move it while a contiguous part always counts (0 = full box).
   double centroid_trim = 0.0;
 };
 

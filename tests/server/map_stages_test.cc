@@ -425,6 +425,27 @@ TEST(FusedObject, OneStrayObservationDoesNotStretchTheObject) {
   }
 }
 
+TEST(FusedObject, BoxCentreKeepsContiguousLegsAndDropsAStrayCluster) {
+  // A 1.0 x 0.6 m table top at 0.72 m on four 1 cm legs: the legs are under 5 % of the voxels
+  // but contiguous, so the box still reaches the floor. 40 stray voxels float 0.3 m above the
+  // top, split off by an empty gap: they do not raise it.
+  std::vector<ColoredPoint> pts;
+  for (int i = 0; i < 100; ++i) {
+    for (int j = 0; j < 60; ++j) pts.push_back({Eigen::Vector3f(0.01f * i, 0.01f * j, 0.72f), 0});
+  }
+  for (const auto& [x, y] : {std::pair{0.f, 0.f}, {0.99f, 0.f}, {0.f, 0.59f}, {0.99f, 0.59f}}) {
+    for (int k = 0; k < 72; ++k) pts.push_back({Eigen::Vector3f(x, y, 0.01f * k), 0});
+  }
+  for (int i = 0; i < 40; ++i) pts.push_back({Eigen::Vector3f(0.5f, 0.3f, 1.02f + 0.005f * i), 0});
+  FusedObject table(1, 0.01, true, LabelDistribution(13, 0.05), {0.05, 0.0, 0.05});
+  table.AddPoints(pts);
+  const MapObject o = table.Snapshot();
+  EXPECT_NEAR(o.centroid_m.z(), 0.36, 0.01);
+  EXPECT_NEAR(o.centroid_m.x(), 0.495, 0.01);
+  EXPECT_NEAR(o.centroid_m.y(), 0.295, 0.01);
+  EXPECT_GT(o.aabb_max_m.z(), 1.1);  // the box itself keeps every supported voxel
+}
+
 TEST(ObjectEval, CountErrorMatchingFalsePositivesAndMisses) {
   GroundTruthScene gt;
   auto add_gt = [&](int64_t id, const std::string& cls, Eigen::Vector3d c, bool dynamic = false) {
