@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include "server/map/point_components.h"
+
 namespace loci::server {
 
 void FusedObject::AddPoints(const std::vector<ColoredPoint>& points_m) {
@@ -114,32 +116,15 @@ std::vector<ColoredPoint> FusedObject::Cloud() const {
 namespace {
 
 // Centre of the [trim, 1 - trim] quantile box of the points (trim 0 = their full box).
-// Centre of the points' extent along one axis (values sorted here). From each end, at most
-// `trim` of the points are dropped, and only those cut off from the rest by an empty gap wider
-// than gap_m: a contiguous part (a table's legs) always counts, a stray cluster (depth bleeding
-// past an edge) does not.
-double GapTrimmedSpanCentre(std::vector<double>& v, double trim, double gap_m) {
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  const size_t max_cut = static_cast<size_t>(trim * static_cast<double>(n - 1));
-  size_t lo = 0;
-  size_t hi = n - 1;
-  for (size_t i = 0; i < max_cut; ++i) {
-    if (v[i + 1] - v[i] > gap_m) lo = i + 1;
-    if (v[n - 1 - i] - v[n - 2 - i] > gap_m) hi = n - 2 - i;
+// Centre of the points' box.
+Eigen::Vector3d BoxCentre(const std::vector<Eigen::Vector3d>& pts) {
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::max());
+  Eigen::Vector3d hi = -lo;
+  for (const Eigen::Vector3d& p : pts) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
   }
-  return 0.5 * (v[lo] + v[hi]);
-}
-
-Eigen::Vector3d TrimmedBoxCentre(const std::vector<Eigen::Vector3d>& pts, double trim,
-                                 double gap_m) {
-  Eigen::Vector3d c;
-  std::vector<double> v(pts.size());
-  for (int axis = 0; axis < 3; ++axis) {
-    for (size_t i = 0; i < pts.size(); ++i) v[i] = pts[i][axis];
-    c[axis] = GapTrimmedSpanCentre(v, trim, gap_m);
-  }
-  return c;
+  return 0.5 * (lo + hi);
 }
 
 // Centre of the 2 cm z layer holding the most points (the map frame is z up).
@@ -181,9 +166,9 @@ void FusedObject::RecomputeGeometry() {
     aabb_max_m_ = aabb_max_m_.cwiseMax(p);
   }
   const Eigen::Vector3d mean = sum / static_cast<double>(pts.size());
-  const double gap_m = std::max(support_.cell_m, 3 * voxel_m_);
-  centroid_m_ =
-      centroid_from_box_ ? TrimmedBoxCentre(pts, support_.centroid_trim, gap_m) : mean;
+  centroid_m_ = centroid_from_box_
+                    ? BoxCentre(MainParts(pts, support_.cell_m, support_.centroid_min_part))
+                    : mean;
   // Oriented box from the principal axes of the fused points.
   Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
   for (const auto& p : pts) cov += (p - mean) * (p - mean).transpose();

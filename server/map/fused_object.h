@@ -32,10 +32,10 @@ struct ColoredPoint {
 struct SupportOptions {
   double cell_m = 0.05;
   double min_fraction = 0.1;
-  // The box-centre centroid drops, per axis and end, up to `trim` of the supported points, and
-  // only those split from the rest by an empty gap wider than max(cell_m, 3 voxels), so a few
-  // stray supported voxels do not move it while a contiguous part always counts (0 = full box).
-  double centroid_trim = 0.0;
+  // The box-centre centroid ignores parts (connected cell_m cells) of the supported points that
+  // hold less than this fraction of them (point_components.h), so a stray cluster does not move
+  // it while a contiguous part, a table's legs, always counts (0 = the full box).
+  double centroid_min_part = 0.0;
 };
 
 class FusedObject {

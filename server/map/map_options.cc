@@ -16,7 +16,7 @@ constexpr const char* kFusionKeys[] = {
     "merge_centroid_m",        "merge_containment", "merge_across_classes", "assoc_containment",
     "max_size_ratio",          "label_universe",    "min_likelihood",       "existence_p_real",
     "existence_p_false",       "confirm_llr",       "remove_llr",           "visibility",
-    "centroid_trim"};
+    "centroid_min_part"};
 
 Status CheckMapKeys(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
@@ -76,7 +76,7 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_overlap", &fusion.min_overlap));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "support_cell_m", &fusion.support_cell_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_support_fraction", &fusion.min_support_fraction));
-    LOCI_RETURN_IF_ERROR(ReadOptional(n, "centroid_trim", &fusion.centroid_trim));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "centroid_min_part", &fusion.centroid_min_part));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "overlap_voxel_m", &fusion.overlap_voxel_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "weight_track", &fusion.weight_track));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "weight_centroid", &fusion.weight_centroid));
@@ -168,8 +168,8 @@ Status MapOptions::Validate() const {
     return bad("fusion.support_cell_m > 0.001 and fusion.min_support_fraction in [0, 1]");
   }
   if (fusion.label_universe < 2) return bad("fusion.label_universe >= 2");
-  if (!(fusion.centroid_trim >= 0 && fusion.centroid_trim < 0.5)) {
-    return bad("fusion.centroid_trim in [0, 0.5)");
+  if (!(fusion.centroid_min_part >= 0 && fusion.centroid_min_part < 0.5)) {
+    return bad("fusion.centroid_min_part in [0, 0.5)");
   }
   if (!(fusion.existence_p_false > 0 && fusion.existence_p_false < fusion.existence_p_real &&
         fusion.existence_p_real < 1)) {

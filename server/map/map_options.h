@@ -82,10 +82,9 @@ struct FusionOptions {
   // (FusedObject SupportOptions); min_support_fraction 0 = every voxel (0.1).
   double support_cell_m = 0.05;
   double min_support_fraction = 0.1;
-  // The box-centre centroid ignores, per axis and end, up to this fraction of the supported
-  // points when an empty gap splits them from the rest (FusedObject SupportOptions); 0 = the
-  // full box (0.05).
-  double centroid_trim = 0.05;
+  // The box-centre centroid ignores disconnected parts of the supported points smaller than
+  // this fraction of them (FusedObject SupportOptions); 0 = the full box (0.05).
+  double centroid_min_part = 0.05;
   int label_universe = 13;       // K, classes the detector can report (mapped classes) (13)
   double min_likelihood = 0.05;  // detection scores are clamped to [this, 1 - this] (0.05)
   // Existence from negative evidence (visibility.h): every keyframe that should have seen an

@@ -94,7 +94,7 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
       objects_.emplace(
           best_id, FusedObject(best_id, voxel_m_, options_.centroid_from_box,
                                LabelDistribution(options_.label_universe, options_.min_likelihood),
-                               {options_.support_cell_m, options_.min_support_fraction, options_.centroid_trim}));
+                               {options_.support_cell_m, options_.min_support_fraction, options_.centroid_min_part}));
       kind = ObjectChange::Kind::kCreated;
     }
     FusedObject& object = objects_.at(best_id);
