@@ -6,6 +6,9 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "common/image_header.h"
+#include "common/jpeg_strict.h"
+
 namespace loci {
 namespace {
 
@@ -33,6 +36,17 @@ Status CheckSize(const cv::Mat& img, int w, int h, const char* what) {
   return absl::OkStatus();
 }
 
+// Reads and checks the header of `bytes` before anything is decoded.
+StatusOr<ImageHeader> CheckedHeader(std::string_view bytes, ImageFormat format, int w, int h,
+                                    const char* what) {
+  auto header = ReadImageHeader(bytes);
+  if (!header.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat(what, ": ", header.status().message()));
+  }
+  LOCI_RETURN_IF_ERROR(CheckImageHeader(*header, format, w, h, what));
+  return header;
+}
+
 StatusOr<std::string> Encode(const char* ext, const cv::Mat& img, const std::vector<int>& params) {
   std::vector<uchar> out;
   try {
@@ -53,8 +67,11 @@ StatusOr<std::string> EncodeJpeg(const cv::Mat& bgr, int quality) {
 }
 
 StatusOr<cv::Mat> DecodeJpeg(std::string_view bytes, int expected_width, int expected_height) {
-  LOCI_ASSIGN_OR_RETURN(cv::Mat img, Decode(bytes, cv::IMREAD_COLOR, "rgb"));
-  LOCI_RETURN_IF_ERROR(CheckSize(img, expected_width, expected_height, "rgb"));
+  LOCI_RETURN_IF_ERROR(
+      CheckedHeader(bytes, ImageFormat::kJpeg, expected_width, expected_height, "rgb").status());
+  auto img = DecodeJpegStrict(bytes);
+  if (!img.ok()) return absl::InvalidArgumentError(absl::StrCat("rgb: ", img.status().message()));
+  LOCI_RETURN_IF_ERROR(CheckSize(*img, expected_width, expected_height, "rgb"));
   return img;
 }
 
@@ -67,11 +84,17 @@ StatusOr<std::string> EncodeDepthPng(const cv::Mat& depth_u16) {
 
 StatusOr<cv::Mat> DecodeDepthPng(std::string_view bytes, int expected_width,
                                  int expected_height) {
+  LOCI_ASSIGN_OR_RETURN(
+      ImageHeader header,
+      CheckedHeader(bytes, ImageFormat::kPng, expected_width, expected_height, "depth"));
+  if (header.bit_depth != 16 || header.channels != 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("depth: expected a 16-bit single-channel PNG, got ", header.channels,
+                     " channel(s) of ", header.bit_depth, "-bit"));
+  }
   LOCI_ASSIGN_OR_RETURN(cv::Mat img, Decode(bytes, cv::IMREAD_UNCHANGED, "depth"));
   if (img.type() != CV_16UC1) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "depth: expected a 16-bit single-channel PNG, got ", img.channels(), " channel(s) of ",
-        img.elemSize1() * 8, "-bit"));
+    return absl::InvalidArgumentError("depth: the PNG did not decode to 16-bit single-channel");
   }
   LOCI_RETURN_IF_ERROR(CheckSize(img, expected_width, expected_height, "depth"));
   return img;
@@ -82,9 +105,16 @@ StatusOr<std::string> EncodeMaskPng(const cv::Mat& mask_u8) {
   return Encode(".png", mask_u8, {cv::IMWRITE_PNG_COMPRESSION, 1});
 }
 
-StatusOr<cv::Mat> DecodeMaskPng(std::string_view bytes) {
-  LOCI_ASSIGN_OR_RETURN(cv::Mat img, Decode(bytes, cv::IMREAD_GRAYSCALE, "mask"));
-  return img;
+StatusOr<cv::Mat> DecodeMaskPng(std::string_view bytes, int max_width, int max_height) {
+  LOCI_ASSIGN_OR_RETURN(ImageHeader header,
+                        CheckedHeader(bytes, ImageFormat::kPng, 0, 0, "mask"));
+  if ((max_width > 0 && header.width_px > max_width) ||
+      (max_height > 0 && header.height_px > max_height)) {
+    return absl::InvalidArgumentError(absl::StrCat("mask: declared size ", header.width_px, "x",
+                                                   header.height_px, " exceeds ", max_width, "x",
+                                                   max_height));
+  }
+  return Decode(bytes, cv::IMREAD_GRAYSCALE, "mask");
 }
 
 cv::Mat DepthToMetres(const cv::Mat& depth_u16, double depth_scale) {

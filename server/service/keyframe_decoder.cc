@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "common/image_codec.h"
+#include "common/time.h"
 
 namespace loci::server {
 namespace {
@@ -32,7 +33,7 @@ StatusOr<Detection2D> ConvertDetection(const loci::v1::Detection& d, int index, 
   const cv::Rect r = MaskRect(out.box_px, width, height);
   if (r.area() <= 0) return Invalid(where + "box lies outside the image");
   if (!d.mask_png().empty()) {
-    auto mask = DecodeMaskPng(d.mask_png());
+    auto mask = DecodeMaskPng(d.mask_png(), r.width + 1, r.height + 1);
     if (!mask.ok()) return Invalid(where + "mask: " + std::string(mask.status().message()));
     // Masks cover the box rounded outwards (docs/formats.md); allow one pixel of rounding slack.
     if (std::abs(mask->cols - r.width) > 1 || std::abs(mask->rows - r.height) > 1) {
@@ -44,6 +45,19 @@ StatusOr<Detection2D> ConvertDetection(const loci::v1::Detection& d, int index, 
   return out;
 }
 
+Status CheckStamp(int64_t t_ns, const ValidationLimits& limits) {
+  if (t_ns < kMinKeyframeTNs) {
+    return Invalid(absl::StrCat("t_ns ", t_ns, " is before 2000-01-01 (ns since the Unix epoch)"));
+  }
+  const int64_t now_ns = NowNs();
+  if (t_ns > now_ns && t_ns - now_ns > limits.max_future_ns) {
+    return Invalid(absl::StrCat("t_ns ", t_ns, " is ", (t_ns - now_ns) / kNsPerSecond,
+                                " s in the future (limit ", limits.max_future_ns / kNsPerSecond,
+                                " s)"));
+  }
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 StatusOr<KeyframeRecord> ValidateKeyframe(const loci::v1::Keyframe& kf,
@@ -53,7 +67,7 @@ StatusOr<KeyframeRecord> ValidateKeyframe(const loci::v1::Keyframe& kf,
   rec.session_row = session.row_id;
   rec.seq = kf.seq();
   if (kf.seq() < 0) return Invalid(absl::StrCat("seq ", kf.seq(), " is negative"));
-  if (kf.t_ns() <= 0) return Invalid("t_ns must be positive");
+  LOCI_RETURN_IF_ERROR(CheckStamp(kf.t_ns(), limits));
   rec.t_ns = kf.t_ns();
   const auto& p = kf.t_odom_cam();
   if (!kf.has_t_odom_cam()) return Invalid("T_odom_cam is missing");
@@ -62,6 +76,12 @@ StatusOr<KeyframeRecord> ValidateKeyframe(const loci::v1::Keyframe& kf,
     return Invalid(absl::StrCat("T_odom_cam: ", s.message()));
   }
   rec.T_odom_cam = MakeSE3(t, Quatd(p.qw(), p.qx(), p.qy(), p.qz()));
+  const Vec3d t_base_kf = (session.T_base_odom * rec.T_odom_cam).translation();
+  if (t_base_kf.cwiseAbs().maxCoeff() > limits.map_extent_m) {
+    return Invalid(absl::StrCat("T_odom_cam: the keyframe lies at (", t_base_kf.x(), ", ",
+                                t_base_kf.y(), ", ", t_base_kf.z(), ") m, outside the map extent of +-",
+                                limits.map_extent_m, " m (server.map_extent_m)"));
+  }
 
   rec.camera = session.camera;
   if (kf.has_intrinsics() && kf.intrinsics().fx() != 0) {

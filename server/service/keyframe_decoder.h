@@ -11,12 +11,20 @@
 namespace loci::server {
 
 struct ValidationLimits {
-  int max_detections = 512;  // detections per keyframe
-  int max_image_px = 4096;   // width and height, px
+  int max_detections = 512;        // detections per keyframe
+  int max_image_px = 4096;         // width and height, px
+  double map_extent_m = 10'000.0;  // |x|, |y|, |z| of T_base_kf, m
+  // t_ns must lie in [2000-01-01, now + max_future_ns].
+  int64_t max_future_ns = 86'400'000'000'000;  // one day
 };
 
-// Checks a keyframe of `session` and converts it to a record (images still compressed).
-// Decodes both images to verify them; `decoded` (optional) receives the mapper input.
+// Earliest accepted keyframe stamp: 2000-01-01T00:00:00Z.
+inline constexpr int64_t kMinKeyframeTNs = 946'684'800'000'000'000;
+
+// Checks a keyframe of `session` and converts it to a record (images still compressed): the
+// pose (finite, unit quaternion, T_base_kf inside the map extent), the stamp (see
+// ValidationLimits), intrinsics, gravity, and both images, whose headers are checked before
+// they are decoded. `decoded` (optional) receives the mapper input.
 StatusOr<KeyframeRecord> ValidateKeyframe(const loci::v1::Keyframe& kf,
                                           const SessionRecord& session,
                                           const ValidationLimits& limits, MapperKeyframe* decoded);

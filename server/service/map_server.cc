@@ -32,12 +32,14 @@ MapServer::MapServer(const ServerOptions& options, std::shared_ptr<MapStore> sto
       store_(std::move(store)),
       detector_(std::move(detector)),
       mapper_(std::make_unique<Mapper>(options.map)),
+      decode_slots_(options.decode_slots),
       queue_(static_cast<size_t>(options.queue_capacity)) {}
 
 StatusOr<std::unique_ptr<MapServer>> MapServer::Open(
     const ServerOptions& options, std::shared_ptr<MapStore> store,
     std::shared_ptr<detection::Detector> detector) {
   LOCI_RETURN_IF_ERROR(options.map.Validate());
+  LOCI_RETURN_IF_ERROR(options.ValidateLimits());
   if (!store) {
     LOCI_ASSIGN_OR_RETURN(std::unique_ptr<SqliteStore> sqlite, SqliteStore::Open(options.db_path));
     store = std::move(sqlite);
@@ -139,9 +141,8 @@ loci::v1::KeyframeAck MapServer::Ingest(const loci::v1::Keyframe& kf) {
                                  absl::StrCat("session ", kf.session_id(), " is closed")));
   }
   MapperKeyframe decoded;
-  ValidationLimits limits{options_.max_detections, options_.max_image_px};
   const double cpu0 = ThreadCpuMs();
-  auto record = ValidateKeyframe(kf, *session, limits, &decoded);
+  auto record = Validate(kf, *session, &decoded);
   const double cpu1 = ThreadCpuMs();
   const auto t1 = std::chrono::steady_clock::now();
   if (!record.ok()) {
@@ -161,10 +162,21 @@ loci::v1::KeyframeAck MapServer::Ingest(const loci::v1::Keyframe& kf) {
     return MakeAck(kf.seq(), absl::UnavailableError(
                                  absl::StrCat("storage failed: ", inserted.status().message())));
   }
+  if (inserted->conflict) {
+    loci::v1::KeyframeAck ack = MakeAck(
+        kf.seq(), absl::AlreadyExistsError(absl::StrCat(
+                      "seq ", kf.seq(), " of ", kf.session_id(),
+                      " is already stored with a different stamp, pose or images; kept the "
+                      "stored one")));
+    ack.set_keyframe_id(inserted->keyframe_id);
+    ack.set_duplicate(true);
+    return ack;
+  }
   loci::v1::KeyframeAck ack = MakeAck(kf.seq(), absl::OkStatus());
   ack.set_keyframe_id(inserted->keyframe_id);
   ack.set_duplicate(inserted->duplicate);
   if (!inserted->duplicate) {
+    NoteStored(*record);
     decoded.keyframe_id = inserted->keyframe_id;
     {
       std::lock_guard<std::mutex> lock(progress_mu_);
@@ -177,6 +189,48 @@ loci::v1::KeyframeAck MapServer::Ingest(const loci::v1::Keyframe& kf) {
     }
   }
   return ack;
+}
+
+StatusOr<KeyframeRecord> MapServer::Validate(const loci::v1::Keyframe& kf,
+                                             const SessionRecord& session,
+                                             MapperKeyframe* decoded) {
+  ValidationLimits limits;
+  limits.max_detections = options_.max_detections;
+  limits.max_image_px = options_.max_image_px;
+  limits.map_extent_m = options_.map_extent_m;
+  limits.max_future_ns = SecondsToNs(options_.max_future_s);
+  decode_slots_.acquire();  // bounds the memory of concurrent image decodes
+  auto record = ValidateKeyframe(kf, session, limits, decoded);
+  decode_slots_.release();
+  if (!record.ok()) return record;
+  LOCI_RETURN_IF_ERROR(CheckStampOrder(*record));
+  return record;
+}
+
+Status MapServer::CheckStampOrder(const KeyframeRecord& rec) {
+  std::unique_lock<std::mutex> lock(sessions_mu_);
+  auto it = last_stamp_.find(rec.session_row);
+  if (it == last_stamp_.end()) {
+    lock.unlock();
+    LOCI_ASSIGN_OR_RETURN(LastStamp stored, store_->LastStoredStamp(rec.session_row));
+    lock.lock();
+    it = last_stamp_.emplace(rec.session_row, stored).first;
+  }
+  const LastStamp last = it->second;
+  const int64_t tolerance_ns = SecondsToNs(1e-3 * options_.stamp_backwards_ms);
+  if (rec.seq > last.seq && rec.t_ns < last.t_ns - tolerance_ns) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "t_ns ", rec.t_ns, " of seq ", rec.seq, " is ", (last.t_ns - rec.t_ns) / 1'000'000,
+        " ms before seq ", last.seq, "'s (stamps must not go back more than ",
+        options_.stamp_backwards_ms, " ms)"));
+  }
+  return absl::OkStatus();
+}
+
+void MapServer::NoteStored(const KeyframeRecord& rec) {
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  LastStamp& last = last_stamp_[rec.session_row];
+  if (rec.seq > last.seq) last = {rec.seq, rec.t_ns};
 }
 
 StatusOr<loci::v1::CloseSessionResponse> MapServer::CloseSession(

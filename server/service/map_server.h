@@ -9,6 +9,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <semaphore>
 #include <thread>
 #include <vector>
 
@@ -64,6 +65,11 @@ class MapServer {
             std::shared_ptr<detection::Detector> detector);
   void WorkerLoop();
   StatusOr<SessionRecord> FindSession(const std::string& session_id);
+  // Validates under a decode slot, then checks the stamp against the session's last keyframe.
+  StatusOr<KeyframeRecord> Validate(const loci::v1::Keyframe& kf, const SessionRecord& session,
+                                    MapperKeyframe* decoded);
+  Status CheckStampOrder(const KeyframeRecord& record);
+  void NoteStored(const KeyframeRecord& record);
   void Publish(const std::vector<ObjectEventOut>& events);
 
   ServerOptions options_;
@@ -74,6 +80,9 @@ class MapServer {
 
   std::mutex sessions_mu_;
   std::map<std::string, SessionRecord> sessions_;  // cache by session_id
+  std::map<int64_t, LastStamp> last_stamp_;        // by session row; filled on first use
+
+  std::counting_semaphore<256> decode_slots_;
 
   BoundedQueue<MapperKeyframe> queue_;
   std::thread worker_;

@@ -14,7 +14,8 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
   if (const YAML::Node s = root["server"]) {
     LOCI_RETURN_IF_ERROR(CheckKnownKeys(s, "server",
                                         {"listen", "db", "http", "max_message_mb", "queue_capacity",
-                                         "max_detections", "max_image_px", "classes_file"}));
+                                         "max_detections", "max_image_px", "map_extent_m", "max_future_s",
+                                         "stamp_backwards_ms", "decode_slots", "classes_file"}));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "listen", &listen));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "db", &db_path));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "http", &http));
@@ -22,6 +23,10 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "queue_capacity", &queue_capacity));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "max_detections", &max_detections));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "max_image_px", &max_image_px));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "map_extent_m", &map_extent_m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "max_future_s", &max_future_s));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "stamp_backwards_ms", &stamp_backwards_ms));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "decode_slots", &decode_slots));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "classes_file", &classes_file));
     if (!classes_file.empty() && std::filesystem::path(classes_file).is_relative() &&
         !std::filesystem::exists(classes_file)) {
@@ -57,6 +62,22 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
     return absl::InvalidArgumentError("server.max_message_mb must be in [1, 1024]");
   }
   if (queue_capacity < 1) return absl::InvalidArgumentError("server.queue_capacity must be >= 1");
+  return ValidateLimits();
+}
+
+Status ServerOptions::ValidateLimits() const {
+  if (!(map_extent_m > 0 && map_extent_m <= 1e6)) {
+    return absl::InvalidArgumentError("server.map_extent_m must be in (0, 1e6]");
+  }
+  if (!(max_future_s >= 0 && max_future_s <= 1e7)) {
+    return absl::InvalidArgumentError("server.max_future_s must be in [0, 1e7]");
+  }
+  if (!(stamp_backwards_ms >= 0 && stamp_backwards_ms <= 1e7)) {
+    return absl::InvalidArgumentError("server.stamp_backwards_ms must be in [0, 1e7]");
+  }
+  if (decode_slots < 1 || decode_slots > 256) {
+    return absl::InvalidArgumentError("server.decode_slots must be in [1, 256]");
+  }
   return absl::OkStatus();
 }
 

@@ -20,6 +20,12 @@ struct ServerOptions {
   int queue_capacity = 32;                 // keyframes waiting for the mapping worker (32)
   int max_detections = 512;                // detections per keyframe accepted (512)
   int max_image_px = 4096;                 // largest accepted image width or height, px (4096)
+  double map_extent_m = 10'000.0;          // keyframe positions beyond +-this (any axis) refused, m
+  double max_future_s = 86'400.0;          // keyframe stamps later than now + this refused, s (1 day)
+  // A keyframe whose seq follows its session's last one may be stamped at most this much
+  // earlier than it, ms (1000).
+  double stamp_backwards_ms = 1000.0;
+  int decode_slots = 4;  // keyframes validated (images decoded) at once; more wait (4)
   // Server-side detector for keyframes that arrive without detections (section `detector`:
   // `enabled` (default false) plus the keys of detection::DetectorOptions).
   bool detector_enabled = false;
@@ -33,6 +39,8 @@ struct ServerOptions {
 
   // Reads config/server.yaml (sections server, map, sessions); then the classes file.
   Status FromYamlFile(const std::string& path);
+  // Checks the keyframe limits above (called by FromYamlFile and MapServer::Open).
+  Status ValidateLimits() const;
   // Loads classes_file into map (called by FromYamlFile and by users without a config).
   Status LoadClasses();
 };

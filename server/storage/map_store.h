@@ -50,6 +50,15 @@ struct KeyframeRecord {
 struct InsertResult {
   int64_t keyframe_id = 0;
   bool duplicate = false;  // (session, seq) was already stored; nothing changed
+  // A duplicate whose stamp, pose or images differ from the stored keyframe's (still nothing
+  // changed: the first write wins).
+  bool conflict = false;
+};
+
+// The stamp of a session's keyframe with the highest seq.
+struct LastStamp {
+  int64_t seq = -1;
+  int64_t t_ns = 0;
 };
 
 class MapStore {
@@ -72,6 +81,8 @@ class MapStore {
   virtual StatusOr<InsertResult> InsertKeyframe(const KeyframeRecord& keyframe) = 0;
   // Highest stored seq of a session, -1 when none.
   virtual StatusOr<int64_t> LastStoredSeq(int64_t session_row) = 0;
+  // seq -1 when the session has no keyframe.
+  virtual StatusOr<LastStamp> LastStoredStamp(int64_t session_row) = 0;
   virtual StatusOr<uint64_t> CountKeyframes(std::optional<int64_t> session_row) = 0;
   // Calls `fn` for every keyframe with id > after_id, in id order; stops at the first error.
   virtual Status ForEachKeyframe(int64_t after_id,

@@ -261,10 +261,17 @@ StatusOr<InsertResult> SqliteStore::InsertKeyframe(const KeyframeRecord& kf) {
     result.keyframe_id = sqlite3_last_insert_rowid(db);
   } else {
     result.duplicate = true;
-    Stmt q(db, "SELECT id FROM keyframes WHERE session = ? AND seq = ?");
-    q.Bind(1, kf.session_row).Bind(2, kf.seq);
+    Stmt q(db,
+           "SELECT id, t_ns = ? AND tx = ? AND ty = ? AND tz = ? AND qw = ? AND qx = ? AND"
+           " qy = ? AND qz = ? AND rgb_jpeg = ? AND depth_png = ?"
+           " FROM keyframes WHERE session = ? AND seq = ?");
+    q.Bind(1, kf.t_ns);
+    BindPose(q, 2, kf.T_odom_cam);
+    q.BindBlob(9, kf.rgb_jpeg).BindBlob(10, kf.depth_png);
+    q.Bind(11, kf.session_row).Bind(12, kf.seq);
     if (q.Step() != SQLITE_ROW) return fail("find duplicate keyframe");
     result.keyframe_id = q.Int(0);
+    result.conflict = q.Int(1) == 0;
   }
   LOCI_RETURN_IF_ERROR(tx.Commit());
   return result;
@@ -278,6 +285,23 @@ StatusOr<int64_t> SqliteStore::LastStoredSeq(int64_t session_row) {
   q.Bind(1, session_row);
   if (q.Step() != SQLITE_ROW) return SqlError(db, "last seq");
   return q.IsNull(0) ? int64_t{-1} : q.Int(0);
+}
+
+StatusOr<LastStamp> SqliteStore::LastStoredStamp(int64_t session_row) {
+  LOCI_ASSIGN_OR_RETURN(auto reader, readers_.Acquire());
+  sqlite3* db = reader.get();
+  Stmt q(db, "SELECT seq, t_ns FROM keyframes WHERE session = ? ORDER BY seq DESC LIMIT 1");
+  LOCI_RETURN_IF_ERROR(q.status());
+  q.Bind(1, session_row);
+  LastStamp last;
+  const int rc = q.Step();
+  if (rc == SQLITE_ROW) {
+    last.seq = q.Int(0);
+    last.t_ns = q.Int(1);
+  } else if (rc != SQLITE_DONE) {
+    return SqlError(db, "last stamp");
+  }
+  return last;
 }
 
 StatusOr<uint64_t> SqliteStore::CountKeyframes(std::optional<int64_t> session_row) {

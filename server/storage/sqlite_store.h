@@ -43,6 +43,7 @@ class SqliteStore final : public MapStore {
   Status CloseSession(int64_t session_row, int64_t closed_ns) override;
   StatusOr<InsertResult> InsertKeyframe(const KeyframeRecord& keyframe) override;
   StatusOr<int64_t> LastStoredSeq(int64_t session_row) override;
+  StatusOr<LastStamp> LastStoredStamp(int64_t session_row) override;
   StatusOr<uint64_t> CountKeyframes(std::optional<int64_t> session_row) override;
   Status ForEachKeyframe(int64_t after_id,
                          const std::function<Status(KeyframeRecord)>& fn) override;

@@ -4,7 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <limits>
 #include <map>
+
+#include <opencv2/imgcodecs.hpp>
 
 #include "common/image_codec.h"
 #include "loci/v1/mapping.grpc.pb.h"
@@ -19,6 +22,9 @@ namespace {
 
 using loci::v1::Keyframe;
 using loci::v1::KeyframeAck;
+
+// Keyframe stamps: one second apart, from 2023-11-14 (the server refuses stamps before 2000).
+int64_t StampNs(int i) { return 1'700'000'000'000'000'000 + 1'000'000'000LL * (i + 1); }
 
 // Stands in for the detection module's detectors: the exact boxes of the rendered view whose
 // stamp it is asked about (the server runs it on keyframes without detections).
@@ -91,7 +97,7 @@ class ServiceTest : public ::testing::Test {
   }
 
   Keyframe Frame(const std::string& session, int i) {
-    return testing::MakeKeyframe(session, i, 1'000'000'000LL * (i + 1), poses_[i % 6],
+    return testing::MakeKeyframe(session, i, StampNs(i), poses_[i % 6],
                                  views_[i % 6].bgr, views_[i % 6].depth_u16,
                                  views_[i % 6].detections,
                                  poses_[i % 6].rotation().transpose() * Eigen::Vector3d(0, 0, -1));
@@ -275,6 +281,73 @@ TEST_F(ServiceTest, MalformedKeyframesAreRejectedAndChangeNothing) {
   EXPECT_EQ(StoredKeyframes(), 3u);
 }
 
+// Keyframes that pass a finiteness check but would poison the map, or cost seconds and
+// gigabytes to decode: each is refused with a message naming the problem, nothing is stored, and
+// the map is unchanged.
+TEST_F(ServiceTest, HostileKeyframesAreRefusedBeforeTheyCostAnything) {
+  const std::string session = Open();
+  grpc::Status st;
+  ASSERT_EQ(Send({Frame(session, 0), Frame(session, 1)}, &st).size(), 2u);
+  server_->Flush();
+  const size_t objects_before = server_->mapper().Snapshot(false).size();
+  std::vector<std::pair<Keyframe, std::string>> cases;
+  auto add = [&](Keyframe kf, const std::string& expect) { cases.push_back({kf, expect}); };
+  Keyframe far = Frame(session, 2);
+  far.mutable_t_odom_cam()->mutable_t_m()->set_x(1e15);
+  add(far, "outside the map extent");
+  Keyframe epoch = Frame(session, 2);
+  epoch.set_t_ns(1);
+  add(epoch, "before 2000");
+  Keyframe future = Frame(session, 2);
+  future.set_t_ns(std::numeric_limits<int64_t>::max());
+  add(future, "in the future");
+  Keyframe backwards = Frame(session, 2);
+  backwards.set_t_ns(StampNs(1) - 10'000'000'000LL);
+  add(backwards, "must not go back");
+  Keyframe png_rgb = Frame(session, 2);
+  png_rgb.set_rgb_jpeg(*EncodeMaskPng(cv::Mat(480, 640, CV_8UC1, cv::Scalar(9))));
+  add(png_rgb, "expected JPEG, got PNG");
+  Keyframe pgm_depth = Frame(session, 2);
+  std::vector<uchar> pgm;
+  cv::imencode(".pgm", cv::Mat(480, 640, CV_16UC1, cv::Scalar(5000)), pgm);
+  pgm_depth.set_depth_png(std::string(pgm.begin(), pgm.end()));
+  add(pgm_depth, "neither JPEG nor PNG");
+  Keyframe bomb = Frame(session, 2);  // the frame header claims 32000 x 32000 pixels
+  std::string jpg = bomb.rgb_jpeg();
+  const size_t at = jpg.find("\xFF\xC0") + 5;
+  jpg[at] = jpg[at + 2] = static_cast<char>(32000 >> 8);
+  jpg[at + 1] = jpg[at + 3] = static_cast<char>(32000 & 0xff);
+  bomb.set_rgb_jpeg(jpg.substr(0, 600) + "\xFF\xD9");
+  add(bomb, "declared size 32000x32000");
+  Keyframe cut = Frame(session, 2);
+  cut.set_rgb_jpeg(cut.rgb_jpeg().substr(0, cut.rgb_jpeg().size() / 2) + "\xFF\xD9");
+  add(cut, "corrupt JPEG");
+  Keyframe changed = Frame(session, 1);  // seq 1 again, with other images
+  changed.set_rgb_jpeg(Frame(session, 3).rgb_jpeg());
+  add(changed, "already stored with a different");
+  std::vector<Keyframe> frames;
+  for (const auto& [kf, expect] : cases) frames.push_back(kf);
+  frames.push_back(Frame(session, 2));  // the stream still works
+  const auto acks = Send(frames, &st);
+  ASSERT_TRUE(st.ok()) << st.error_message();
+  ASSERT_EQ(acks.size(), frames.size());
+  for (size_t i = 0; i < cases.size(); ++i) {
+    EXPECT_NE(acks[i].status().code(), 0) << cases[i].second;
+    EXPECT_NE(acks[i].status().message().find(cases[i].second), std::string::npos)
+        << "case '" << cases[i].second << "': " << acks[i].status().message();
+  }
+  EXPECT_EQ(acks[cases.size() - 1].status().code(),
+            static_cast<int>(absl::StatusCode::kAlreadyExists));
+  EXPECT_TRUE(acks[cases.size() - 1].duplicate());
+  EXPECT_EQ(acks.back().status().code(), 0);
+  EXPECT_EQ(StoredKeyframes(), 3u);
+  server_->Flush();
+  EXPECT_GE(server_->mapper().Snapshot(false).size(), objects_before);
+  for (const MapObject& o : server_->mapper().Snapshot(false)) {
+    EXPECT_LT(o.centroid_m.norm(), 20.0) << o.class_name;
+  }
+}
+
 TEST_F(ServiceTest, ResumeAfterRestartReturnsLastStoredSeqAndSameObjects) {
   const std::string session = Open();
   grpc::Status st;
@@ -321,7 +394,7 @@ TEST_F(ServiceTest, WatchObjectsStreamsCreatedEvents) {
 
 TEST_F(ServiceTest, ServerDetectorRunsOnKeyframesWithoutDetections) {
   std::map<int64_t, std::vector<Detection2D>> by_t_ns;
-  for (int i = 0; i < 6; ++i) by_t_ns[1'000'000'000LL * (i + 1)] = views_[i].detections;
+  for (int i = 0; i < 6; ++i) by_t_ns[StampNs(i)] = views_[i].detections;
   auto detector = std::make_shared<ViewDetector>(by_t_ns);
   Stop();
   Start(detector);
