@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli/commands.h"
+#include "cli/query_client.h"
 #include "cli/report/gt_eval.h"
 #include "common/config.h"
 #include "loci/v1/query.grpc.pb.h"
@@ -29,6 +30,7 @@ struct EvalObjectsArgs {
   std::vector<std::string> classes;
   double max_match_m = 0.3;
   bool json = false, no_ask = false, all = false;
+  ChannelSecurity security;
 };
 
 // The map to evaluate and a way to ask it.
@@ -62,11 +64,12 @@ StatusOr<MapUnderTest> FromDb(const std::string& db, const server::ServerOptions
   return m;
 }
 
-StatusOr<MapUnderTest> FromServer(const std::string& address, bool confirmed_only) {
+StatusOr<MapUnderTest> FromServer(const std::string& address, const ChannelSecurity& security,
+                                  bool confirmed_only) {
   grpc::ChannelArguments args;
   args.SetMaxReceiveMessageSize(-1);
-  std::shared_ptr<loci::v1::Query::Stub> stub = loci::v1::Query::NewStub(
-      grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args));
+  LOCI_ASSIGN_OR_RETURN(std::shared_ptr<loci::v1::Query::Stub> stub,
+                        ConnectQuery(address, security, args));
   auto deadline = [](grpc::ClientContext* ctx) {
     ctx->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
   };
@@ -164,7 +167,7 @@ int RunEvalObjects(const EvalObjectsArgs& a) {
   Status st = options.FromYamlFile(a.config.empty() ? SourceDir() + "/config/server.yaml"
                                                     : a.config);
   if (!st.ok()) return Fail(2, st.message());
-  auto map = a.db.empty() ? FromServer(a.server, !a.all) : FromDb(a.db, options, !a.all);
+  auto map = a.db.empty() ? FromServer(a.server, a.security, !a.all) : FromDb(a.db, options, !a.all);
   if (!map.ok()) return Fail(1, map.status().message());
   report::GroundTruthEvalInput in;
   in.objects = map->objects;
@@ -216,6 +219,7 @@ void RegisterEvalObjectsCommand(CLI::App& app) {
   c->add_option("--db", args->db, "evaluate a loci-server database (rebuilt offline)")
       ->check(CLI::ExistingFile);
   c->add_option("--server", args->server, "evaluate a running server, HOST:PORT");
+  AddSecurityOptions(c, &args->security);
   c->add_option("--config", args->config, "server YAML (map options, class lists)")
       ->check(CLI::ExistingFile);
   c->add_option("--classes", args->classes,

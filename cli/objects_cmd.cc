@@ -18,6 +18,7 @@ struct ServerArgs {
   std::string server = "127.0.0.1:50051";
   bool json = false;
   double timeout_s = 10.0;
+  ChannelSecurity security;
 };
 
 struct ObjectsArgs : ServerArgs {
@@ -38,7 +39,11 @@ std::string Stamp(int64_t t_ns) {
 }
 
 int RunObjects(const ObjectsArgs& a) {
-  auto stub = ConnectQuery(a.server);
+  auto stub = ConnectQuery(a.server, a.security);
+  if (!stub.ok()) {
+    std::fprintf(stderr, "error: %s\n", std::string(stub.status().message()).c_str());
+    return 2;
+  }
   grpc::ClientContext ctx;
   SetDeadline(&ctx, a.timeout_s);
   loci::v1::FindObjectsRequest req;
@@ -46,7 +51,7 @@ int RunObjects(const ObjectsArgs& a) {
   req.set_min_confidence(a.min_confidence);
   req.set_confirmed_only(a.confirmed_only);
   loci::v1::FindObjectsResponse resp;
-  const grpc::Status s = stub->FindObjects(&ctx, req, &resp);
+  const grpc::Status s = (*stub)->FindObjects(&ctx, req, &resp);
   if (!s.ok()) return ReportFailure(a.server, s, a.json);
   if (a.json) {
     std::printf("%s\n", ProtoToJson(resp).c_str());
@@ -73,11 +78,15 @@ int RunObjects(const ObjectsArgs& a) {
 }
 
 int RunStats(const ServerArgs& a) {
-  auto stub = ConnectQuery(a.server);
+  auto stub = ConnectQuery(a.server, a.security);
+  if (!stub.ok()) {
+    std::fprintf(stderr, "error: %s\n", std::string(stub.status().message()).c_str());
+    return 2;
+  }
   grpc::ClientContext ctx;
   SetDeadline(&ctx, a.timeout_s);
   loci::v1::GetStatsResponse resp;
-  const grpc::Status s = stub->GetStats(&ctx, loci::v1::GetStatsRequest(), &resp);
+  const grpc::Status s = (*stub)->GetStats(&ctx, loci::v1::GetStatsRequest(), &resp);
   if (!s.ok()) return ReportFailure(a.server, s, a.json);
   if (a.json) {
     std::printf("%s\n", ProtoToJson(resp).c_str());
@@ -100,6 +109,7 @@ void AddServerOptions(CLI::App* c, ServerArgs* a) {
   c->add_option("--server", a->server, "gRPC address HOST:PORT")->capture_default_str();
   c->add_flag("--json", a->json, "print the response as proto JSON");
   c->add_option("--timeout", a->timeout_s, "seconds to wait")->capture_default_str();
+  AddSecurityOptions(c, &a->security);
 }
 
 }  // namespace

@@ -1,7 +1,5 @@
 #include "cli/query_client.h"
 
-#include <grpcpp/create_channel.h>
-
 #include <chrono>
 #include <cstdio>
 
@@ -9,8 +7,18 @@
 
 namespace loci::cli {
 
-std::unique_ptr<loci::v1::Query::Stub> ConnectQuery(const std::string& server) {
-  return loci::v1::Query::NewStub(grpc::CreateChannel(server, grpc::InsecureChannelCredentials()));
+void AddSecurityOptions(CLI::App* c, ChannelSecurity* security) {
+  c->add_option("--token", security->token, "bearer token (default: $LOCI_TOKEN)");
+  c->add_option("--tls-ca", security->tls_ca_file,
+                "CA certificate (PEM) of a TLS server (default: $LOCI_TLS_CA; none: plaintext)");
+}
+
+StatusOr<std::unique_ptr<loci::v1::Query::Stub>> ConnectQuery(const std::string& server,
+                                                              const ChannelSecurity& security,
+                                                              const grpc::ChannelArguments& args) {
+  LOCI_ASSIGN_OR_RETURN(std::shared_ptr<grpc::Channel> channel,
+                        MakeChannel(server, security.WithEnvironment(), args));
+  return loci::v1::Query::NewStub(channel);
 }
 
 void SetDeadline(grpc::ClientContext* ctx, double timeout_s) {

@@ -25,6 +25,7 @@ namespace {
 struct Args {
   std::string tum_dir, server = "127.0.0.1:50051", robot = "robot", config, trajectory, keyframes;
   std::string poses, detections, model;
+  ChannelSecurity security;
   bool offline = false, no_progress = false, live = false, strict_config = false;
   int max_frames = 0;
 };
@@ -72,6 +73,7 @@ StatusOr<MapClientOptions> LoadStreamingOptions(const Args& a) {
   MapClientOptions mopt;
   mopt.server = a.server;
   mopt.robot_name = a.robot;
+  mopt.security = a.security.WithEnvironment();
   const std::string cfg = a.config.empty() ? SourceDir() + "/config/client.yaml" : a.config;
   auto node = LoadYamlFile(cfg);
   if (!node.ok()) return a.config.empty() ? StatusOr<MapClientOptions>(mopt) : node.status();
@@ -190,6 +192,9 @@ int main(int argc, char** argv) {
   app.add_option("--tum", a.tum_dir, "TUM RGB-D folder (rgb.txt, depth.txt)")->required();
   app.add_option("--server", a.server, "loci-server HOST:PORT")->capture_default_str();
   app.add_option("--robot", a.robot, "robot name")->capture_default_str();
+  app.add_option("--token", a.security.token, "bearer token (default: $LOCI_TOKEN)");
+  app.add_option("--tls-ca", a.security.tls_ca_file,
+                 "CA certificate (PEM) of a TLS server (default: $LOCI_TLS_CA; none: plaintext)");
   app.add_flag("--offline", a.offline, "do not stream (trajectory files only)");
   app.add_flag("--live", a.live,
                "run the detector on its own thread as on a robot (tracking keeps its rate; the "

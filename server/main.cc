@@ -35,12 +35,31 @@ loci::StatusOr<std::shared_ptr<loci::detection::Detector>> MakeServerDetector(
 #endif
 }
 
+// Without tokens every caller is admin: refuse to serve anything but loopback.
+loci::Status CheckExposure(const loci::server::ServerOptions& options,
+                           const loci::server::Authorizer& auth) {
+  if (auth.enabled()) return loci::Status();
+  for (const std::string& address : {options.listen, options.http}) {
+    if (address == "off") continue;
+    const std::string host = address.substr(0, address.rfind(':'));
+    if (!loci::server::IsLoopback(host)) {
+      return absl::FailedPreconditionError(
+          "refusing to listen on " + address +
+          " without authentication: pass --token-file FILE (lines `TOKEN ROLE`, see "
+          "docs/security.md) or bind 127.0.0.1");
+    }
+  }
+  return loci::Status();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"loci-server: semantic map server for robot fleets"};
   std::string config_path, listen, db, http, query_config, log_level = "info";
   bool strict_config = false;
+  std::string token_file;
+  loci::server::TlsFiles tls;
   app.add_option("--config", config_path, "YAML config (see config/server.yaml)")
       ->check(CLI::ExistingFile);
   app.add_option("--listen", listen, "gRPC address HOST:PORT [127.0.0.1:50051]");
@@ -48,6 +67,16 @@ int main(int argc, char** argv) {
   app.add_option("--http", http, "HTTP/JSON API address HOST:PORT or off [off]");
   app.add_option("--query-config", query_config,
                  "query engine YAML (see config/query.yaml) [built-in defaults]")
+      ->check(CLI::ExistingFile);
+  app.add_option("--token-file", token_file,
+                 "bearer tokens, one `TOKEN ROLE` per line (roles: admin, query, robot:NAME); "
+                 "without it only loopback addresses are served")
+      ->check(CLI::ExistingFile);
+  app.add_option("--tls-cert", tls.cert_file, "TLS certificate chain (PEM) for gRPC and HTTP")
+      ->check(CLI::ExistingFile);
+  app.add_option("--tls-key", tls.key_file, "TLS private key (PEM)")->check(CLI::ExistingFile);
+  app.add_option("--tls-client-ca", tls.client_ca_file,
+                 "require client certificates signed by this CA (mutual TLS)")
       ->check(CLI::ExistingFile);
   app.add_flag("--strict-config", strict_config,
                "unknown keys in the YAML files are errors (default: warnings)");
@@ -67,6 +96,23 @@ int main(int argc, char** argv) {
   if (!listen.empty()) options.listen = listen;
   if (!db.empty()) options.db_path = db;
   if (!http.empty()) options.http = http;
+  if (tls.cert_file.empty() != tls.key_file.empty()) {
+    std::cerr << "error: --tls-cert and --tls-key go together\n";
+    return 2;
+  }
+  loci::server::Authorizer auth;
+  if (!token_file.empty()) {
+    auto a = loci::server::Authorizer::FromFile(token_file);
+    if (!a.ok()) {
+      std::cerr << "error: " << a.status().message() << "\n";
+      return 2;
+    }
+    auth = std::move(*a);
+  }
+  if (loci::Status exposure = CheckExposure(options, auth); !exposure.ok()) {
+    std::cerr << "error: " << exposure.message() << "\n";
+    return 2;
+  }
   loci::server::QueryAdapterOptions query_options;
   if (!query_config.empty()) {
     auto q = loci::query::LoadQueryOptions(query_config);
@@ -96,14 +142,15 @@ int main(int argc, char** argv) {
   }
   auto grpc = loci::server::GrpcServer::Start(
       server->get(), options.listen, options.max_message_mb,
-      std::make_shared<loci::server::QueryAdapter>(std::move(query_options)));
+      std::make_shared<loci::server::QueryAdapter>(std::move(query_options)), auth, tls);
   if (!grpc.ok()) {
     std::cerr << "error: " << grpc.status().message() << "\n";
     return 1;
   }
   std::unique_ptr<loci::server::HttpApi> http_api;
   if (options.http != "off") {
-    auto h = loci::server::HttpApi::Start(&(*grpc)->query_service(), options.http);
+    auto h = loci::server::HttpApi::Start(&(*grpc)->query_service(), options.http,
+                                          &(*grpc)->auth(), tls);
     if (!h.ok()) {
       std::cerr << "error: " << h.status().message() << "\n";
       return 1;

@@ -12,6 +12,22 @@
 namespace loci {
 
 namespace {
+
+// Waits until the channel connects (a server that is still starting), logging every 2 s.
+Status WaitForServer(grpc::Channel& channel, const MapClientOptions& o) {
+  using Clock = std::chrono::system_clock;  // gRPC deadlines
+  const auto t0 = Clock::now();
+  const auto give_up = t0 + std::chrono::milliseconds(static_cast<int64_t>(o.connect_timeout_s * 1e3));
+  while (!channel.WaitForConnected(std::min(give_up, Clock::now() + std::chrono::seconds(2)))) {
+    const double waited_s = std::chrono::duration<double>(Clock::now() - t0).count();
+    if (Clock::now() >= give_up) {
+      return absl::UnavailableError(
+          absl::StrCat("no loci-server at ", o.server, " after ", static_cast<int>(waited_s), " s"));
+    }
+    spdlog::info("waiting for loci-server at {} ({:.0f} s)", o.server, waited_s);
+  }
+  return absl::OkStatus();
+}
 using Clock = std::chrono::steady_clock;
 std::chrono::system_clock::time_point DeadlineIn(double s) {
   return std::chrono::system_clock::now() +
@@ -87,7 +103,8 @@ struct MapClient::Impl {
     const ActiveCall active(this, &ctx);
     const grpc::Status s = stub->OpenSession(&ctx, req, &resp);
     if (!s.ok()) {
-      return absl::UnavailableError(absl::StrCat("OpenSession: ", s.error_message()));
+      return Status(static_cast<absl::StatusCode>(s.error_code()),
+                    absl::StrCat("OpenSession: ", s.error_message()));
     }
     std::lock_guard<std::mutex> lock(mu);
     session_id = resp.session_id();
@@ -249,9 +266,9 @@ StatusOr<std::unique_ptr<MapClient>> MapClient::Connect(const MapClientOptions& 
   args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
   args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 1000);
   args.SetMaxSendMessageSize(64 << 20);
-  impl->channel =
-      grpc::CreateCustomChannel(options.server, grpc::InsecureChannelCredentials(), args);
+  LOCI_ASSIGN_OR_RETURN(impl->channel, MakeChannel(options.server, options.security, args));
   impl->stub = v1::Mapping::NewStub(impl->channel);
+  LOCI_RETURN_IF_ERROR(WaitForServer(*impl->channel, options));
   int64_t last_stored = -1;
   LOCI_RETURN_IF_ERROR(impl->OpenSession(/*resume=*/false, &last_stored));
   impl->next_seq = last_stored + 1;

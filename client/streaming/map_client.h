@@ -27,6 +27,7 @@
 #include "common/detections_io.h"
 #include "common/se3.h"
 #include "common/status.h"
+#include "proto/channel.h"
 
 namespace loci {
 
@@ -37,6 +38,9 @@ struct MapClientOptions {
   double initial_backoff_s = 0.1;          // first reconnect delay, doubled up to max_backoff_s
   double max_backoff_s = 2.0;
   double rpc_timeout_s = 5.0;  // deadline of OpenSession / CloseSession
+  // Connect waits this long for a server that is not up yet (starting), logging progress.
+  double connect_timeout_s = 30.0;
+  ChannelSecurity security;  // bearer token and TLS (proto/channel.h)
   int jpeg_quality = 90;       // RGB JPEG quality [1, 100]
   std::string client_version = "loci-track 0.1.0";
 };

@@ -1,10 +1,10 @@
 #include "server/http/http_api.h"
 
-#include <grpcpp/server_context.h>
 #include <httplib.h>
 
 #include <charconv>
 #include <cmath>
+#include <optional>
 
 #include "proto/json.h"
 
@@ -20,6 +20,10 @@ int HttpStatus(absl::StatusCode code) {
     case absl::StatusCode::kInvalidArgument:
     case absl::StatusCode::kOutOfRange:
       return 400;
+    case absl::StatusCode::kUnauthenticated:
+      return 401;
+    case absl::StatusCode::kPermissionDenied:
+      return 403;
     case absl::StatusCode::kNotFound:
       return 404;
     case absl::StatusCode::kFailedPrecondition:
@@ -72,10 +76,35 @@ bool ParseBool(const std::string& s, bool* out) {
   return false;
 }
 
+// The status behind an HTTP error reply that has no body yet (httplib's own 400, 413, 414 ...).
+Status StatusOfHttpError(int http_status, const httplib::Request& req) {
+  switch (http_status) {
+    case 404:
+      return absl::NotFoundError("no endpoint " + req.method + " " + req.path +
+                                 "; known: /api/ask, /api/objects, /api/objects/{id}, /api/stats");
+    case 413:
+      return absl::OutOfRangeError("request body too large");
+    case 414:
+      return absl::OutOfRangeError("request URI too long");
+    case 405:
+      return absl::UnimplementedError("method " + req.method + " not allowed");
+    default:
+      return Status(http_status < 500 ? absl::StatusCode::kInvalidArgument
+                                      : absl::StatusCode::kInternal,
+                    absl::StrCat("HTTP ", http_status));
+  }
+}
+
+constexpr size_t kMaxBodyBytes = 64 * 1024;
+constexpr int kTimeoutS = 5;
+constexpr int kKeepAliveS = 2;
+constexpr int kWorkerThreads = 32;
+
 }  // namespace
 
 StatusOr<std::unique_ptr<HttpApi>> HttpApi::Start(QueryService* service,
-                                                  const std::string& listen) {
+                                                  const std::string& listen,
+                                                  const Authorizer* auth, const TlsFiles& tls) {
   const size_t colon = listen.rfind(':');
   int port = -1;
   if (colon == std::string::npos || !ParseInt(listen.substr(colon + 1), &port) || port < 0 ||
@@ -85,7 +114,20 @@ StatusOr<std::unique_ptr<HttpApi>> HttpApi::Start(QueryService* service,
   const std::string host = listen.substr(0, colon);
   std::unique_ptr<HttpApi> api(new HttpApi());
   api->service_ = service;
-  api->http_ = std::make_unique<httplib::Server>();
+  api->auth_ = auth;
+  if (tls.cert_file.empty()) {
+    api->http_ = std::make_unique<httplib::Server>();
+  } else {
+    auto https = std::make_unique<httplib::SSLServer>(
+        tls.cert_file.c_str(), tls.key_file.c_str(),
+        tls.client_ca_file.empty() ? nullptr : tls.client_ca_file.c_str());
+    if (!https->is_valid()) {
+      return absl::InvalidArgumentError("HTTPS: cannot load the TLS certificate or key (" +
+                                        tls.cert_file + ", " + tls.key_file + ")");
+    }
+    api->http_ = std::move(https);
+  }
+  api->Harden();
   api->Route();
   if (port == 0) {
     api->port_ = api->http_->bind_to_any_port(host);
@@ -106,6 +148,25 @@ void HttpApi::Shutdown() {
   if (thread_.joinable()) thread_.join();
 }
 
+void HttpApi::Harden() {
+  http_->set_payload_max_length(kMaxBodyBytes);
+  http_->set_read_timeout(kTimeoutS, 0);
+  http_->set_write_timeout(kTimeoutS, 0);
+  http_->set_idle_interval(0, 100'000);
+  http_->set_keep_alive_timeout(kKeepAliveS);
+  http_->new_task_queue = [] { return new httplib::ThreadPool(kWorkerThreads); };
+  http_->set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    if (auth_ == nullptr || !auth_->enabled()) return httplib::Server::HandlerResponse::Unhandled;
+    std::optional<std::string_view> header;
+    if (req.has_header("Authorization")) header = req.get_header_value("Authorization");
+    StatusOr<Principal> who = auth_->Authenticate(header);
+    Status allowed = who.ok() ? Authorizer::AllowRead(*who) : who.status();
+    if (allowed.ok()) return httplib::Server::HandlerResponse::Unhandled;
+    SendError(res, allowed);
+    return httplib::Server::HandlerResponse::Handled;
+  });
+}
+
 void HttpApi::Route() {
   http_->Get("/api/ask", [this](const httplib::Request& req, httplib::Response& res) {
     if (!req.has_param("q")) {
@@ -117,8 +178,7 @@ void HttpApi::Route() {
     ask.set_text(req.get_param_value("q"));
     ask.set_robot_name(req.get_param_value("robot"));
     loci::v1::AskResponse resp;
-    grpc::ServerContext ctx;
-    SendGrpc(res, service_->Ask(&ctx, &ask, &resp), resp);
+    SendGrpc(res, service_->Ask(ask, &resp), resp);
   });
   http_->Get("/api/objects", [this](const httplib::Request& req, httplib::Response& res) {
     loci::v1::FindObjectsRequest find;
@@ -153,8 +213,7 @@ void HttpApi::Route() {
       find.set_limit(limit);
     }
     loci::v1::FindObjectsResponse resp;
-    grpc::ServerContext ctx;
-    SendGrpc(res, service_->FindObjects(&ctx, &find, &resp), resp);
+    SendGrpc(res, service_->FindObjects(find, &resp), resp);
   });
   http_->Get(R"(/api/objects/([^/]+))", [this](const httplib::Request& req,
                                                httplib::Response& res) {
@@ -172,23 +231,15 @@ void HttpApi::Route() {
       get.set_with_cloud(b);
     }
     loci::v1::GetObjectResponse resp;
-    grpc::ServerContext ctx;
-    SendGrpc(res, service_->GetObject(&ctx, &get, &resp), resp);
+    SendGrpc(res, service_->GetObject(get, &resp), resp);
   });
   http_->Get("/api/stats", [this](const httplib::Request&, httplib::Response& res) {
-    loci::v1::GetStatsRequest stats;
     loci::v1::GetStatsResponse resp;
-    grpc::ServerContext ctx;
-    SendGrpc(res, service_->GetStats(&ctx, &stats, &resp), resp);
+    SendGrpc(res, service_->GetStats(&resp), resp);
   });
-  // Unknown paths and methods: JSON 404 instead of httplib's empty body.
+  // Every error reply without a body (unknown paths, httplib's 400/413/414): a JSON body.
   http_->set_error_handler([](const httplib::Request& req, httplib::Response& res) {
-    if (res.status == 404 && res.body.empty()) {
-      res.set_content(ErrorJson(absl::NotFoundError("no endpoint " + req.method + " " + req.path +
-                                                    "; known: /api/ask, /api/objects, "
-                                                    "/api/objects/{id}, /api/stats")),
-                      kJson);
-    }
+    if (res.body.empty()) res.set_content(ErrorJson(StatusOfHttpError(res.status, req)), kJson);
   });
   http_->set_exception_handler(
       [](const httplib::Request&, httplib::Response& res, std::exception_ptr) {

@@ -6,12 +6,32 @@
 
 #include <chrono>
 
+#include "common/image_codec.h"  // ReadFileBytes
+
 namespace loci::server {
+namespace {
+
+StatusOr<std::shared_ptr<grpc::ServerCredentials>> ServerCredentials(const TlsFiles& tls) {
+  if (tls.cert_file.empty()) return grpc::InsecureServerCredentials();
+  grpc::SslServerCredentialsOptions ssl;
+  grpc::SslServerCredentialsOptions::PemKeyCertPair pair;
+  LOCI_ASSIGN_OR_RETURN(pair.cert_chain, ReadFileBytes(tls.cert_file));
+  LOCI_ASSIGN_OR_RETURN(pair.private_key, ReadFileBytes(tls.key_file));
+  ssl.pem_key_cert_pairs.push_back(std::move(pair));
+  if (!tls.client_ca_file.empty()) {
+    LOCI_ASSIGN_OR_RETURN(ssl.pem_root_certs, ReadFileBytes(tls.client_ca_file));
+    ssl.client_certificate_request = GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
+  }
+  return grpc::SslServerCredentials(ssl);
+}
+
+}  // namespace
 
 StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(MapServer* server,
                                                         const std::string& listen,
                                                         int max_message_mb,
-                                                        std::shared_ptr<QueryEngine> engine) {
+                                                        std::shared_ptr<QueryEngine> engine,
+                                                        Authorizer auth, const TlsFiles& tls) {
   if (listen.find(':') == std::string::npos) {
     return absl::InvalidArgumentError(
         absl::StrCat("listen address '", listen, "' must be HOST:PORT"));
@@ -19,10 +39,13 @@ StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(MapServer* server,
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   std::unique_ptr<GrpcServer> g(new GrpcServer());
-  g->mapping_ = std::make_unique<MappingService>(server);
-  g->query_ = std::make_unique<QueryService>(server, std::move(engine));
+  g->auth_ = std::move(auth);
+  g->mapping_ = std::make_unique<MappingService>(server, &g->auth_);
+  g->query_ = std::make_unique<QueryService>(server, std::move(engine), &g->auth_);
+  LOCI_ASSIGN_OR_RETURN(std::shared_ptr<grpc::ServerCredentials> credentials,
+                        ServerCredentials(tls));
   grpc::ServerBuilder builder;
-  builder.AddListeningPort(listen, grpc::InsecureServerCredentials(), &g->port_);
+  builder.AddListeningPort(listen, credentials, &g->port_);
   // Larger messages are refused by gRPC with RESOURCE_EXHAUSTED before reaching the handlers.
   builder.SetMaxReceiveMessageSize(max_message_mb * 1024 * 1024);
   builder.SetMaxSendMessageSize(1024 * 1024 * 1024);

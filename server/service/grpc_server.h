@@ -15,20 +15,24 @@ namespace loci::server {
 class GrpcServer {
  public:
   // Binds `listen` (HOST:PORT, port 0 = any free port) and starts serving `server`; `engine`
-  // answers Ask (null: Ask is UNIMPLEMENTED).
+  // answers Ask (null: Ask is UNIMPLEMENTED). Calls are checked against `auth` (auth.h; default:
+  // no tokens, everyone is admin).
   static StatusOr<std::unique_ptr<GrpcServer>> Start(MapServer* server, const std::string& listen,
                                                      int max_message_mb,
-                                                     std::shared_ptr<QueryEngine> engine = nullptr);
+                                                     std::shared_ptr<QueryEngine> engine = nullptr,
+                                                     Authorizer auth = {}, const TlsFiles& tls = {});
   ~GrpcServer();
 
   int port() const { return port_; }
   QueryService& query_service() { return *query_; }
+  const Authorizer& auth() const { return auth_; }
   // Stops accepting calls and ends the running ones (deadline 2 s).
   void Shutdown();
   void Wait() { server_->Wait(); }
 
  private:
   GrpcServer() = default;
+  Authorizer auth_;
   std::unique_ptr<MappingService> mapping_;
   std::unique_ptr<QueryService> query_;
   std::unique_ptr<grpc::Server> server_;

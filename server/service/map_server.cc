@@ -117,24 +117,36 @@ StatusOr<loci::v1::OpenSessionResponse> MapServer::OpenSession(
   return resp;
 }
 
-StatusOr<SessionRecord> MapServer::FindSession(const std::string& session_id) {
+StatusOr<SessionRecord> MapServer::FindSession(const std::string& session_id,
+                                               const std::string* only_robot) {
+  std::optional<SessionRecord> found;
   {
     std::lock_guard<std::mutex> lock(sessions_mu_);
     auto it = sessions_.find(session_id);
-    if (it != sessions_.end()) return it->second;
+    if (it != sessions_.end()) found = it->second;
   }
-  LOCI_ASSIGN_OR_RETURN(std::optional<SessionRecord> s, store_->FindSession(session_id));
-  if (!s) {
+  if (!found) {
+    LOCI_ASSIGN_OR_RETURN(found, store_->FindSession(session_id));
+    if (found) {
+      std::lock_guard<std::mutex> lock(sessions_mu_);
+      sessions_[session_id] = *found;
+    }
+  }
+  if (!found) {
     return absl::NotFoundError(
         absl::StrCat("unknown session '", session_id, "' (call OpenSession first)"));
   }
-  std::lock_guard<std::mutex> lock(sessions_mu_);
-  sessions_[session_id] = *s;
-  return *s;
+  if (only_robot != nullptr && found->robot_name != *only_robot) {
+    return absl::PermissionDeniedError(absl::StrCat("session '", session_id,
+                                                    "' belongs to another robot than '",
+                                                    *only_robot, "'"));
+  }
+  return *found;
 }
 
-loci::v1::KeyframeAck MapServer::Ingest(const loci::v1::Keyframe& kf) {
-  auto session = FindSession(kf.session_id());
+loci::v1::KeyframeAck MapServer::Ingest(const loci::v1::Keyframe& kf,
+                                        const std::string* only_robot) {
+  auto session = FindSession(kf.session_id(), only_robot);
   if (!session.ok()) return MakeAck(kf.seq(), session.status());
   if (!session->open) {
     return MakeAck(kf.seq(), absl::FailedPreconditionError(
@@ -234,8 +246,8 @@ void MapServer::NoteStored(const KeyframeRecord& rec) {
 }
 
 StatusOr<loci::v1::CloseSessionResponse> MapServer::CloseSession(
-    const loci::v1::CloseSessionRequest& req) {
-  LOCI_ASSIGN_OR_RETURN(SessionRecord s, FindSession(req.session_id()));
+    const loci::v1::CloseSessionRequest& req, const std::string* only_robot) {
+  LOCI_ASSIGN_OR_RETURN(SessionRecord s, FindSession(req.session_id(), only_robot));
   LOCI_RETURN_IF_ERROR(store_->CloseSession(s.row_id, NowNs()));
   {
     std::lock_guard<std::mutex> lock(sessions_mu_);

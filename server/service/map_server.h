@@ -37,9 +37,12 @@ class MapServer {
   MapServer& operator=(const MapServer&) = delete;
 
   StatusOr<loci::v1::OpenSessionResponse> OpenSession(const loci::v1::OpenSessionRequest& req);
-  // Never fails the call: problems are reported in the ack's status.
-  loci::v1::KeyframeAck Ingest(const loci::v1::Keyframe& keyframe);
-  StatusOr<loci::v1::CloseSessionResponse> CloseSession(const loci::v1::CloseSessionRequest& req);
+  // Never fails the call: problems are reported in the ack's status. `only_robot` (optional):
+  // the caller may write only this robot's sessions (auth.h); others get PERMISSION_DENIED.
+  loci::v1::KeyframeAck Ingest(const loci::v1::Keyframe& keyframe,
+                               const std::string* only_robot = nullptr);
+  StatusOr<loci::v1::CloseSessionResponse> CloseSession(const loci::v1::CloseSessionRequest& req,
+                                                        const std::string* only_robot = nullptr);
 
   // Blocks until every keyframe queued so far has been mapped.
   void Flush();
@@ -64,7 +67,8 @@ class MapServer {
   MapServer(const ServerOptions& options, std::shared_ptr<MapStore> store,
             std::shared_ptr<detection::Detector> detector);
   void WorkerLoop();
-  StatusOr<SessionRecord> FindSession(const std::string& session_id);
+  StatusOr<SessionRecord> FindSession(const std::string& session_id,
+                                      const std::string* only_robot = nullptr);
   // Validates under a decode slot, then checks the stamp against the session's last keyframe.
   StatusOr<KeyframeRecord> Validate(const loci::v1::Keyframe& kf, const SessionRecord& session,
                                     MapperKeyframe* decoded);

@@ -29,9 +29,20 @@ Status FromGrpc(const grpc::Status& s) {
   return Status(static_cast<absl::StatusCode>(s.error_code()), s.error_message());
 }
 
-grpc::Status MappingService::OpenSession(grpc::ServerContext*,
+StatusOr<Principal> Caller(const Authorizer& auth, const grpc::ServerContext& ctx) {
+  const auto& metadata = ctx.client_metadata();
+  const auto it = metadata.find("authorization");
+  std::optional<std::string_view> header;
+  if (it != metadata.end()) header = std::string_view(it->second.data(), it->second.size());
+  return auth.Authenticate(header);
+}
+
+grpc::Status MappingService::OpenSession(grpc::ServerContext* ctx,
                                          const loci::v1::OpenSessionRequest* req,
                                          loci::v1::OpenSessionResponse* resp) {
+  const StatusOr<Principal> who = Caller(*auth_, *ctx);
+  if (!who.ok()) return ToGrpc(who.status());
+  if (Status s = Authorizer::AllowRobot(*who, req->robot_name()); !s.ok()) return ToGrpc(s);
   auto r = server_->OpenSession(*req);
   if (!r.ok()) return ToGrpc(r.status());
   *resp = std::move(*r);
@@ -41,25 +52,70 @@ grpc::Status MappingService::OpenSession(grpc::ServerContext*,
 grpc::Status MappingService::StreamKeyframes(
     grpc::ServerContext* ctx,
     grpc::ServerReaderWriter<loci::v1::KeyframeAck, loci::v1::Keyframe>* stream) {
+  const StatusOr<Principal> who = Caller(*auth_, *ctx);
+  if (!who.ok()) return ToGrpc(who.status());
+  if (who->role == Principal::Role::kQuery) {
+    return ToGrpc(absl::PermissionDeniedError("a query token may not stream keyframes"));
+  }
+  const std::string* only_robot = who->role == Principal::Role::kRobot ? &who->robot : nullptr;
   loci::v1::Keyframe kf;
   while (!ctx->IsCancelled() && stream->Read(&kf)) {
-    const loci::v1::KeyframeAck ack = server_->Ingest(kf);
+    const loci::v1::KeyframeAck ack = server_->Ingest(kf, only_robot);
     if (!stream->Write(ack)) break;
   }
   return grpc::Status::OK;
 }
 
-grpc::Status MappingService::CloseSession(grpc::ServerContext*,
+grpc::Status MappingService::CloseSession(grpc::ServerContext* ctx,
                                           const loci::v1::CloseSessionRequest* req,
                                           loci::v1::CloseSessionResponse* resp) {
-  auto r = server_->CloseSession(*req);
+  const StatusOr<Principal> who = Caller(*auth_, *ctx);
+  if (!who.ok()) return ToGrpc(who.status());
+  if (who->role == Principal::Role::kQuery) {
+    return ToGrpc(absl::PermissionDeniedError("a query token may not close sessions"));
+  }
+  auto r = server_->CloseSession(
+      *req, who->role == Principal::Role::kRobot ? &who->robot : nullptr);
   if (!r.ok()) return ToGrpc(r.status());
   *resp = std::move(*r);
   return grpc::Status::OK;
 }
 
-grpc::Status QueryService::Ask(grpc::ServerContext*, const loci::v1::AskRequest* req,
+grpc::Status QueryService::AllowRead(const grpc::ServerContext& ctx) const {
+  const StatusOr<Principal> who = Caller(*auth_, ctx);
+  if (!who.ok()) return ToGrpc(who.status());
+  return ToGrpc(Authorizer::AllowRead(*who));
+}
+
+grpc::Status QueryService::Ask(grpc::ServerContext* ctx, const loci::v1::AskRequest* req,
                                loci::v1::AskResponse* resp) {
+  if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
+  return Ask(*req, resp);
+}
+
+grpc::Status QueryService::FindObjects(grpc::ServerContext* ctx,
+                                       const loci::v1::FindObjectsRequest* req,
+                                       loci::v1::FindObjectsResponse* resp) {
+  if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
+  return FindObjects(*req, resp);
+}
+
+grpc::Status QueryService::GetObject(grpc::ServerContext* ctx,
+                                     const loci::v1::GetObjectRequest* req,
+                                     loci::v1::GetObjectResponse* resp) {
+  if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
+  return GetObject(*req, resp);
+}
+
+grpc::Status QueryService::GetStats(grpc::ServerContext* ctx, const loci::v1::GetStatsRequest*,
+                                    loci::v1::GetStatsResponse* resp) {
+  if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
+  return GetStats(resp);
+}
+
+grpc::Status QueryService::Ask(const loci::v1::AskRequest& request,
+                               loci::v1::AskResponse* resp) {
+  const loci::v1::AskRequest* req = &request;
   if (!engine_) {
     return grpc::Status(grpc::StatusCode::UNIMPLEMENTED,
                         "this server answers no questions (no query engine); use FindObjects");
@@ -70,9 +126,9 @@ grpc::Status QueryService::Ask(grpc::ServerContext*, const loci::v1::AskRequest*
   return grpc::Status::OK;
 }
 
-grpc::Status QueryService::FindObjects(grpc::ServerContext*,
-                                       const loci::v1::FindObjectsRequest* req,
+grpc::Status QueryService::FindObjects(const loci::v1::FindObjectsRequest& request,
                                        loci::v1::FindObjectsResponse* resp) {
+  const loci::v1::FindObjectsRequest* req = &request;
   if (!std::isfinite(req->min_confidence()) || !std::isfinite(req->radius_m()) ||
       req->radius_m() < 0) {
     return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
@@ -94,8 +150,9 @@ grpc::Status QueryService::FindObjects(grpc::ServerContext*,
   return grpc::Status::OK;
 }
 
-grpc::Status QueryService::GetObject(grpc::ServerContext*, const loci::v1::GetObjectRequest* req,
+grpc::Status QueryService::GetObject(const loci::v1::GetObjectRequest& request,
                                      loci::v1::GetObjectResponse* resp) {
+  const loci::v1::GetObjectRequest* req = &request;
   std::vector<ColoredPoint> cloud;
   std::vector<int64_t> keyframes;
   auto o = server_->mapper().GetObject(req->id(), req->with_cloud() ? &cloud : nullptr, &keyframes);
@@ -108,8 +165,9 @@ grpc::Status QueryService::GetObject(grpc::ServerContext*, const loci::v1::GetOb
   return grpc::Status::OK;
 }
 
-grpc::Status QueryService::GetCloud(grpc::ServerContext*, const loci::v1::GetCloudRequest* req,
+grpc::Status QueryService::GetCloud(grpc::ServerContext* ctx, const loci::v1::GetCloudRequest* req,
                                     loci::v1::GetCloudResponse* resp) {
+  if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
   if (!std::isfinite(req->voxel_m()) || req->voxel_m() < 0) {
     return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "voxel_m must be finite and >= 0");
   }
@@ -120,8 +178,10 @@ grpc::Status QueryService::GetCloud(grpc::ServerContext*, const loci::v1::GetClo
   return grpc::Status::OK;
 }
 
-grpc::Status QueryService::GetOctomap(grpc::ServerContext*, const loci::v1::GetOctomapRequest*,
+grpc::Status QueryService::GetOctomap(grpc::ServerContext* ctx,
+                                      const loci::v1::GetOctomapRequest*,
                                       loci::v1::GetOctomapResponse* resp) {
+  if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
   resp->set_octomap_bt(server_->mapper().OctomapBt());
   resp->set_resolution_m(server_->mapper().OctomapResolution());
   resp->set_node_count(server_->mapper().Stats().octomap_nodes);
@@ -131,6 +191,7 @@ grpc::Status QueryService::GetOctomap(grpc::ServerContext*, const loci::v1::GetO
 grpc::Status QueryService::WatchObjects(grpc::ServerContext* ctx,
                                         const loci::v1::WatchObjectsRequest*,
                                         grpc::ServerWriter<loci::v1::ObjectEvent>* writer) {
+  if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
   auto queue = std::make_shared<ObjectEventQueue>(1024);
   server_->Subscribe(queue);
   // Initial metadata tells the client that the watch is registered: every later event comes.
@@ -162,8 +223,7 @@ grpc::Status QueryService::WatchObjects(grpc::ServerContext* ctx,
   return grpc::Status::OK;
 }
 
-grpc::Status QueryService::GetStats(grpc::ServerContext*, const loci::v1::GetStatsRequest*,
-                                    loci::v1::GetStatsResponse* resp) {
+grpc::Status QueryService::GetStats(loci::v1::GetStatsResponse* resp) {
   auto sessions = server_->store().ListSessions();
   auto keyframes = server_->store().CountKeyframes(std::nullopt);
   if (!sessions.ok()) return ToGrpc(sessions.status());
@@ -183,9 +243,10 @@ grpc::Status QueryService::GetStats(grpc::ServerContext*, const loci::v1::GetSta
   return grpc::Status::OK;
 }
 
-grpc::Status QueryService::GetTrajectories(grpc::ServerContext*,
+grpc::Status QueryService::GetTrajectories(grpc::ServerContext* ctx,
                                            const loci::v1::GetTrajectoriesRequest* req,
                                            loci::v1::GetTrajectoriesResponse* resp) {
+  if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
   const std::set<std::string> wanted(req->robots().begin(), req->robots().end());
   for (const auto& [robot, traj] : server_->mapper().Trajectories()) {
     if (!wanted.empty() && !wanted.count(robot)) continue;

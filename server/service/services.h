@@ -6,14 +6,19 @@
 
 #include "loci/v1/mapping.grpc.pb.h"
 #include "loci/v1/query.grpc.pb.h"
+#include "server/service/auth.h"
 #include "server/service/map_server.h"
 #include "server/service/query_engine.h"
 
 namespace loci::server {
 
+// The caller of a gRPC call, from its `authorization` metadata.
+StatusOr<Principal> Caller(const Authorizer& auth, const grpc::ServerContext& ctx);
+
 class MappingService final : public loci::v1::Mapping::Service {
  public:
-  explicit MappingService(MapServer* server) : server_(server) {}
+  // `auth` outlives the service; every call is checked against it (auth.h).
+  MappingService(MapServer* server, const Authorizer* auth) : server_(server), auth_(auth) {}
   grpc::Status OpenSession(grpc::ServerContext* ctx, const loci::v1::OpenSessionRequest* req,
                            loci::v1::OpenSessionResponse* resp) override;
   grpc::Status StreamKeyframes(
@@ -24,13 +29,22 @@ class MappingService final : public loci::v1::Mapping::Service {
 
  private:
   MapServer* server_;
+  const Authorizer* auth_;
 };
 
 class QueryService final : public loci::v1::Query::Service {
  public:
   // `engine` answers Ask (null: Ask is UNIMPLEMENTED). Both are fixed before serving starts.
-  QueryService(MapServer* server, std::shared_ptr<QueryEngine> engine)
-      : server_(server), engine_(std::move(engine)) {}
+  // Every gRPC call needs a caller that may read (auth.h); the HTTP API authenticates its own
+  // requests and calls the methods without a context.
+  QueryService(MapServer* server, std::shared_ptr<QueryEngine> engine, const Authorizer* auth)
+      : server_(server), engine_(std::move(engine)), auth_(auth) {}
+
+  grpc::Status Ask(const loci::v1::AskRequest& req, loci::v1::AskResponse* resp);
+  grpc::Status FindObjects(const loci::v1::FindObjectsRequest& req,
+                           loci::v1::FindObjectsResponse* resp);
+  grpc::Status GetObject(const loci::v1::GetObjectRequest& req, loci::v1::GetObjectResponse* resp);
+  grpc::Status GetStats(loci::v1::GetStatsResponse* resp);
 
   grpc::Status Ask(grpc::ServerContext* ctx, const loci::v1::AskRequest* req,
                    loci::v1::AskResponse* resp) override;
@@ -51,8 +65,11 @@ class QueryService final : public loci::v1::Query::Service {
                                loci::v1::GetTrajectoriesResponse* resp) override;
 
  private:
+  grpc::Status AllowRead(const grpc::ServerContext& ctx) const;
+
   MapServer* const server_;
   const std::shared_ptr<QueryEngine> engine_;
+  const Authorizer* const auth_;
 };
 
 // absl status <-> grpc status (same code numbering).

@@ -1,18 +1,32 @@
 #include "server/storage/sqlite_store.h"
 
+#include <fcntl.h>
 #include <sqlite3.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <iterator>
+#include <random>
 #include <utility>
 
+#include "absl/strings/str_cat.h"
 #include "common/time.h"
 #include "server/storage/schema_sql.h"
 #include "server/storage/sqlite_util.h"
 
 namespace loci::server {
 namespace {
+
+// 128 random bits from the OS as 32 hex digits: session ids cannot be guessed (auth.h).
+std::string RandomHex128() {
+  std::random_device os;  // /dev/urandom on Linux
+  std::string hex;
+  for (int i = 0; i < 4; ++i) absl::StrAppend(&hex, absl::Hex(os(), absl::kZeroPad8));
+  return hex;
+}
 
 using sqlite::Exec;
 using sqlite::SqlError;
@@ -48,6 +62,19 @@ constexpr char kSessionColumns[] =
     "id, session_id, robot_name, client_version, fx, fy, cx, cy, width_px, height_px, "
     "depth_scale, map_tx, map_ty, map_tz, map_qw, map_qx, map_qy, map_qz, opened_ns, closed_ns";
 
+// Creates a missing database file with mode 0600: it holds every camera image. SQLite gives its
+// -wal and -shm files the same mode. An existing file keeps its mode.
+Status CreatePrivateFile(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+  if (fd >= 0) {
+    ::close(fd);
+  } else if (errno != EEXIST) {
+    return absl::UnavailableError(
+        absl::StrCat("cannot create database ", path, ": ", std::strerror(errno)));
+  }
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 SqliteStore::SqliteStore(std::string path, SqliteStoreOptions options)
@@ -77,6 +104,7 @@ StatusOr<std::unique_ptr<SqliteStore>> SqliteStore::Open(const std::string& path
   if (options.read_only && !std::filesystem::exists(path)) {
     return absl::NotFoundError(absl::StrCat("database not found: ", path));
   }
+  if (!options.read_only) LOCI_RETURN_IF_ERROR(CreatePrivateFile(path));
   std::unique_ptr<SqliteStore> store(new SqliteStore(path, options));
   if (!options.read_only) {
     std::lock_guard<std::mutex> lock(store->write_mu_);
@@ -162,7 +190,7 @@ StatusOr<SessionRecord> SqliteStore::CreateSession(SessionRecord session) {
   ins.Bind(17, session.opened_ns);
   if (ins.Step() != SQLITE_DONE) return SqlError(db, "insert session");
   session.row_id = sqlite3_last_insert_rowid(db);
-  session.session_id = absl::StrCat(session.robot_name, "-", session.row_id);
+  session.session_id = absl::StrCat(session.robot_name, "-", session.row_id, "-", RandomHex128());
   Stmt upd(db, "UPDATE sessions SET session_id = ? WHERE id = ?");
   upd.BindText(1, session.session_id).Bind(2, session.row_id);
   if (upd.Step() != SQLITE_DONE) return SqlError(db, "update session");

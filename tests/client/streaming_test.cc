@@ -9,6 +9,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <thread>
 #include <opencv2/imgcodecs.hpp>
 
 #include "client/streaming/map_client.h"
@@ -109,9 +110,29 @@ TEST_F(StreamingTest, UnreachableServerFailsCleanly) {
   MapClientOptions o;
   o.server = "127.0.0.1:1";  // tcpmux: nothing listens there
   o.rpc_timeout_s = 0.5;
+  o.connect_timeout_s = 1.0;
   auto c = MapClient::Connect(o, PinholeCamera::TumFr1(), 5000.0);
   ASSERT_FALSE(c.ok());
   EXPECT_EQ(c.status().code(), absl::StatusCode::kUnavailable) << c.status();
+}
+
+// loci-track started before loci-server (a robot booting with the fleet's server): Connect
+// waits for the server instead of giving up on its first attempt.
+TEST_F(StreamingTest, ConnectWaitsForAServerThatIsStillStarting) {
+  StartServer("127.0.0.1:0");
+  ASSERT_GT(server_->port(), 0);
+  const std::string listen = server_->address();
+  server_.reset();  // the port is free again: nothing listens while Connect starts
+  MapClientOptions o;
+  o.server = listen;
+  o.connect_timeout_s = 60.0;
+  StatusOr<std::unique_ptr<MapClient>> client = absl::UnknownError("not run");
+  std::thread connecting([&] { client = MapClient::Connect(o, PinholeCamera::TumFr1(), 5000.0); });
+  StartServer(listen);
+  connecting.join();
+  ASSERT_GT(server_->port(), 0);
+  ASSERT_TRUE(client.ok()) << client.status();
+  EXPECT_FALSE((*client)->session_id().empty());
 }
 
 TEST_F(StreamingTest, NoSendWindowIsRejectedBeforeConnecting) {

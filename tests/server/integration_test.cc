@@ -274,7 +274,7 @@ TEST_F(Integration, SigkillMidStreamThenRestartLosesNothing) {
     auto mapping = loci::v1::Mapping::NewStub(channel);
     int64_t last = -2;
     const std::string session = OpenSession(mapping.get(), /*resume=*/true, &last);
-    EXPECT_EQ(session, "robot1-1");
+    EXPECT_EQ(session.substr(0, 9), "robot1-1-");  // the session that was open at the kill
     EXPECT_GE(last, *acked.rbegin());  // everything acknowledged survived the kill
     // A client resends from its last acknowledged keyframe: stored ones come back as duplicates.
     const auto acks = Stream(mapping.get(), session, static_cast<int>(*acked.rbegin()), n);

@@ -1,4 +1,6 @@
 #include <gtest/gtest.h>
+
+#include <regex>
 #include <sqlite3.h>
 
 #include <filesystem>
@@ -56,6 +58,15 @@ TEST(SqliteStore, FreshDatabaseHasLatestSchemaAndWal) {
   EXPECT_STREQ(reinterpret_cast<const char*>(sqlite3_column_text(st, 0)), "wal");
   sqlite3_finalize(st);
   sqlite3_close(db);
+  // The database holds every camera image: owner-only, and so are its WAL and shared memory.
+  namespace fs = std::filesystem;
+  for (const std::string& f : {path, path + "-wal", path + "-shm"}) {
+    if (!fs::exists(f)) continue;
+    EXPECT_EQ(fs::status(f).permissions() & (fs::perms::group_all | fs::perms::others_all),
+              fs::perms::none)
+        << f;
+  }
+  EXPECT_TRUE(fs::exists(path + "-wal"));
 }
 
 TEST(SqliteStore, RefusesNewerSchema) {
@@ -82,7 +93,9 @@ TEST(SqliteStore, KeyframeRoundTripAndDuplicates) {
   s.T_base_odom = MakeSE3(Vec3d(1, 2, 3), Quatd(Eigen::AngleAxisd(0.5, Vec3d::UnitZ())));
   auto created = (*store)->CreateSession(s);
   ASSERT_TRUE(created.ok()) << created.status();
-  EXPECT_EQ(created->session_id, "robot1-1");
+  // robot-row-<128 random bits>: readable, and not guessable from another robot's id.
+  EXPECT_TRUE(std::regex_match(created->session_id, std::regex("robot1-1-[0-9a-f]{32}")))
+      << created->session_id;
   EXPECT_EQ(*(*store)->LastStoredSeq(created->row_id), -1);
 
   const KeyframeRecord kf = MakeKeyframe(created->row_id, 7);
@@ -125,7 +138,7 @@ TEST(SqliteStore, KeyframeRoundTripAndDuplicates) {
   EXPECT_EQ(r.detections[0].track_id, 5);
   EXPECT_EQ(r.detections[0].mask.size(), cv::Size(30, 40));
 
-  auto found = (*store)->FindSession("robot1-1");
+  auto found = (*store)->FindSession(created->session_id);
   ASSERT_TRUE(found.ok() && found->has_value());
   EXPECT_TRUE((*found)->T_base_odom.isApprox(s.T_base_odom, 1e-12));
   EXPECT_FALSE((*(*store)->FindSession("nope")).has_value());
