@@ -14,11 +14,11 @@
 namespace loci {
 
 struct ChannelSecurity {
-  std::string token;         // bearer token; "" = none
-  std::string tls_ca_file;   // PEM CA that signed the server's certificate; "" = plaintext
-  std::string tls_cert_file; // client certificate (PEM) for mutual TLS; "" = none
-  std::string tls_key_file;  // its private key
-  std::string tls_server_name;  // name to verify the certificate against; "" = the host
+  std::string token{};            // bearer token; "" = none
+  std::string tls_ca_file{};      // PEM CA that signed the server's certificate; "" = plaintext
+  std::string tls_cert_file{};    // client certificate (PEM) for mutual TLS; "" = none
+  std::string tls_key_file{};     // its private key
+  std::string tls_server_name{};  // name to verify the certificate against; "" = the host
 
   // token from $LOCI_TOKEN and tls_ca_file from $LOCI_TLS_CA where they are empty.
   ChannelSecurity WithEnvironment() const;

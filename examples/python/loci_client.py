@@ -100,10 +100,34 @@ def selftest(pb, pb_grpc):
     return 0
 
 
+def open_channel(grpc, args):
+    """A channel with the bearer token on every call (metadata) and TLS when --tls-ca is given."""
+    if args.tls_ca:
+        with open(args.tls_ca, "rb") as f:
+            channel = grpc.secure_channel(args.server, grpc.ssl_channel_credentials(f.read()))
+    else:
+        channel = grpc.insecure_channel(args.server)
+    if not args.token:
+        return channel
+    header = ("authorization", "Bearer " + args.token)
+
+    class Bearer(grpc.UnaryUnaryClientInterceptor):
+        def intercept_unary_unary(self, continuation, details, request):
+            metadata = list(details.metadata or []) + [header]
+            details = details._replace(metadata=metadata)
+            return continuation(details, request)
+
+    return grpc.intercept_channel(channel, Bearer())
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     p.add_argument("--server", default="127.0.0.1:50051", help="gRPC address HOST:PORT")
     p.add_argument("--timeout", type=float, default=5.0, help="per-call deadline (s)")
+    p.add_argument("--token", default=os.environ.get("LOCI_TOKEN", ""),
+                   help="bearer token (default: $LOCI_TOKEN)")
+    p.add_argument("--tls-ca", default=os.environ.get("LOCI_TLS_CA", ""),
+                   help="CA certificate (PEM) of a TLS server (default: $LOCI_TLS_CA; none: plaintext)")
     sub = p.add_subparsers(dest="cmd", required=True)
     a = sub.add_parser("ask", help="ask an English question")
     a.add_argument("question")
@@ -121,7 +145,7 @@ def main():
     if args.cmd == "selftest":
         return selftest(pb, pb_grpc)
     import grpc  # after the stubs: a missing grpcio gives the clearer error above first
-    with grpc.insecure_channel(args.server) as channel:
+    with open_channel(grpc, args) as channel:
         stub = pb_grpc.QueryStub(channel)
         try:
             return ask(stub, pb, args) if args.cmd == "ask" else find(stub, pb, args)

@@ -157,8 +157,9 @@ void HttpApi::Harden() {
   http_->new_task_queue = [] { return new httplib::ThreadPool(kWorkerThreads); };
   http_->set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
     if (auth_ == nullptr || !auth_->enabled()) return httplib::Server::HandlerResponse::Unhandled;
+    const std::string value = req.get_header_value("Authorization");  // owns the bytes
     std::optional<std::string_view> header;
-    if (req.has_header("Authorization")) header = req.get_header_value("Authorization");
+    if (req.has_header("Authorization")) header = value;
     StatusOr<Principal> who = auth_->Authenticate(header);
     Status allowed = who.ok() ? Authorizer::AllowRead(*who) : who.status();
     if (allowed.ok()) return httplib::Server::HandlerResponse::Unhandled;
