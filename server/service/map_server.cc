@@ -295,9 +295,15 @@ double MapServer::store_ms_mean() const {
   return n == 0 ? 0.0 : store_ms_total_ / static_cast<double>(n);
 }
 
-void MapServer::Subscribe(std::shared_ptr<ObjectEventQueue> queue) {
+Status MapServer::Subscribe(std::shared_ptr<ObjectEventQueue> queue) {
   std::lock_guard<std::mutex> lock(watchers_mu_);
+  if (watchers_.size() >= static_cast<size_t>(options_.max_watchers)) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "already ", watchers_.size(), " WatchObjects streams (server.max_watchers); each holds a "
+        "server thread"));
+  }
   watchers_.push_back(std::move(queue));
+  return absl::OkStatus();
 }
 
 void MapServer::Unsubscribe(const std::shared_ptr<ObjectEventQueue>& queue) {

@@ -48,7 +48,8 @@ class MapServer {
   void Flush();
 
   // Object events are copied into every subscribed queue (dropped when a queue is full).
-  void Subscribe(std::shared_ptr<ObjectEventQueue> queue);
+  // RESOURCE_EXHAUSTED beyond options().max_watchers subscribers.
+  Status Subscribe(std::shared_ptr<ObjectEventQueue> queue);
   void Unsubscribe(const std::shared_ptr<ObjectEventQueue>& queue);
 
   const Mapper& mapper() const { return *mapper_; }

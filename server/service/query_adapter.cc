@@ -141,7 +141,16 @@ std::shared_ptr<const query::MapIndex> QueryAdapter::IndexFor(const QueryMapSour
     std::lock_guard<std::mutex> lock(mu_);
     if (cached_index_ && cached_key_ == key) return cached_index_;
   }
-  std::lock_guard<std::mutex> build_lock(build_mu_);
+  // While another asker rebuilds, answer from the index at hand (a keyframe older) rather
+  // than queue behind the build: under ingest, builds would otherwise set the tail latency.
+  std::unique_lock<std::mutex> build_lock(build_mu_, std::try_to_lock);
+  if (!build_lock.owns_lock()) {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      if (cached_index_) return cached_index_;
+    }
+    build_lock.lock();
+  }
   {
     std::lock_guard<std::mutex> lock(mu_);  // another asker may have built it meanwhile
     if (cached_index_ && cached_key_ == key) return cached_index_;

@@ -113,7 +113,8 @@ class QueryAdapter final : public QueryEngine {
   std::shared_ptr<const query::MapIndex> cached_index_;
   std::string up_source_ = "config";
   uint64_t builds_ = 0;
-  std::mutex build_mu_;  // one build at a time; concurrent askers wait and reuse it
+  // One build at a time; askers meanwhile use the previous index (or wait when there is none).
+  std::mutex build_mu_;
 };
 
 // Converts an engine answer to the wire message (its status is not part of it: the caller

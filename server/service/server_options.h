@@ -25,6 +25,7 @@ struct ServerOptions {
   // A keyframe whose seq follows its session's last one may be stamped at most this much
   // earlier than it, ms (1000).
   double stamp_backwards_ms = 1000.0;
+  int max_watchers = 64;  // WatchObjects streams at once (each holds a thread); more: RESOURCE_EXHAUSTED
   int decode_slots = 4;  // keyframes validated (images decoded) at once; more wait (4)
   // Server-side detector for keyframes that arrive without detections (section `detector`:
   // `enabled` (default false) plus the keys of detection::DetectorOptions).

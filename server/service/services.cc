@@ -193,7 +193,7 @@ grpc::Status QueryService::WatchObjects(grpc::ServerContext* ctx,
                                         grpc::ServerWriter<loci::v1::ObjectEvent>* writer) {
   if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
   auto queue = std::make_shared<ObjectEventQueue>(1024);
-  server_->Subscribe(queue);
+  if (Status s = server_->Subscribe(queue); !s.ok()) return ToGrpc(s);
   // Initial metadata tells the client that the watch is registered: every later event comes.
   writer->SendInitialMetadata();
   while (!ctx->IsCancelled()) {

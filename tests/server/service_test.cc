@@ -63,9 +63,10 @@ class ServiceTest : public ::testing::Test {
   }
   void TearDown() override { Stop(); }
 
-  void Start(std::shared_ptr<detection::Detector> detector = nullptr) {
+  void Start(std::shared_ptr<detection::Detector> detector = nullptr, int max_watchers = 64) {
     ServerOptions o;
     o.db_path = db_;
+    o.max_watchers = max_watchers;
     o.map.mapped_classes = {"book", "cup", "laptop"};
     auto s = MapServer::Open(o, nullptr, std::move(detector));
     ASSERT_TRUE(s.ok()) << s.status();
@@ -390,6 +391,29 @@ TEST_F(ServiceTest, WatchObjectsStreamsCreatedEvents) {
   EXPECT_FALSE(event.object().class_name().empty());
   watch_ctx.TryCancel();
   reader->Finish();
+}
+
+// Each watcher holds a server thread: past server.max_watchers a new one is refused at once.
+TEST_F(ServiceTest, WatchersBeyondTheCapAreRefused) {
+  Stop();
+  Start(nullptr, /*max_watchers=*/2);
+  std::vector<std::unique_ptr<grpc::ClientContext>> contexts;
+  std::vector<std::unique_ptr<grpc::ClientReader<loci::v1::ObjectEvent>>> readers;
+  for (int i = 0; i < 3; ++i) {
+    contexts.push_back(std::make_unique<grpc::ClientContext>());
+    contexts.back()->set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+    readers.push_back(query_->WatchObjects(contexts.back().get(), {}));
+    if (i < 2) readers.back()->WaitForInitialMetadata();  // registered
+  }
+  loci::v1::ObjectEvent event;
+  EXPECT_FALSE(readers[2]->Read(&event));
+  const grpc::Status refused = readers[2]->Finish();
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << refused.error_message();
+  EXPECT_NE(refused.error_message().find("max_watchers"), std::string::npos);
+  for (int i = 0; i < 2; ++i) {
+    contexts[i]->TryCancel();
+    readers[i]->Finish();
+  }
 }
 
 TEST_F(ServiceTest, ServerDetectorRunsOnKeyframesWithoutDetections) {
