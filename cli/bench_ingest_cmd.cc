@@ -14,14 +14,11 @@
 #include <iostream>
 #include <thread>
 
+#include "cli/bench_views.h"
 #include "cli/commands.h"
-#include "common/image_codec.h"
-#include "common/tum_io.h"
 #include "loci/v1/mapping.grpc.pb.h"
-#include "proto/convert.h"
 #include "server/service/grpc_server.h"
 #include "server/service/map_server.h"
-#include "synth/sequence_writer.h"
 
 namespace loci::cli {
 namespace {
@@ -33,41 +30,6 @@ struct BenchIngestArgs {
   std::string keep_dir;
   std::string config;  // server YAML (map options); "" = defaults
 };
-
-double RssMb() {
-  std::ifstream statm("/proc/self/statm");
-  long pages_total = 0, pages_rss = 0;
-  statm >> pages_total >> pages_rss;
-  return static_cast<double>(pages_rss) * sysconf(_SC_PAGESIZE) / (1024.0 * 1024.0);
-}
-
-StatusOr<std::vector<loci::v1::Keyframe>> LoadViews(const std::string& dir) {
-  LOCI_ASSIGN_OR_RETURN(TumSequence seq, LoadTumSequence(dir));
-  LOCI_ASSIGN_OR_RETURN(auto detections, ReadDetectionsJsonl(dir + "/detections.jsonl"));
-  std::vector<loci::v1::Keyframe> out;
-  for (const TumFrame& f : seq.frames) {
-    loci::v1::Keyframe kf;
-    LOCI_ASSIGN_OR_RETURN(*kf.mutable_rgb_jpeg(), ReadFileBytes(f.rgb_path));
-    LOCI_ASSIGN_OR_RETURN(*kf.mutable_depth_png(), ReadFileBytes(f.depth_path));
-    SE3d T = SE3d::Identity();
-    int64_t best_dt = INT64_MAX;
-    for (const StampedPose& p : seq.groundtruth) {
-      if (std::llabs(p.t_ns - f.rgb_t_ns) < best_dt) {
-        best_dt = std::llabs(p.t_ns - f.rgb_t_ns);
-        T = p.T_world_cam;
-      }
-    }
-    ToProto(T, kf.mutable_t_odom_cam());
-    if (const FrameDetections* fd = FindDetections(detections, f.rgb_t_ns)) {
-      for (const Detection2D& d : fd->detections) {
-        LOCI_RETURN_IF_ERROR(ToProto(d, kf.add_detections()));
-      }
-    }
-    kf.set_t_ns(f.rgb_t_ns);
-    out.push_back(std::move(kf));
-  }
-  return out;
-}
 
 int RunBenchIngest(const BenchIngestArgs& a) {
   const std::string dir = a.keep_dir.empty() ? (std::filesystem::temp_directory_path() /
@@ -81,13 +43,9 @@ int RunBenchIngest(const BenchIngestArgs& a) {
   so.seed = 7;
   std::cout << "rendering " << a.views << " synthetic 640x480 views with " << a.objects
             << " objects into " << dir << " ..." << std::endl;
-  if (Status s = synth::WriteSequence(so, dir + "/scene"); !s.ok()) {
-    std::cerr << "error: " << s.message() << "\n";
-    return 1;
-  }
-  auto views = LoadViews(dir + "/scene");
-  if (!views.ok() || views->empty()) {
-    std::cerr << "error: " << (views.ok() ? "no frames" : views.status().message()) << "\n";
+  auto views = RenderViews(so, dir);
+  if (!views.ok()) {
+    std::cerr << "error: " << views.status().message() << "\n";
     return 1;
   }
   size_t det_total = 0;
@@ -115,18 +73,8 @@ int RunBenchIngest(const BenchIngestArgs& a) {
   auto stub = loci::v1::Mapping::NewStub(grpc::CreateChannel(
       absl::StrCat("127.0.0.1:", (*grpc_server)->port()), grpc::InsecureChannelCredentials()));
   grpc::ClientContext open_ctx;
-  loci::v1::OpenSessionRequest open;
-  open.set_robot_name("bench");
-  const PinholeCamera cam = PinholeCamera::TumFr1();
-  open.mutable_intrinsics()->set_fx(cam.fx);
-  open.mutable_intrinsics()->set_fy(cam.fy);
-  open.mutable_intrinsics()->set_cx(cam.cx);
-  open.mutable_intrinsics()->set_cy(cam.cy);
-  open.mutable_intrinsics()->set_width_px(cam.width_px);
-  open.mutable_intrinsics()->set_height_px(cam.height_px);
-  open.set_depth_scale(so.depth_scale);
   loci::v1::OpenSessionResponse session;
-  if (!stub->OpenSession(&open_ctx, open, &session).ok()) {
+  if (!stub->OpenSession(&open_ctx, BenchOpenRequest("bench", so.depth_scale), &session).ok()) {
     std::cerr << "error: OpenSession failed\n";
     return 1;
   }
@@ -143,13 +91,8 @@ int RunBenchIngest(const BenchIngestArgs& a) {
       if (++acked == a.keyframes / 3) rss_third = RssMb();
     }
   });
-  const int64_t period_ns = views->back().t_ns() - views->front().t_ns() + 33'000'000;
   for (int i = 0; i < a.keyframes; ++i) {
-    loci::v1::Keyframe kf = (*views)[i % views->size()];
-    kf.set_session_id(session.session_id());
-    kf.set_seq(i);
-    kf.set_t_ns(kf.t_ns() + (i / static_cast<int64_t>(views->size())) * period_ns);
-    if (!stream->Write(kf)) break;
+    if (!stream->Write(NthKeyframe(*views, i, session.session_id()))) break;
   }
   stream->WritesDone();
   reader.join();

@@ -29,6 +29,7 @@ void RegisterBenchQueryCommand(CLI::App& app);
 void RegisterExportCommand(CLI::App& app);
 void RegisterEvalObjectsCommand(CLI::App& app);
 void RegisterBenchIngestCommand(CLI::App& app);
+void RegisterBenchLoadCommand(CLI::App& app);
 
 // `loci bench report` (cli/report/): evaluation report on a TUM folder.
 void RegisterBenchReportCommand(CLI::App& app);

@@ -32,6 +32,7 @@ int main(int argc, char** argv) {
   loci::cli::RegisterExportCommand(app);
   loci::cli::RegisterEvalObjectsCommand(app);
   loci::cli::RegisterBenchIngestCommand(app);
+  loci::cli::RegisterBenchLoadCommand(app);
   loci::cli::RegisterDetectCommand(app);
   loci::cli::RegisterBenchDetectCommand(app);
   loci::cli::RegisterBenchTrackCommand(app);

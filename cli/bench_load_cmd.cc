@@ -1,0 +1,215 @@
+// `loci bench load [--robots N] [--clients M] [--seconds T] [--robot-hz H]`: N robots stream
+// synthetic keyframes (a rendered `loci synth` scene, 640x480 with masks) while M query
+// clients alternate Ask and FindObjects, all over loopback gRPC to an in-process loci server
+// with the query engine. Prints errors, the ingest rate, Ask and FindObjects p50/p99/max, and
+// the resident memory every 10 s.
+#include <grpcpp/create_channel.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <mutex>
+#include <thread>
+
+#include "cli/bench_views.h"
+#include "cli/commands.h"
+#include "loci/v1/mapping.grpc.pb.h"
+#include "loci/v1/query.grpc.pb.h"
+#include "server/service/grpc_server.h"
+#include "server/service/map_server.h"
+#include "server/service/query_adapter.h"
+
+namespace loci::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct BenchLoadArgs {
+  int robots = 8;
+  int clients = 20;
+  double seconds = 60;
+  double robot_hz = 1.0;  // keyframes per second per robot (0 = as fast as acknowledged)
+  int views = 30;
+  int objects = 8;
+};
+
+struct Latencies {
+  std::mutex mu;
+  std::vector<double> ask_ms, find_ms;
+  std::atomic<uint64_t> errors{0};
+};
+
+double Percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())))];
+}
+
+// One robot: a session and one stream, paced at robot_hz, until `stop`.
+void RobotLoop(const std::shared_ptr<grpc::Channel>& channel, int index,
+               const std::vector<loci::v1::Keyframe>& views, const BenchLoadArgs& a,
+               const std::atomic<bool>& stop, std::atomic<uint64_t>* acked,
+               std::atomic<uint64_t>* errors) {
+  auto stub = loci::v1::Mapping::NewStub(channel);
+  grpc::ClientContext open_ctx;
+  loci::v1::OpenSessionResponse session;
+  if (!stub->OpenSession(&open_ctx, BenchOpenRequest("robot" + std::to_string(index), 5000.0),
+                         &session)
+           .ok()) {
+    ++*errors;
+    return;
+  }
+  grpc::ClientContext ctx;
+  auto stream = stub->StreamKeyframes(&ctx);
+  std::thread reader([&] {
+    loci::v1::KeyframeAck ack;
+    while (stream->Read(&ack)) ack.status().code() == 0 ? ++*acked : ++*errors;
+  });
+  const auto period = std::chrono::duration<double>(a.robot_hz > 0 ? 1.0 / a.robot_hz : 0.0);
+  auto next = Clock::now();
+  for (int64_t i = 0; !stop; ++i) {
+    if (!stream->Write(NthKeyframe(views, i, session.session_id()))) break;
+    next += std::chrono::duration_cast<Clock::duration>(period);
+    std::this_thread::sleep_until(next);  // pacing of a robot's keyframe rate
+  }
+  stream->WritesDone();
+  reader.join();
+  if (!stream->Finish().ok()) ++*errors;
+}
+
+// One query client: Ask and FindObjects in turn until `stop`.
+void ClientLoop(const std::shared_ptr<grpc::Channel>& channel, const std::atomic<bool>& stop,
+                Latencies* out) {
+  auto stub = loci::v1::Query::NewStub(channel);
+  static const char* kQuestions[] = {"where is the cup", "what is on the table",
+                                     "how many laptops are there", "list all objects"};
+  for (int i = 0; !stop; ++i) {
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+    const auto t0 = Clock::now();
+    grpc::Status s;
+    if (i % 2 == 0) {
+      loci::v1::AskRequest req;
+      req.set_text(kQuestions[(i / 2) % 4]);
+      loci::v1::AskResponse resp;
+      s = stub->Ask(&ctx, req, &resp);
+    } else {
+      loci::v1::FindObjectsResponse resp;
+      s = stub->FindObjects(&ctx, loci::v1::FindObjectsRequest(), &resp);
+    }
+    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    // INVALID_ARGUMENT is an answer ("no cup in the map" on an empty map), not a failure.
+    if (!s.ok() && s.error_code() != grpc::StatusCode::INVALID_ARGUMENT) ++out->errors;
+    std::lock_guard<std::mutex> lock(out->mu);
+    (i % 2 == 0 ? out->ask_ms : out->find_ms).push_back(ms);
+  }
+}
+
+int RunBenchLoad(const BenchLoadArgs& a) {
+  const std::string dir =
+      (std::filesystem::temp_directory_path() / ("loci_bench_load_" + std::to_string(getpid())))
+          .string();
+  std::filesystem::create_directories(dir);
+  synth::SceneOptions so;
+  so.num_frames = a.views;
+  so.num_objects = a.objects;
+  so.seed = 7;
+  auto views = RenderViews(so, dir);
+  if (!views.ok()) {
+    std::cerr << "error: " << views.status().message() << "\n";
+    return 1;
+  }
+  server::ServerOptions options;
+  if (Status s = options.LoadClasses(); !s.ok()) {
+    std::cerr << "error: " << s.message() << "\n";
+    return 2;
+  }
+  options.db_path = dir + "/load.db";
+  auto srv = server::MapServer::Open(options);
+  if (!srv.ok()) {
+    std::cerr << "error: " << srv.status().message() << "\n";
+    return 1;
+  }
+  auto grpc_server = server::GrpcServer::Start(
+      srv->get(), "127.0.0.1:0", options.max_message_mb,
+      std::make_shared<server::QueryAdapter>(server::QueryAdapterOptions{}));
+  if (!grpc_server.ok()) {
+    std::cerr << "error: " << grpc_server.status().message() << "\n";
+    return 1;
+  }
+  const std::string address = "127.0.0.1:" + std::to_string((*grpc_server)->port());
+  grpc::ChannelArguments args;
+  args.SetMaxSendMessageSize(64 << 20);
+  args.SetMaxReceiveMessageSize(-1);
+  std::printf("loci bench load: %d robots at %.1f keyframes/s each, %d query clients, %.0f s, %u "
+              "cores\n",
+              a.robots, a.robot_hz, a.clients, a.seconds, std::thread::hardware_concurrency());
+  std::atomic<bool> stop{false};
+  std::atomic<uint64_t> acked{0}, ingest_errors{0};
+  Latencies lat;
+  std::vector<std::thread> threads;
+  for (int r = 0; r < a.robots; ++r) {
+    // A channel per robot and client: separate connections, as separate machines would have.
+    auto channel = grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
+    threads.emplace_back(RobotLoop, channel, r, std::cref(*views), std::cref(a), std::cref(stop),
+                         &acked, &ingest_errors);
+  }
+  for (int c = 0; c < a.clients; ++c) {
+    auto channel = grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
+    threads.emplace_back(ClientLoop, channel, std::cref(stop), &lat);
+  }
+  const auto t0 = Clock::now();
+  for (double t = 10; t <= a.seconds + 1e-9; t += 10) {
+    std::this_thread::sleep_until(t0 + std::chrono::duration_cast<Clock::duration>(
+                                           std::chrono::duration<double>(t)));
+    std::printf("  t=%4.0f s  RSS %.0f MB, %llu keyframes acknowledged\n", t, RssMb(),
+                static_cast<unsigned long long>(acked.load()));
+    std::fflush(stdout);
+  }
+  stop = true;
+  for (auto& t : threads) t.join();
+  const double wall_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  std::lock_guard<std::mutex> lock(lat.mu);
+  std::printf("  ingest      %.1f keyframes/s acknowledged (%llu), %llu ingest errors\n",
+              acked / wall_s, static_cast<unsigned long long>(acked.load()),
+              static_cast<unsigned long long>(ingest_errors.load()));
+  std::printf("  Ask         %zu calls, p50 %.1f ms, p99 %.1f ms, max %.1f ms\n", lat.ask_ms.size(),
+              Percentile(lat.ask_ms, 0.5), Percentile(lat.ask_ms, 0.99),
+              Percentile(lat.ask_ms, 1.0));
+  std::printf("  FindObjects %zu calls, p50 %.1f ms, p99 %.1f ms, max %.1f ms\n",
+              lat.find_ms.size(), Percentile(lat.find_ms, 0.5), Percentile(lat.find_ms, 0.99),
+              Percentile(lat.find_ms, 1.0));
+  std::printf("  query errors %llu; map %llu objects; queue depth at the end %zu\n",
+              static_cast<unsigned long long>(lat.errors.load()),
+              static_cast<unsigned long long>((*srv)->mapper().Stats().objects),
+              (*srv)->queue_depth());
+  grpc_server->reset();
+  srv->reset();
+  std::filesystem::remove_all(dir);
+  return ingest_errors == 0 && lat.errors == 0 ? 0 : 1;
+}
+
+}  // namespace
+
+void RegisterBenchLoadCommand(CLI::App& app) {
+  CLI::App* bench = BenchGroup(app);
+  auto args = std::make_shared<BenchLoadArgs>();
+  CLI::App* c = bench->add_subcommand(
+      "load", "N streaming robots and M query clients on loopback gRPC: errors, rates, latency");
+  c->add_option("--robots", args->robots, "streaming robots")->capture_default_str();
+  c->add_option("--clients", args->clients, "query clients (Ask and FindObjects in turn)")
+      ->capture_default_str();
+  c->add_option("--seconds", args->seconds, "duration")->capture_default_str();
+  c->add_option("--robot-hz", args->robot_hz, "keyframes per second per robot (0 = unpaced)")
+      ->capture_default_str();
+  c->add_option("--views", args->views, "distinct rendered views, cycled")->capture_default_str();
+  c->add_option("--objects", args->objects, "objects in the synthetic scene")
+      ->capture_default_str();
+  c->callback([args] { ExitCode() = RunBenchLoad(*args); });
+}
+
+}  // namespace loci::cli
