@@ -173,6 +173,12 @@ TEST_F(AuthTest, TokensAndRolesOnGrpcAndHttp) {
                 "/api/nothing").find("\"NOT_FOUND\""),
             std::string::npos);
   EXPECT_NE(Shell("curl -s " + http + "/api/stats").find("\"UNAUTHENTICATED\""), std::string::npos);
+  // A 4 MB body is refused from its length (limit 64 KiB), with a JSON error.
+  const std::string big = Shell("head -c 4000000 /dev/zero | curl -s -w ' %{http_code}' "
+                                "-H 'Authorization: Bearer " + std::string(kQuery) +
+                                "' --data-binary @- " + http + "/api/stats");
+  EXPECT_NE(big.find(" 413"), std::string::npos) << big;
+  EXPECT_NE(big.find("\"error\""), std::string::npos) << big;
 }
 
 TEST_F(AuthTest, TlsAndMutualTls) {
