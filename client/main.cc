@@ -69,19 +69,6 @@ std::optional<Failure> SetUpDetection(const Args& a, const TrackerOptions& topt,
   return std::nullopt;
 }
 
-StatusOr<MapClientOptions> LoadStreamingOptions(const Args& a) {
-  MapClientOptions mopt;
-  mopt.server = a.server;
-  mopt.robot_name = a.robot;
-  mopt.security = a.security.WithEnvironment();
-  const std::string cfg = a.config.empty() ? SourceDir() + "/config/client.yaml" : a.config;
-  auto node = LoadYamlFile(cfg);
-  if (!node.ok()) return a.config.empty() ? StatusOr<MapClientOptions>(mopt) : node.status();
-  LOCI_RETURN_IF_ERROR(ReadOptional((*node)["streaming"], "max_unacked", &mopt.max_unacked));
-  LOCI_RETURN_IF_ERROR(ReadOptional((*node)["streaming"], "jpeg_quality", &mopt.jpeg_quality));
-  return mopt;
-}
-
 int WriteTrajectories(const Args& a, const TrackPipelineResult& r) {
   int rc = 0;
   for (const auto& [path, traj] : {std::pair{a.trajectory, &r.trajectory},
@@ -122,23 +109,27 @@ int CloseStream(const Args& a, MapClient& client, const Status& stage_status) {
 }
 
 int Run(const Args& a) {
-  auto topt = LoadTrackerOptions(a.config, a.tum_dir);
-  auto mopt = LoadStreamingOptions(a);
+  auto config = LoadClientConfig(a.config, a.tum_dir);
   auto seq = LoadTumSequence(a.tum_dir);
-  for (const Status& s : {topt.status(), mopt.status(), seq.status()}) {
+  for (const Status& s : {config.status(), seq.status()}) {
     if (!s.ok()) {
       std::cerr << "error: " << s.message() << "\n";
       return 2;
     }
   }
+  const TrackerOptions& topt = config->tracker;
+  MapClientOptions& mopt = config->streaming;
+  mopt.server = a.server;
+  mopt.robot_name = a.robot;
+  mopt.security = a.security.WithEnvironment();
   DetectionSetup det;
-  if (auto f = SetUpDetection(a, *topt, &det)) {
+  if (auto f = SetUpDetection(a, topt, &det)) {
     std::cerr << "error: " << f->message << "\n";
     return f->code;
   }
   std::unique_ptr<MapClient> client;
   if (!a.offline) {
-    auto c = MapClient::Connect(*mopt, topt->camera, topt->depth_scale);
+    auto c = MapClient::Connect(mopt, topt.camera, topt.depth_scale);
     if (!c.ok()) {
       std::cerr << "error: " << a.server << ": " << c.status().message()
                 << " (start loci-server or use --offline)\n";
@@ -155,11 +146,11 @@ int Run(const Args& a) {
   std::unique_ptr<PoseSource> pose_source;
   Status made = absl::OkStatus();
   if (!a.poses.empty()) {
-    auto p = PoseSource::FromFile(a.poses, topt->keyframes);
+    auto p = PoseSource::FromFile(a.poses, topt.keyframes);
     made = p.status();
     if (p.ok()) pose_source = std::move(*p);
   } else {
-    auto t = Tracker::Create(*topt);
+    auto t = Tracker::Create(topt);
     made = t.status();
     if (t.ok()) tracker = std::move(*t);
   }

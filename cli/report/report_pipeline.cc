@@ -203,7 +203,8 @@ StatusOr<ReportResult> RunReport(const ReportOptions& o) {
   LOCI_ASSIGN_OR_RETURN(TumSequence seq, LoadTumSequence(o.tum_dir));
   if (seq.frames.empty()) return absl::InvalidArgumentError(o.tum_dir + ": no frames");
 
-  LOCI_ASSIGN_OR_RETURN(TrackerOptions topt, LoadTrackerOptions(o.client_config, o.tum_dir));
+  LOCI_ASSIGN_OR_RETURN(ClientConfig config, LoadClientConfig(o.client_config, o.tum_dir));
+  const TrackerOptions& topt = config.tracker;
   server::ServerOptions sopt;
   LOCI_RETURN_IF_ERROR(sopt.FromYamlFile(
       o.server_config.empty() ? SourceDir() + "/config/server.yaml" : o.server_config));

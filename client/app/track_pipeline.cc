@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <opencv2/imgcodecs.hpp>
 
+#include "absl/strings/match.h"
 #include "common/config.h"
 
 namespace loci {
@@ -43,41 +44,64 @@ std::vector<Detection2D> PriorFor(const TumFrame& f, const std::vector<FrameDete
   return {};
 }
 
+// `s` with the file it is about in front of its message (when not already there).
+Status WithFile(const std::string& path, const Status& s) {
+  if (s.ok() || absl::StartsWith(s.message(), path)) return s;
+  return absl::Status(s.code(), absl::StrCat(path, ": ", s.message()));
+}
+
+Status ReadStreamingOptions(const YAML::Node& n, MapClientOptions* out) {
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(n, "streaming", {"max_unacked", "jpeg_quality"}));
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_unacked", &out->max_unacked));
+  return ReadOptional(n, "jpeg_quality", &out->jpeg_quality);
+}
+
+// The client YAML: sections `tracker` and `streaming`.
+Status ReadClientYaml(const std::string& path, const YAML::Node& root, ClientConfig* out) {
+  const ConfigFileScope scope(path);
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(root, "", {"tracker", "streaming"}));
+  LOCI_RETURN_IF_ERROR(out->tracker.FromYaml(root["tracker"]));
+  return ReadStreamingOptions(root["streaming"], &out->streaming);
+}
+
+// A sequence's camera.yaml: the intrinsics (a `camera:` section, or its keys at the top level)
+// and `depth_scale` (depth PNG units per metre).
+Status ReadSequenceCamera(const std::string& path, const YAML::Node& root, TrackerOptions* out) {
+  const ConfigFileScope scope(path);
+  if (root["camera"]) {
+    LOCI_RETURN_IF_ERROR(CheckKnownKeys(root, "", {"camera", "depth_scale"}));
+    LOCI_ASSIGN_OR_RETURN(out->camera, CameraFromYaml(root["camera"]));
+  } else {
+    YAML::Node intrinsics = YAML::Clone(root);  // the top-level form: every key but depth_scale
+    intrinsics.remove("depth_scale");
+    LOCI_ASSIGN_OR_RETURN(out->camera, CameraFromYaml(intrinsics));
+  }
+  return ReadOptional(root, "depth_scale", &out->depth_scale);
+}
+
 }  // namespace
 
-StatusOr<TrackerOptions> LoadTrackerOptions(const std::string& client_config,
-                                            const std::string& tum_dir) {
-  TrackerOptions topt;
-  const std::string cfg = client_config.empty() ? SourceDir() + "/config/client.yaml"
-                                                : client_config;
-  if (auto node = LoadYamlFile(cfg); node.ok()) {
-    const ConfigFileScope scope(cfg);
-    if (Status s = topt.FromYaml((*node)["tracker"]); !s.ok()) {
-      return absl::InvalidArgumentError(absl::StrCat(cfg, ": ", s.message()));
-    }
-  } else if (!client_config.empty()) {
-    return node.status();
-  }
+StatusOr<ClientConfig> LoadClientConfig(const std::string& client_config,
+                                        const std::string& tum_dir) {
+  ClientConfig c;
+  const std::string path =
+      client_config.empty() ? SourceDir() + "/config/client.yaml" : client_config;
+  StatusOr<YAML::Node> node = LoadYamlFile(path);
+  const bool shipped_absent = client_config.empty() && absl::IsNotFound(node.status());
+  if (!node.ok() && !shipped_absent) return node.status();
+  if (node.ok()) LOCI_RETURN_IF_ERROR(WithFile(path, ReadClientYaml(path, *node, &c)));
   const std::string classes = SourceDir() + "/config/classes.yaml";
-  if (auto node = LoadYamlFile(classes); node.ok()) {
-    if (Status s = topt.ClassWeightsFromYaml(*node); !s.ok()) {
-      return absl::InvalidArgumentError(absl::StrCat(classes, ": ", s.message()));
-    }
+  StatusOr<YAML::Node> weights = LoadYamlFile(classes);
+  if (!weights.ok() && !absl::IsNotFound(weights.status())) return weights.status();
+  if (weights.ok()) {
+    LOCI_RETURN_IF_ERROR(WithFile(classes, c.tracker.ClassWeightsFromYaml(*weights)));
   }
   const std::string camera = tum_dir + "/camera.yaml";
   if (access(camera.c_str(), F_OK) == 0) {
-    // The sequence's own intrinsics (a `camera:` section, or the keys at the top level) and
-    // depth units.
-    LOCI_ASSIGN_OR_RETURN(YAML::Node node, LoadYamlFile(camera));
-    const ConfigFileScope scope(camera);
-    auto c = CameraFromYaml(node["camera"] ? node["camera"] : node);
-    if (!c.ok()) return absl::InvalidArgumentError(absl::StrCat(camera, ": ", c.status().message()));
-    topt.camera = *c;
-    if (Status s = ReadOptional(node, "depth_scale", &topt.depth_scale); !s.ok()) {
-      return absl::InvalidArgumentError(absl::StrCat(camera, ": ", s.message()));
-    }
+    LOCI_ASSIGN_OR_RETURN(YAML::Node cam, LoadYamlFile(camera));
+    LOCI_RETURN_IF_ERROR(WithFile(camera, ReadSequenceCamera(camera, cam, &c.tracker)));
   }
-  return topt;
+  return c;
 }
 
 StatusOr<TrackPipelineResult> RunTrackPipeline(const TumSequence& seq, Tracker* tracker,

@@ -11,17 +11,23 @@
 
 #include "client/app/keyframe_stage.h"
 #include "client/app/pose_source.h"
+#include "client/streaming/map_client.h"
 #include "client/tracking/tracker.h"
 #include "common/detections_io.h"
 #include "common/tum_io.h"
 
 namespace loci {
 
-// Tracker options of a run: the client YAML (`tracker` section; "" = config/client.yaml), the
-// class weights of config/classes.yaml and the sequence's camera.yaml when present. Every file
-// that is there must parse: a bad camera.yaml is an error, not a silent default.
-StatusOr<TrackerOptions> LoadTrackerOptions(const std::string& client_config,
-                                            const std::string& tum_dir);
+// The options of a run, from the client YAML ("" = config/client.yaml, skipped when absent),
+// the class weights of config/classes.yaml and the sequence's camera.yaml when present. Every
+// file that is there must parse: a bad camera.yaml is an error, not a silent default. Unknown
+// keys (top level, `tracker`, `streaming`, camera.yaml) warn, or fail with strict checking.
+struct ClientConfig {
+  TrackerOptions tracker;      // `tracker`, class weights, the sequence's camera and depth units
+  MapClientOptions streaming;  // `streaming`; server and robot name keep their defaults
+};
+StatusOr<ClientConfig> LoadClientConfig(const std::string& client_config,
+                                        const std::string& tum_dir);
 
 struct TrackPipelineOptions {
   int64_t max_box_age_ns = 300'000'000;  // dynamic prior: boxes at most this old (0.3 s)

@@ -90,16 +90,6 @@ TEST_F(LociTrackTest, StrictConfigTurnsAMisspeltKeyIntoAnError) {
       << text;
 }
 
-TEST(ShippedClientConfig, HasNoUnknownKeys) {
-  auto node = LoadYamlFile(SourceDir() + "/config/client.yaml");
-  ASSERT_TRUE(node.ok()) << node.status();
-  SetStrictConfig(true);
-  TrackerOptions o;
-  const Status s = o.FromYaml((*node)["tracker"]);
-  SetStrictConfig(false);
-  EXPECT_TRUE(s.ok()) << s;
-}
-
 TEST(DynamicFilterTest, MovingPointScoresAboveThresholdStaticBelow) {
   TrackerOptions opt;
   DynamicFilter f(opt);

@@ -10,18 +10,50 @@ CLIENT="$SRC/examples/python/loci_client.py"
 
 "$PY" "$CLIENT" selftest
 
-rm -f "$WORK/test.db" "$WORK/server.out"
-"$SERVER" --listen 127.0.0.1:0 --db "$WORK/test.db" --http off > "$WORK/server.out" 2>&1 &
+# Readiness: the server prints "listening on HOST:PORT" on stdout (its logs go to stderr) once
+# it serves. Its stdout is a FIFO read line by line with a deadline; EOF means it exited.
+READY_DEADLINE_S=30
+rm -f "$WORK/test.db" "$WORK/server.err" "$WORK/server.fifo"
+: > "$WORK/server.out"
+mkfifo "$WORK/server.fifo"
+"$SERVER" --listen 127.0.0.1:0 --db "$WORK/test.db" --http off \
+  > "$WORK/server.fifo" 2> "$WORK/server.err" &
 PID=$!
-trap 'kill $PID 2>/dev/null; wait $PID 2>/dev/null || true' EXIT
-ADDR=""
-for _ in $(seq 100); do
-  ADDR=$(sed -n 's/^listening on \([0-9.]*:[0-9]*\).*/\1/p' "$WORK/server.out" | head -1)
-  [ -n "$ADDR" ] && break
-  kill -0 $PID 2>/dev/null || { cat "$WORK/server.out"; echo "server exited"; exit 1; }
-  sleep 0.1
-done
-[ -n "$ADDR" ] || { cat "$WORK/server.out"; echo "server did not report its port"; exit 1; }
+DRAIN_PID=""
+trap 'kill $PID 2>/dev/null; wait $PID 2>/dev/null || true
+      [ -z "$DRAIN_PID" ] || wait $DRAIN_PID 2>/dev/null || true' EXIT
+exec 3< "$WORK/server.fifo"
+
+server_failed() {
+  cat "$WORK/server.out" "$WORK/server.err"
+  echo "$1"
+  exit 1
+}
+
+# Prints the server's address once its "listening on" line arrives on fd 3.
+wait_for_listening() {
+  local end_s=$((SECONDS + READY_DEADLINE_S)) line rc
+  while true; do
+    [ $((end_s - SECONDS)) -gt 0 ] || return 2
+    rc=0
+    IFS= read -r -t $((end_s - SECONDS)) -u 3 line || rc=$?
+    [ "$rc" -eq 0 ] || { [ "$rc" -gt 128 ] && return 2; return 1; }  # >128: timed out
+    echo "$line" >> "$WORK/server.out"
+    if [[ "$line" =~ ^listening\ on\ ([0-9.]+:[0-9]+) ]]; then
+      echo "${BASH_REMATCH[1]}"
+      return 0
+    fi
+  done
+}
+
+RC=0
+ADDR=$(wait_for_listening) || RC=$?
+[ "$RC" -ne 1 ] || server_failed "server exited before listening"
+[ "$RC" -eq 0 ] || server_failed "no 'listening on' line within ${READY_DEADLINE_S} s"
+# Keep reading the server's stdout so it never blocks on a full pipe.
+cat <&3 >> "$WORK/server.out" &
+DRAIN_PID=$!
+exec 3<&-
 
 OUT=$("$PY" "$CLIENT" --server "$ADDR" find --class cup --limit 5)
 echo "$OUT"
