@@ -303,3 +303,32 @@ TEST_F(QueryEngineTest, BadObjectsAreIgnoredNotFatal) {
 
 }  // namespace
 }  // namespace loci::query
+
+namespace loci::query {
+namespace {
+
+// The largest map keyframe validation lets in (server.map_extent_m, +-10 km): two objects at
+// opposite corners stretch the index's grid over 20 km, and the office still answers right (the
+// grid's cell count is capped, so it cannot take the gigabytes a 1e12 m extent once took).
+TEST(QueryEngineExtent, AMapSpanningTheWholeExtentStillAnswers) {
+  std::vector<MapObject> objects = testing::Office();
+  objects.push_back(testing::Box(90, "chair", {-1e4, -1e4, 0}, {-1e4 + 0.5, -1e4 + 0.5, 0.9}));
+  objects.push_back(testing::Box(91, "chair", {1e4 - 0.5, 1e4 - 0.5, 0}, {1e4, 1e4, 0.9}));
+  QueryEngine engine;
+  MapView view;
+  view.objects = objects;
+  view.now_ns = testing::kT0;
+  const auto index = engine.Index(view);
+  const AskResult on = engine.Ask("what is on #10", *index, AskContext{testing::kT0, ""});
+  ASSERT_TRUE(on.status.ok()) << on.answer;
+  std::vector<int64_t> ids;
+  for (const MapObject& o : on.objects) ids.push_back(o.id);
+  std::sort(ids.begin(), ids.end());
+  EXPECT_EQ(ids, (std::vector<int64_t>{9, 11, 12, 13}));
+  const AskResult count =
+      engine.Ask("how many chairs are there", *index, AskContext{testing::kT0, ""});
+  EXPECT_EQ(count.count, 4);
+}
+
+}  // namespace
+}  // namespace loci::query
