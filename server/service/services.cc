@@ -113,51 +113,48 @@ grpc::Status QueryService::GetStats(grpc::ServerContext* ctx, const loci::v1::Ge
   return GetStats(resp);
 }
 
-grpc::Status QueryService::Ask(const loci::v1::AskRequest& request,
+grpc::Status QueryService::Ask(const loci::v1::AskRequest& req,
                                loci::v1::AskResponse* resp) {
-  const loci::v1::AskRequest* req = &request;
   if (!engine_) {
     return grpc::Status(grpc::StatusCode::UNIMPLEMENTED,
                         "this server answers no questions (no query engine); use FindObjects");
   }
-  StatusOr<loci::v1::AskResponse> answer = engine_->Ask(*req, *server_);
+  StatusOr<loci::v1::AskResponse> answer = engine_->Ask(req, *server_);
   if (!answer.ok()) return ToGrpc(answer.status());
   *resp = std::move(*answer);
   return grpc::Status::OK;
 }
 
-grpc::Status QueryService::FindObjects(const loci::v1::FindObjectsRequest& request,
+grpc::Status QueryService::FindObjects(const loci::v1::FindObjectsRequest& req,
                                        loci::v1::FindObjectsResponse* resp) {
-  const loci::v1::FindObjectsRequest* req = &request;
-  if (!std::isfinite(req->min_confidence()) || !std::isfinite(req->radius_m()) ||
-      req->radius_m() < 0) {
+  if (!std::isfinite(req.min_confidence()) || !std::isfinite(req.radius_m()) ||
+      req.radius_m() < 0) {
     return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
                         "min_confidence and radius_m must be finite, radius_m >= 0");
   }
-  const Eigen::Vector3d center(req->near_center_m().x(), req->near_center_m().y(),
-                               req->near_center_m().z());
-  for (const MapObject& o : server_->mapper().Snapshot(req->confirmed_only())) {
-    if (!req->classes().empty() && std::find(req->classes().begin(), req->classes().end(),
-                                             o.class_name) == req->classes().end()) {
+  const Eigen::Vector3d center(req.near_center_m().x(), req.near_center_m().y(),
+                               req.near_center_m().z());
+  for (const MapObject& o : server_->mapper().Snapshot(req.confirmed_only())) {
+    if (!req.classes().empty() && std::find(req.classes().begin(), req.classes().end(),
+                                             o.class_name) == req.classes().end()) {
       continue;
     }
-    if (o.confidence < req->min_confidence()) continue;
-    if (req->has_within_box() && !Inside(o.centroid_m, req->within_box())) continue;
-    if (req->radius_m() > 0 && (o.centroid_m - center).norm() > req->radius_m()) continue;
+    if (o.confidence < req.min_confidence()) continue;
+    if (req.has_within_box() && !Inside(o.centroid_m, req.within_box())) continue;
+    if (req.radius_m() > 0 && (o.centroid_m - center).norm() > req.radius_m()) continue;
     ToProto(o, resp->add_objects());
-    if (req->limit() > 0 && resp->objects_size() >= static_cast<int>(req->limit())) break;
+    if (req.limit() > 0 && resp->objects_size() >= static_cast<int>(req.limit())) break;
   }
   return grpc::Status::OK;
 }
 
-grpc::Status QueryService::GetObject(const loci::v1::GetObjectRequest& request,
+grpc::Status QueryService::GetObject(const loci::v1::GetObjectRequest& req,
                                      loci::v1::GetObjectResponse* resp) {
-  const loci::v1::GetObjectRequest* req = &request;
   std::vector<ColoredPoint> cloud;
   std::vector<int64_t> keyframes;
-  auto o = server_->mapper().GetObject(req->id(), req->with_cloud() ? &cloud : nullptr, &keyframes);
+  auto o = server_->mapper().GetObject(req.id(), req.with_cloud() ? &cloud : nullptr, &keyframes);
   if (!o) {
-    return grpc::Status(grpc::StatusCode::NOT_FOUND, absl::StrCat("no object ", req->id()));
+    return grpc::Status(grpc::StatusCode::NOT_FOUND, absl::StrCat("no object ", req.id()));
   }
   ToProto(*o, resp->mutable_object());
   for (const auto& p : cloud) ToProto(p, o->id, resp->add_cloud());
