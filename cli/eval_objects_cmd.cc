@@ -50,8 +50,11 @@ StatusOr<MapUnderTest> FromDb(const std::string& db, const server::ServerOptions
   so.read_only = true;
   LOCI_ASSIGN_OR_RETURN(auto store, server::SqliteStore::Open(db, so));
   MapUnderTest m;
-  m.mapper = std::make_shared<server::Mapper>(options.map);
-  LOCI_RETURN_IF_ERROR(server::ReplayStore(*store, *m.mapper, nullptr).status());
+  auto mapper = std::make_unique<server::Mapper>(options.map);
+  server::LoadOptions load;
+  load.store_products = false;  // read-only
+  LOCI_RETURN_IF_ERROR(server::LoadMap(*store, &mapper, nullptr, load).status());
+  m.mapper = std::move(mapper);
   m.objects = m.mapper->Snapshot(confirmed_only);
   for (auto& [robot, traj] : m.mapper->Trajectories()) m.keyframes.push_back(traj);
   m.adapter = std::make_shared<server::QueryAdapter>(server::QueryAdapterOptions{});

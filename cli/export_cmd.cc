@@ -62,16 +62,23 @@ int RunExport(const ExportArgs& a) {
     std::cerr << "error: " << store.status().message() << "\n";
     return 1;
   }
-  server::Mapper mapper(options->map);
-  uint64_t n = 0;
-  // Stored keyframes without detections are exported as stored (no detector offline).
-  auto replay = server::ReplayStore(**store, mapper, nullptr, 0, &n);
-  if (!replay.ok()) {
-    std::cerr << "error: " << replay.status().message() << "\n";
+  auto mapper_ptr = std::make_unique<server::Mapper>(options->map);
+  // Stored keyframes without detections or products are exported as stored (no detector
+  // offline); the database is not written.
+  server::LoadOptions load;
+  load.store_products = false;
+  auto loaded = server::LoadMap(**store, &mapper_ptr, nullptr, load);
+  if (!loaded.ok()) {
+    std::cerr << "error: " << loaded.status().message() << "\n";
     return 1;
   }
+  server::Mapper& mapper = *mapper_ptr;
+  const uint64_t n = loaded->keyframes();
   const auto objects = mapper.Snapshot(!a.all);
-  std::cout << "rebuilt the map from " << n << " keyframes: " << objects.size()
+  if (loaded->checkpoint_keyframe_id > 0) {
+    std::cout << "checkpoint up to keyframe " << loaded->checkpoint_keyframe_id << ", then ";
+  }
+  std::cout << "mapped " << n << " keyframes: " << objects.size()
             << (a.all ? " objects" : " confirmed objects") << "\n";
   Status st;
   if (!a.cloud.empty()) {

@@ -4,9 +4,12 @@
 #include <grpcpp/security/credentials.h>
 #include <grpcpp/support/client_interceptor.h>
 
+#include <algorithm>
 #include <cstdlib>
+#include <thread>
 
 #include "common/image_codec.h"  // ReadFileBytes
+#include "grpc/health/v1/health.grpc.pb.h"
 
 namespace loci {
 namespace {
@@ -76,6 +79,46 @@ StatusOr<std::shared_ptr<grpc::Channel>> MakeChannel(const std::string& address,
   }
   return gx::CreateCustomChannelWithInterceptors(address, credentials, args,
                                                  std::move(interceptors));
+}
+
+}  // namespace loci
+
+namespace loci {
+
+Status WaitForServing(grpc::Channel& channel, std::chrono::system_clock::time_point deadline,
+                      const std::function<void(double, const std::string&)>& on_wait) {
+  using Clock = std::chrono::system_clock;  // gRPC deadlines
+  auto stub = grpc::health::v1::Health::NewStub(
+      std::shared_ptr<grpc::Channel>(&channel, [](grpc::Channel*) {}));
+  const auto t0 = Clock::now();
+  auto next_note = t0 + std::chrono::seconds(2);
+  std::string last = "no answer";
+  while (true) {
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::min(deadline, Clock::now() + std::chrono::seconds(2)));
+    ctx.set_wait_for_ready(true);  // a server still binding its port is waited for, not failed
+    grpc::health::v1::HealthCheckRequest req;
+    grpc::health::v1::HealthCheckResponse resp;
+    const grpc::Status s = stub->Check(&ctx, req, &resp);
+    if (s.ok() && resp.status() == grpc::health::v1::HealthCheckResponse::SERVING) {
+      return absl::OkStatus();
+    }
+    if (s.error_code() == grpc::StatusCode::UNIMPLEMENTED) return absl::OkStatus();
+    last = s.ok() ? grpc::health::v1::HealthCheckResponse::ServingStatus_Name(resp.status())
+                  : s.error_message();
+    const auto now = Clock::now();
+    if (now >= deadline) {
+      return absl::UnavailableError(
+          absl::StrCat("loci-server not SERVING after ",
+                       static_cast<int>(std::chrono::duration<double>(now - t0).count()),
+                       " s (health: ", last, ")"));
+    }
+    if (on_wait && now >= next_note) {
+      on_wait(std::chrono::duration<double>(now - t0).count(), last);
+      next_note = now + std::chrono::seconds(2);
+    }
+    std::this_thread::sleep_until(std::min(deadline, now + std::chrono::milliseconds(500)));
+  }
 }
 
 }  // namespace loci

@@ -6,6 +6,8 @@
 #include <grpcpp/channel.h>
 #include <grpcpp/support/channel_arguments.h>
 
+#include <chrono>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -28,5 +30,12 @@ struct ChannelSecurity {
 StatusOr<std::shared_ptr<grpc::Channel>> MakeChannel(
     const std::string& address, const ChannelSecurity& security,
     const grpc::ChannelArguments& args = grpc::ChannelArguments());
+
+// Waits until the server behind `channel` reports SERVING on the gRPC health service (it opens
+// its port at once and reports NOT_SERVING while it loads its map), asking every 0.5 s;
+// `on_wait` (optional) is called about every 2 s with the seconds waited and the last status.
+// OK at once for a server without the health service; UNAVAILABLE at the deadline.
+Status WaitForServing(grpc::Channel& channel, std::chrono::system_clock::time_point deadline,
+                      const std::function<void(double, const std::string&)>& on_wait = nullptr);
 
 }  // namespace loci

@@ -135,7 +135,8 @@ int main(int argc, char** argv) {
     std::cerr << "error: " << detector.status().message() << "\n";
     return 2;
   }
-  auto server = loci::server::MapServer::Open(options, nullptr, *detector);
+  // The port opens at once; the map loads behind it (health NOT_SERVING until it is in).
+  auto server = loci::server::MapServer::OpenAsync(options, nullptr, *detector);
   if (!server.ok()) {
     std::cerr << "error: " << server.status().message() << "\n";
     return 1;
@@ -164,8 +165,7 @@ int main(int argc, char** argv) {
     const std::string http_host = options.http.substr(0, options.http.rfind(':'));
     std::cout << "http on " << http_host << ":" << http_api->port() << std::endl;
   }
-  spdlog::info("loci-server: db {}, {} keyframes replayed", options.db_path,
-               (*server)->replayed_keyframes());
+  spdlog::info("loci-server: db {}; loading the map", options.db_path);
 
   int sig = 0;
   sigwait(&signals, &sig);

@@ -13,20 +13,14 @@ namespace loci {
 
 namespace {
 
-// Waits until the channel connects (a server that is still starting), logging every 2 s.
+// Waits until the server reports SERVING (a server that is still starting or loading its
+// map), logging every 2 s.
 Status WaitForServer(grpc::Channel& channel, const MapClientOptions& o) {
-  using Clock = std::chrono::system_clock;  // gRPC deadlines
-  const auto t0 = Clock::now();
-  const auto give_up = t0 + std::chrono::milliseconds(static_cast<int64_t>(o.connect_timeout_s * 1e3));
-  while (!channel.WaitForConnected(std::min(give_up, Clock::now() + std::chrono::seconds(2)))) {
-    const double waited_s = std::chrono::duration<double>(Clock::now() - t0).count();
-    if (Clock::now() >= give_up) {
-      return absl::UnavailableError(
-          absl::StrCat("no loci-server at ", o.server, " after ", static_cast<int>(waited_s), " s"));
-    }
-    spdlog::info("waiting for loci-server at {} ({:.0f} s)", o.server, waited_s);
-  }
-  return absl::OkStatus();
+  const auto give_up = std::chrono::system_clock::now() +
+                       std::chrono::milliseconds(static_cast<int64_t>(o.connect_timeout_s * 1e3));
+  return WaitForServing(channel, give_up, [&](double waited_s, const std::string& health) {
+    spdlog::info("waiting for loci-server at {} ({:.0f} s, {})", o.server, waited_s, health);
+  });
 }
 using Clock = std::chrono::steady_clock;
 std::chrono::system_clock::time_point DeadlineIn(double s) {

@@ -13,10 +13,19 @@
 #include <vector>
 
 #include "common/map_object.h"
+#include "common/status.h"
 #include "server/map/label_distribution.h"
 #include "server/map/voxel_key.h"
 
+namespace loci::store::v1 {
+class FusedObjectState;
+}  // namespace loci::store::v1
+
 namespace loci::server {
+
+inline uint32_t PackRgb(uint8_t r, uint8_t g, uint8_t b) {
+  return (static_cast<uint32_t>(r) << 16) | (static_cast<uint32_t>(g) << 8) | b;
+}
 
 // One coloured point of the map frame.
 struct ColoredPoint {
@@ -94,6 +103,10 @@ class FusedObject {
   // Fused cloud (one point per supported voxel, see SupportOptions) in the map frame.
   std::vector<ColoredPoint> Cloud() const;
   MapObject Snapshot() const;
+
+  // Checkpoint state (map_checkpoint.cc): the evidence; the geometry is recomputed from it.
+  void SaveState(loci::store::v1::FusedObjectState* out) const;
+  Status LoadState(const loci::store::v1::FusedObjectState& in);
 
  private:
   struct Voxel {

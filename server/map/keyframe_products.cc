@@ -10,6 +10,7 @@
 
 #include "detection/depth_mask.h"
 #include "server/map/grid_outlier_filter.h"
+#include "server/map/visibility.h"
 #include "server/map/voxel_filter.h"
 
 namespace loci::server {
@@ -246,6 +247,13 @@ KeyframeProducts BuildKeyframeProducts(const cv::Mat& bgr, const cv::Mat& depth_
   products.backproject_ms = dense.backproject_ms;
   products.voxel_ms = dense.voxel_ms;
   products.outlier_ms = dense.outlier_ms;
+  products.depth_stride = options.fusion.visibility.depth_stride;
+  // Millimetres, as stored (product_codec.h), so a stored product maps exactly as a fresh one.
+  cv::Mat depth_mm;
+  SubsampleDepth(depth_m, products.depth_stride).convertTo(depth_mm, CV_16UC1, 1000.0);
+  depth_mm.convertTo(products.visibility_depth_m, CV_32FC1, 1e-3);
+  products.detection_boxes = detections;
+  for (Detection2D& d : products.detection_boxes) d.mask.release();
   return products;
 }
 

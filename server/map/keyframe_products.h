@@ -40,6 +40,11 @@ struct KeyframeProducts {
   pcl::PointCloud<pcl::PointXYZRGBL> static_cloud_kf;
   std::vector<ObjectObservation> observations;
   uint64_t excluded_pixels = 0;  // pixels of dynamic classes left out
+  // For negative evidence (visibility.h): every depth_stride-th depth pixel (CV_32FC1, m) and
+  // every detection of the keyframe, boxes only (masks dropped).
+  cv::Mat visibility_depth_m;
+  int depth_stride = 1;
+  std::vector<Detection2D> detection_boxes;
   // Thread CPU milliseconds of the sub-stages (robust to other load on the machine).
   double labels_ms = 0, objects_ms = 0, backproject_ms = 0, voxel_ms = 0, outlier_ms = 0;
 };

@@ -11,6 +11,10 @@
 #include <utility>
 #include <vector>
 
+namespace loci::store::v1 {
+class LabelState;
+}  // namespace loci::store::v1
+
 namespace loci::server {
 
 class LabelDistribution {
@@ -30,6 +34,10 @@ class LabelDistribution {
   // most probable first.
   std::vector<std::pair<std::string, double>> Observed() const;
   bool empty() const { return log_p_.empty(); }
+
+  // Checkpoint state (map_checkpoint.cc); the options come from the constructor.
+  void SaveState(loci::store::v1::LabelState* out) const;
+  void LoadState(const loci::store::v1::LabelState& in);
 
  private:
   // log of the normaliser over the whole universe.

@@ -1,6 +1,7 @@
 #include "server/map/map_options.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <limits>
 
 #include "common/config.h"
@@ -34,7 +35,7 @@ Status CheckMapKeys(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(
         CheckKnownKeys(fusion["visibility"], "map.fusion.visibility",
                        {"min_visible_fraction", "occlusion_tol_m", "occlusion_tol_rel", "border_px",
-                        "min_projected_px", "max_depth_m", "excuse_iou"}));
+                        "min_projected_px", "max_depth_m", "excuse_iou", "depth_stride"}));
   }
   LOCI_RETURN_IF_ERROR(
       CheckKnownKeys(node["frame"], "map.frame", {"settle_keyframes", "plane_refine_max_deg"}));
@@ -42,11 +43,38 @@ Status CheckMapKeys(const YAML::Node& node) {
                         {"enabled", "resolution_m", "max_range_m", "ray_voxel_m"});
 }
 
+// FNV-1a, 64 bit, as 16 hex digits: a stable digest (std::hash and absl::Hash are seeded or
+// unspecified across builds).
+std::string Fnv1aHex(const std::string& text) {
+  uint64_t h = 14695981039346656037ULL;
+  for (const unsigned char c : text) {
+    h ^= c;
+    h *= 1099511628211ULL;
+  }
+  char out[17];
+  std::snprintf(out, sizeof(out), "%016llx", static_cast<unsigned long long>(h));
+  return out;
+}
+
+std::string DumpOrTilde(const YAML::Node& node) { return node ? YAML::Dump(node) + "\n" : "~\n"; }
+
 }  // namespace
+
+std::string MapOptions::ProductsFingerprint() const {
+  return Fnv1aHex(absl::StrCat("v", kMapCodeVersion, " stride ", fusion.visibility.depth_stride,
+                               "\n", products_yaml_));
+}
+
+std::string MapOptions::MapFingerprint() const {
+  return Fnv1aHex(absl::StrCat(ProductsFingerprint(), "\n", map_yaml_));
+}
 
 Status MapOptions::FromYaml(const YAML::Node& node) {
   if (!node) return absl::OkStatus();
   LOCI_RETURN_IF_ERROR(CheckMapKeys(node));
+  products_yaml_ += DumpOrTilde(node["cloud"]) + DumpOrTilde(node["observation"]) +
+                    DumpOrTilde(node["dynamic_classes"]) + DumpOrTilde(node["mapped_classes"]);
+  map_yaml_ += DumpOrTilde(node);
   if (const YAML::Node n = node["cloud"]) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_depth_m", &cloud.min_depth_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_depth_m", &cloud.max_depth_m));
@@ -104,6 +132,7 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
       LOCI_RETURN_IF_ERROR(ReadOptional(v, "min_projected_px", &o.min_projected_px));
       LOCI_RETURN_IF_ERROR(ReadOptional(v, "max_depth_m", &o.max_depth_m));
       LOCI_RETURN_IF_ERROR(ReadOptional(v, "excuse_iou", &o.excuse_iou));
+      LOCI_RETURN_IF_ERROR(ReadOptional(v, "depth_stride", &o.depth_stride));
     }
   }
   if (const YAML::Node n = node["frame"]) {
@@ -122,6 +151,7 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
 }
 
 Status MapOptions::ClassesFromYaml(const YAML::Node& node) {
+  products_yaml_ += DumpOrTilde(node);
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "dynamic_classes", &dynamic_classes));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "mapped", &mapped_classes));
   if (const YAML::Node sizes = node["max_size_m"]) {
@@ -176,6 +206,9 @@ Status MapOptions::Validate() const {
     return bad("fusion: 0 < existence_p_false < existence_p_real < 1");
   }
   if (!(fusion.remove_llr < fusion.confirm_llr)) return bad("fusion: remove_llr < confirm_llr");
+  if (fusion.visibility.depth_stride < 1 || fusion.visibility.depth_stride > 16) {
+    return bad("fusion.visibility.depth_stride in [1, 16]");
+  }
   if (frame.settle_keyframes < 1 || frame.settle_keyframes > 1000) {
     return bad("frame.settle_keyframes in [1, 1000]");
   }

@@ -125,6 +125,15 @@ struct MapOptions {
   std::map<std::string, double> max_size_m;
 
   // Reads the sections cloud / observation / fusion / octomap and the class lists.
+  // Fingerprints of what the stored map was made with (stored beside it; another fingerprint
+  // makes the server recompute): the products' (cloud, observation, classes, the visibility
+  // depth stride, a code version) and the whole map's (every option). Built from the YAML the
+  // options were read from, so a default that changes in code must bump kMapCodeVersion.
+  std::string ProductsFingerprint() const;
+  std::string MapFingerprint() const;
+  // Adds an input of the products that is not a map option (the server detector's options).
+  void NoteProductsInput(const std::string& text) { products_yaml_ += text; }
+
   Status FromYaml(const YAML::Node& node);
   // Reads `mapped` and `dynamic_classes` of config/classes.yaml.
   Status ClassesFromYaml(const YAML::Node& node);
@@ -133,6 +142,14 @@ struct MapOptions {
   bool IsMapped(const std::string& class_name) const;
   // max_size_m of the class, or infinity.
   double MaxSizeM(const std::string& class_name) const;
+
+ private:
+  std::string products_yaml_;  // the YAML text FromYaml / ClassesFromYaml read, per concern
+  std::string map_yaml_;
 };
+
+// Version of the product and fusion code; bump it when a change alters products or the map
+// for the same options (stored products and checkpoints of another version are recomputed).
+inline constexpr int kMapCodeVersion = 1;
 
 }  // namespace loci::server

@@ -11,10 +11,6 @@ namespace {
 
 double MsSince(double t0_cpu_ms) { return ThreadCpuMs() - t0_cpu_ms; }
 
-uint32_t PackRgb(uint8_t r, uint8_t g, uint8_t b) {
-  return (static_cast<uint32_t>(r) << 16) | (static_cast<uint32_t>(g) << 8) | b;
-}
-
 }  // namespace
 
 Mapper::Mapper(const MapOptions& options)
@@ -108,42 +104,61 @@ MapObservation ToMap(const ObjectObservation& o, const MapperKeyframe& kf,
 
 }  // namespace
 
-StageTimes Mapper::Integrate(const MapperKeyframe& kf) {
+KeyframeProducts Mapper::BuildProducts(const MapperKeyframe& kf) const {
+  return BuildKeyframeProducts(kf.bgr, kf.depth_m, kf.camera, kf.detections, options_,
+                               GravityOf(kf));
+}
+
+StageTimes Mapper::Integrate(const MapperKeyframe& kf) { return Integrate(kf, BuildProducts(kf)); }
+
+void Mapper::FixFirstFrame(const MapperKeyframe& kf, const std::optional<Vec3d>& gravity_cam) {
+  evidence_.T_base_first_cam = kf.T_base_kf;
+  FrameEvidence first = evidence_;
+  if (gravity_cam) {
+    first.gravity_sum_base = kf.T_base_kf.linear() * *gravity_cam;
+    first.gravity_count = 1;
+  }
+  const UpEstimate up = EstimateUp(first, options_.frame);  // no points yet: no planes
+  T_map_base_ = MapFromBase(kf.T_base_kf, up.up_base);
+  frame_source_ = up.source;
+  have_frame_ = true;
+}
+
+void Mapper::CollectFrameEvidence(const MapperKeyframe& kf,
+                                  const std::optional<Vec3d>& gravity_cam,
+                                  const KeyframeProducts& products) {
+  if (gravity_cam) {
+    evidence_.gravity_sum_base += kf.T_base_kf.linear() * *gravity_cam;
+    ++evidence_.gravity_count;
+  }
+  const Eigen::Isometry3f T_base_kf = kf.T_base_kf.cast<float>();
+  for (const auto& p : products.static_cloud_kf) {
+    evidence_.points_base.push_back(T_base_kf * p.getVector3fMap());
+  }
+}
+
+StageTimes Mapper::Integrate(const MapperKeyframe& kf, const KeyframeProducts& products) {
   StageTimes times;
-  const std::optional<Vec3d> gravity_cam = GravityOf(kf);
-  KeyframeProducts products =
-      BuildKeyframeProducts(kf.bgr, kf.depth_m, kf.camera, kf.detections, options_, gravity_cam);
   CopyProductTimes(products, &times);
+  const std::optional<Vec3d> gravity_cam = GravityOf(kf);
   std::vector<ObjectEventOut> events;
   {
     std::lock_guard<std::mutex> lock(mu_);
-    if (!have_frame_) {  // the first keyframe fixes the origin and a first up
-      evidence_.T_base_first_cam = kf.T_base_kf;
-      FrameEvidence first = evidence_;
-      if (gravity_cam) {
-        first.gravity_sum_base = kf.T_base_kf.linear() * *gravity_cam;
-        first.gravity_count = 1;
-      }
-      const UpEstimate up = EstimateUp(first, options_.frame);  // no points yet: no planes
-      T_map_base_ = MapFromBase(kf.T_base_kf, up.up_base);
-      frame_source_ = up.source;
-      have_frame_ = true;
-    }
-    keyframe_poses_.push_back({kf.robot, kf.t_ns, kf.T_base_kf});
+    if (!have_frame_) FixFirstFrame(kf, gravity_cam);  // the origin and a first up
+    keyframe_poses_.push_back({kf.keyframe_id, kf.robot, kf.t_ns, kf.T_base_kf, {}});
+  }
+  if (!frame_settled_) CollectFrameEvidence(kf, gravity_cam, products);
+  std::vector<int64_t> ids = IntegrateProducts(kf, products, &times, &events);
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    keyframe_poses_.back().observation_object_ids = std::move(ids);
   }
   if (!frame_settled_) {
-    if (gravity_cam) {
-      evidence_.gravity_sum_base += kf.T_base_kf.linear() * *gravity_cam;
-      ++evidence_.gravity_count;
-    }
-    const Eigen::Isometry3f T_base_kf = kf.T_base_kf.cast<float>();
-    for (const auto& p : products.static_cloud_kf) {
-      evidence_.points_base.push_back(T_base_kf * p.getVector3fMap());
-    }
-  }
-  IntegrateProducts(kf, products, &times, &events);
-  if (!frame_settled_) {
-    settling_.push_back({kf, std::move(products)});
+    MapperKeyframe kept = kf;  // the products carry what mapping needs; drop the images
+    kept.bgr.release();
+    kept.depth_m.release();
+    kept.detections.clear();
+    settling_.push_back({std::move(kept), products});
     if (static_cast<int>(settling_.size()) >= options_.frame.settle_keyframes) {
       SettleFrame(&events);
     }
@@ -182,14 +197,19 @@ void Mapper::SettleFrame(std::vector<ObjectEventOut>* events) {
   settling_.clear();
   evidence_.points_base.clear();
   evidence_.points_base.shrink_to_fit();
-  for (const Settling& s : settling) {
+  for (size_t i = 0; i < settling.size(); ++i) {
     StageTimes ignored;
-    IntegrateProducts(s.keyframe, s.products, &ignored, events);
+    std::vector<int64_t> ids =
+        IntegrateProducts(settling[i].keyframe, settling[i].products, &ignored, events);
+    std::lock_guard<std::mutex> lock(mu_);
+    keyframe_poses_[i].observation_object_ids = std::move(ids);  // the settling ones come first
   }
 }
 
-void Mapper::IntegrateProducts(const MapperKeyframe& kf, const KeyframeProducts& products,
-                               StageTimes* times, std::vector<ObjectEventOut>* events) {
+std::vector<int64_t> Mapper::IntegrateProducts(const MapperKeyframe& kf,
+                                               const KeyframeProducts& products,
+                                               StageTimes* times,
+                                               std::vector<ObjectEventOut>* events) {
   SE3d T_map_kf;
   {
     std::lock_guard<std::mutex> lock(mu_);
@@ -201,6 +221,7 @@ void Mapper::IntegrateProducts(const MapperKeyframe& kf, const KeyframeProducts&
   for (const ObjectObservation& o : products.observations) {
     observations.push_back(ToMap(o, kf, T_map_kf_f, options_.fusion.centroid_from_box));
   }
+  std::vector<int64_t> ids;
   std::vector<Eigen::Vector3f> static_points_m;
   static_points_m.reserve(products.static_cloud_kf.size());
   for (const auto& p : products.static_cloud_kf) {
@@ -210,8 +231,9 @@ void Mapper::IntegrateProducts(const MapperKeyframe& kf, const KeyframeProducts&
     std::lock_guard<std::mutex> lock(mu_);
     double t0 = ThreadCpuMs();
     std::vector<ObjectChange> changes;
-    const std::vector<int64_t> ids = objects_.Integrate(observations, &changes);
-    const KeyframeView view{&kf.camera, &kf.depth_m, T_map_kf.inverse(), &kf.detections};
+    ids = objects_.Integrate(observations, &changes);
+    const KeyframeView view{&kf.camera, &products.visibility_depth_m, products.depth_stride,
+                            T_map_kf.inverse(), &products.detection_boxes};
     objects_.ObserveView(view, ids, &changes);
     for (const ObjectChange& c : changes) {
       ObjectEventOut e;
@@ -251,6 +273,7 @@ void Mapper::IntegrateProducts(const MapperKeyframe& kf, const KeyframeProducts&
   }
   if (octomap_) PushOctomap(static_points_m, T_map_kf.translation());
   AddTimes(*times);
+  return ids;
 }
 
 void Mapper::PushOctomap(const std::vector<Eigen::Vector3f>& static_points_m,

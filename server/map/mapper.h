@@ -90,7 +90,23 @@ class Mapper {
   Mapper(const Mapper&) = delete;
   Mapper& operator=(const Mapper&) = delete;
 
+  // The products of one keyframe (keyframe frame; the server stores them, product_codec.h).
+  KeyframeProducts BuildProducts(const MapperKeyframe& keyframe) const;
+  // BuildProducts, then maps them.
   StageTimes Integrate(const MapperKeyframe& keyframe);
+  // Maps a keyframe from its products alone: the keyframe's images are not read (may be empty).
+  // Keyframes must arrive in increasing keyframe_id.
+  StageTimes Integrate(const MapperKeyframe& keyframe, const KeyframeProducts& products);
+
+  // The whole derived map (objects, cloud, OctoMap, frame, poses) as a
+  // loci.store.v1.MapperCheckpoint (map_checkpoint.cc); call on the mapping thread. Empty
+  // before the map frame is settled (the first settle_keyframes keyframes re-derive cheaply).
+  std::string SaveCheckpoint() const;
+  // Restores a fresh mapper from SaveCheckpoint's bytes; FailedPrecondition when they were
+  // made with other options (MapOptions::MapFingerprint), DataLoss when they do not parse.
+  Status LoadCheckpoint(const std::string& bytes);
+  // Id of the last keyframe integrated (0 = none).
+  int64_t last_keyframe_id() const;
 
   // Called (on the mapping thread, outside the map's locks) for every object change.
   void SetEventListener(std::function<void(const std::vector<ObjectEventOut>&)> listener);
@@ -132,14 +148,21 @@ class Mapper {
     KeyframeProducts products;
   };
   struct KeyframePose {
+    int64_t keyframe_id = 0;
     std::string robot;
     int64_t t_ns = 0;
     SE3d T_base_kf = SE3d::Identity();
+    std::vector<int64_t> observation_object_ids;  // the object each observation went into
   };
   // World products of one keyframe (objects, cloud, gravity, poses) in the current map frame;
   // appends object events. Caller holds no lock.
-  void IntegrateProducts(const MapperKeyframe& kf, const KeyframeProducts& products,
-                         StageTimes* times, std::vector<ObjectEventOut>* events);
+  // Returns the object id of each observation.
+  std::vector<int64_t> IntegrateProducts(const MapperKeyframe& kf,
+                                         const KeyframeProducts& products, StageTimes* times,
+                                         std::vector<ObjectEventOut>* events);
+  void FixFirstFrame(const MapperKeyframe& kf, const std::optional<Vec3d>& gravity_cam);
+  void CollectFrameEvidence(const MapperKeyframe& kf, const std::optional<Vec3d>& gravity_cam,
+                            const KeyframeProducts& products);
   void PushOctomap(const std::vector<Eigen::Vector3f>& static_points_m, const Vec3d& origin_m);
   // Fixes the map frame from the settling keyframes and re-derives the map from them.
   void SettleFrame(std::vector<ObjectEventOut>* events);

@@ -26,6 +26,13 @@ double VoxelContainment(const std::unordered_set<VoxelKey>& a,
 ObjectMap::ObjectMap(const FusionOptions& options, double voxel_m)
     : options_(options), voxel_m_(voxel_m) {}
 
+FusedObject ObjectMap::NewObject(int64_t id) const {
+  return FusedObject(id, voxel_m_, options_.centroid_from_box,
+                     LabelDistribution(options_.label_universe, options_.min_likelihood),
+                     {options_.support_cell_m, options_.min_support_fraction,
+                      options_.centroid_min_part});
+}
+
 namespace {
 
 // |A∩B| / |A|: the share of A inside B.
@@ -91,10 +98,7 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
     ObjectChange::Kind kind = ObjectChange::Kind::kUpdated;
     if (best_id == 0) {
       best_id = next_id_++;
-      objects_.emplace(
-          best_id, FusedObject(best_id, voxel_m_, options_.centroid_from_box,
-                               LabelDistribution(options_.label_universe, options_.min_likelihood),
-                               {options_.support_cell_m, options_.min_support_fraction, options_.centroid_min_part}));
+      objects_.emplace(best_id, NewObject(best_id));
       kind = ObjectChange::Kind::kCreated;
     }
     FusedObject& object = objects_.at(best_id);

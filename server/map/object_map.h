@@ -16,6 +16,10 @@
 #include "server/map/map_options.h"
 #include "server/map/visibility.h"
 
+namespace loci::store::v1 {
+class ObjectMapState;
+}  // namespace loci::store::v1
+
 namespace loci::server {
 
 // One object observation moved into the map frame.
@@ -81,7 +85,13 @@ class ObjectMap {
   size_t size() const { return objects_.size(); }
   size_t confirmed_count() const;
 
+  // Checkpoint state (map_checkpoint.cc); LoadState replaces every object.
+  void SaveState(loci::store::v1::ObjectMapState* out) const;
+  Status LoadState(const loci::store::v1::ObjectMapState& in);
+
  private:
+  // An empty object with the map's options.
+  FusedObject NewObject(int64_t id) const;
   FusedObject::ExistenceModel Existence() const {
     return {options_.existence_p_real, options_.existence_p_false};
   }

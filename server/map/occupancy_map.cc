@@ -48,6 +48,19 @@ std::string OccupancyMap::SerializeBt() const {
   return os.str();
 }
 
+std::string OccupancyMap::SerializeState() const {
+  std::ostringstream os;
+  tree_->writeData(os);
+  return os.str();
+}
+
+Status OccupancyMap::LoadState(const std::string& bytes) {
+  tree_->clear();
+  std::istringstream in(bytes);
+  if (!tree_->readData(in)) return absl::DataLossError("checkpoint: the OctoMap does not parse");
+  return absl::OkStatus();
+}
+
 double OccupancyMap::OccupancyAt(const Eigen::Vector3d& p) const {
   const octomap::OcTreeNode* n = tree_->search(p.x(), p.y(), p.z());
   return n ? n->getOccupancy() : -1.0;

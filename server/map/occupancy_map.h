@@ -23,6 +23,9 @@ class OccupancyMap {
 
   // Inserts points (map frame, m) seen from `origin_m` (camera centre, map frame).
   void Insert(const std::vector<Eigen::Vector3f>& points_m, const Eigen::Vector3d& origin_m);
+  // Full-probability tree data (octomap writeData) for checkpoints, and back.
+  std::string SerializeState() const;
+  Status LoadState(const std::string& bytes);
   // The tree as an octomap .bt stream.
   std::string SerializeBt() const;
   // Occupancy probability at a point; -1 when unknown.

@@ -11,6 +11,10 @@
 #include "server/map/fused_object.h"
 #include "server/map/voxel_key.h"
 
+namespace loci::store::v1 {
+class SemanticCloudState;
+}  // namespace loci::store::v1
+
 namespace loci::server {
 
 struct SemanticPoint {
@@ -31,6 +35,10 @@ class SemanticCloud {
                                     const std::function<bool(int64_t)>& keep) const;
   size_t size() const { return voxels_.size(); }
   double voxel_m() const { return voxel_m_; }
+
+  // Checkpoint state (map_checkpoint.cc); LoadState replaces every voxel.
+  void SaveState(loci::store::v1::SemanticCloudState* out) const;
+  Status LoadState(const loci::store::v1::SemanticCloudState& in);
 
  private:
   struct Voxel {

@@ -14,6 +14,15 @@ double Iou(const cv::Rect2f& a, const cv::Rect2f& b) {
 
 }  // namespace
 
+cv::Mat SubsampleDepth(const cv::Mat& depth_m, int stride) {
+  if (stride <= 1) return depth_m.clone();
+  cv::Mat out((depth_m.rows + stride - 1) / stride, (depth_m.cols + stride - 1) / stride, CV_32FC1);
+  for (int v = 0; v < out.rows; ++v) {
+    for (int u = 0; u < out.cols; ++u) out.at<float>(v, u) = depth_m.at<float>(v * stride, u * stride);
+  }
+  return out;
+}
+
 bool ExpectedInView(const std::vector<Eigen::Vector3d>& sample_m, double size_m,
                     const KeyframeView& view, const VisibilityOptions& o) {
   if (sample_m.empty() || view.camera == nullptr || view.depth_m == nullptr) return false;
@@ -27,11 +36,14 @@ bool ExpectedInView(const std::vector<Eigen::Vector3d>& sample_m, double size_m,
     const auto px = view.camera->Project(p);
     if (!px) continue;
     const int u = static_cast<int>(std::lround(px->x())), v = static_cast<int>(std::lround(px->y()));
-    if (u < o.border_px || v < o.border_px || u >= depth.cols - o.border_px ||
-        v >= depth.rows - o.border_px) {
+    if (u < o.border_px || v < o.border_px || u >= view.camera->width_px - o.border_px ||
+        v >= view.camera->height_px - o.border_px) {
       continue;
     }
-    const float d = depth.at<float>(v, u);
+    const int stride = std::max(1, view.depth_stride);
+    const int du = std::min(depth.cols - 1, (u + stride / 2) / stride);
+    const int dv = std::min(depth.rows - 1, (v + stride / 2) / stride);
+    const float d = depth.at<float>(dv, du);
     if (!(d > 0)) continue;  // unknown depth: no evidence either way
     if (d < p.z() - (o.occlusion_tol_m + o.occlusion_tol_rel * p.z() + allowance)) continue;
     ++visible;

@@ -27,14 +27,23 @@ struct VisibilityOptions {
   double min_projected_px = 32;   // the projection's larger side must reach this, px (32)
   double max_depth_m = 4.0;       // farther points do not count (4.0)
   double excuse_iou = 0.3;        // a detection box overlapping the projection this much excuses (0.3)
+  // The keyframe depth kept for this test (and stored with its products) holds every n-th
+  // pixel in u and v (4).
+  int depth_stride = 4;
 };
 
 struct KeyframeView {
-  const PinholeCamera* camera = nullptr;
-  const cv::Mat* depth_m = nullptr;  // CV_32FC1, 0 = invalid
+  const PinholeCamera* camera = nullptr;  // of the full image
+  // CV_32FC1, 0 = invalid: every depth_stride-th pixel of the keyframe's depth
+  // (SubsampleDepth).
+  const cv::Mat* depth_m = nullptr;
+  int depth_stride = 1;
   SE3d T_kf_map = SE3d::Identity();
   const std::vector<Detection2D>* detections = nullptr;  // every detection of the keyframe
 };
+
+// Every stride-th pixel of a depth image in u and v (nearest, no averaging across edges).
+cv::Mat SubsampleDepth(const cv::Mat& depth_m, int stride);
 
 // True when the object (sample points in the map frame) should have been detected here.
 // size_m: the object's largest half extent (its self-occlusion allowance).

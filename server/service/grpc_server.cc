@@ -55,12 +55,29 @@ StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(MapServer* server,
   if (!g->server_ || g->port_ == 0) {
     return absl::UnavailableError(absl::StrCat("cannot listen on ", listen));
   }
+  g->ReportHealth(server);
   return g;
+}
+
+void GrpcServer::ReportHealth(MapServer* server) {
+  health_ = std::make_shared<HealthHook>();
+  health_->service = server_->GetHealthCheckService();
+  if (health_->service == nullptr) return;
+  // NOT_SERVING while the map loads; the port is open, so clients wait instead of failing.
+  health_->service->SetServingStatus(false);
+  server->OnReady([hook = health_] {
+    std::lock_guard<std::mutex> lock(hook->mu);
+    if (hook->service != nullptr) hook->service->SetServingStatus(true);
+  });
 }
 
 void GrpcServer::Shutdown() {
   if (shut_down_) return;
   shut_down_ = true;
+  if (health_) {
+    std::lock_guard<std::mutex> lock(health_->mu);
+    health_->service = nullptr;  // the loader may finish after this server is gone
+  }
   server_->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
 }
 

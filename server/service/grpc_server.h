@@ -1,10 +1,13 @@
-// Runs the Mapping and Query services on one gRPC server with the health service and
-// reflection enabled and an explicit maximum message size.
+// Runs the Mapping and Query services on one gRPC server with the health service (NOT_SERVING
+// until the map is loaded, then SERVING) and reflection enabled and an explicit maximum message
+// size.
 #pragma once
 
+#include <grpcpp/health_check_service_interface.h>
 #include <grpcpp/server.h>
 
 #include <memory>
+#include <mutex>
 #include <string>
 
 #include "common/status.h"
@@ -32,6 +35,13 @@ class GrpcServer {
 
  private:
   GrpcServer() = default;
+  // The gRPC health service answers NOT_SERVING until `server` has loaded its map.
+  void ReportHealth(MapServer* server);
+  struct HealthHook {
+    std::mutex mu;
+    grpc::HealthCheckServiceInterface* service = nullptr;  // null once shut down
+  };
+  std::shared_ptr<HealthHook> health_;
   Authorizer auth_;
   std::unique_ptr<MappingService> mapping_;
   std::unique_ptr<QueryService> query_;

@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <chrono>
+#include <limits>
 #include <regex>
 
 #include "common/time.h"
@@ -35,7 +36,7 @@ MapServer::MapServer(const ServerOptions& options, std::shared_ptr<MapStore> sto
       decode_slots_(options.decode_slots),
       queue_(static_cast<size_t>(options.queue_capacity)) {}
 
-StatusOr<std::unique_ptr<MapServer>> MapServer::Open(
+StatusOr<std::unique_ptr<MapServer>> MapServer::OpenAsync(
     const ServerOptions& options, std::shared_ptr<MapStore> store,
     std::shared_ptr<detection::Detector> detector) {
   LOCI_RETURN_IF_ERROR(options.map.Validate());
@@ -45,29 +46,144 @@ StatusOr<std::unique_ptr<MapServer>> MapServer::Open(
     store = std::move(sqlite);
   }
   std::unique_ptr<MapServer> server(new MapServer(options, std::move(store), std::move(detector)));
-  const auto t0 = std::chrono::steady_clock::now();
-  LOCI_RETURN_IF_ERROR(
-      ReplayStore(*server->store_, *server->mapper_, server->detector_.get(), 0, &server->replayed_)
-          .status());
-  if (server->replayed_ > 0) {
-    spdlog::info("rebuilt the map from {} stored keyframes in {:.1f} s", server->replayed_,
-                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  }
-  server->mapper_->SetEventListener(
-      [s = server.get()](const std::vector<ObjectEventOut>& events) { s->Publish(events); });
-  server->worker_ = std::thread([s = server.get()] { s->WorkerLoop(); });
+  server->loader_ = std::thread([s = server.get()] { s->LoadLoop(); });
   return server;
 }
 
+StatusOr<std::unique_ptr<MapServer>> MapServer::Open(
+    const ServerOptions& options, std::shared_ptr<MapStore> store,
+    std::shared_ptr<detection::Detector> detector) {
+  LOCI_ASSIGN_OR_RETURN(std::unique_ptr<MapServer> server,
+                        OpenAsync(options, std::move(store), std::move(detector)));
+  LOCI_RETURN_IF_ERROR(server->WaitReady());
+  return server;
+}
+
+void MapServer::LoadLoop() {
+  const auto t0 = std::chrono::steady_clock::now();
+  LoadOptions load;
+  load.stop = &stop_loading_;
+  load.progress = [this](uint64_t done, uint64_t total) {
+    load_done_ = done;
+    load_total_ = total;
+  };
+  StatusOr<LoadReport> report = LoadMap(*store_, &mapper_, detector_.get(), load);
+  if (report.ok()) {
+    load_report_ = *report;
+    replayed_ = report->keyframes();
+    spdlog::info(
+        "loaded the map in {:.2f} s: checkpoint at keyframe {}, then {} keyframes from products, "
+        "{} from images, {} skipped",
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+        report->checkpoint_keyframe_id, report->from_products, report->from_raw,
+        report->skipped);
+    // A restart after many keyframes should not re-derive them again.
+    if (report->keyframes() >= static_cast<uint64_t>(options_.checkpoint_keyframes)) {
+      if (Status s = Checkpoint(); !s.ok()) spdlog::warn("checkpoint: {}", s.ToString());
+    }
+    mapper_->SetEventListener(
+        [this](const std::vector<ObjectEventOut>& events) { Publish(events); });
+    worker_ = std::thread([this] { WorkerLoop(); });
+  } else {
+    spdlog::error("the map failed to load: {}", report.status().ToString());
+  }
+  FinishLoad(report.status());
+}
+
+void MapServer::FinishLoad(const Status& status) {
+  std::vector<std::function<void()>> callbacks;
+  {
+    std::lock_guard<std::mutex> lock(ready_mu_);
+    load_finished_ = true;
+    load_status_ = status;
+    ready_ = status.ok();
+    if (ready_) callbacks = std::move(ready_callbacks_);
+  }
+  ready_cv_.notify_all();
+  for (auto& fn : callbacks) fn();
+}
+
+Status MapServer::CheckReady() const {
+  if (ready_) return absl::OkStatus();
+  std::lock_guard<std::mutex> lock(ready_mu_);
+  if (load_finished_) {
+    return absl::UnavailableError(
+        absl::StrCat("loci-server could not load its map: ", load_status_.message()));
+  }
+  return absl::UnavailableError(absl::StrCat(
+      "loci-server is loading its map (", load_done_.load(), " of ", load_total_.load(),
+      " keyframes); retry when the gRPC health service reports SERVING"));
+}
+
+Status MapServer::WaitReady() {
+  std::unique_lock<std::mutex> lock(ready_mu_);
+  ready_cv_.wait(lock, [&] { return load_finished_; });
+  return load_status_;
+}
+
+void MapServer::OnReady(std::function<void()> fn) {
+  {
+    std::lock_guard<std::mutex> lock(ready_mu_);
+    if (!ready_) {
+      ready_callbacks_.push_back(std::move(fn));
+      return;
+    }
+  }
+  fn();
+}
+
+Status MapServer::Checkpoint() {
+  std::lock_guard<std::mutex> lock(checkpoint_mu_);
+  const auto t0 = std::chrono::steady_clock::now();
+  CheckpointRecord record;
+  record.last_keyframe_id = mapper_->last_keyframe_id();
+  record.data = mapper_->SaveCheckpoint();
+  if (record.data.empty()) return absl::OkStatus();  // the map frame is not settled yet
+  LOCI_RETURN_IF_ERROR(store_->PutCheckpoint(record));
+  spdlog::info("checkpoint at keyframe {}: {:.1f} MB in {:.2f} s", record.last_keyframe_id,
+               static_cast<double>(record.data.size()) / 1e6,
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  return ApplyRetention();
+}
+
+Status MapServer::ApplyRetention() {
+  if (options_.raw_keep_days < 0 && options_.raw_keep_last < 0) return absl::OkStatus();
+  const int64_t before_ns = options_.raw_keep_days < 0
+                                ? std::numeric_limits<int64_t>::min()
+                                : NowNs() - SecondsToNs(options_.raw_keep_days * 86'400.0);
+  LOCI_ASSIGN_OR_RETURN(const uint64_t dropped,
+                        store_->DropRawImages(before_ns, options_.raw_keep_last));
+  if (dropped > 0) spdlog::info("retention: dropped the images of {} keyframes", dropped);
+  return absl::OkStatus();
+}
+
+void MapServer::MaybeCheckpoint() {
+  ++since_checkpoint_;
+  const auto now = std::chrono::steady_clock::now();
+  if (since_checkpoint_ < static_cast<uint64_t>(options_.checkpoint_keyframes) &&
+      now - last_checkpoint_ < std::chrono::duration<double>(options_.checkpoint_interval_s)) {
+    return;
+  }
+  if (Status s = Checkpoint(); !s.ok()) spdlog::warn("checkpoint: {}", s.ToString());
+  since_checkpoint_ = 0;
+  last_checkpoint_ = now;
+}
+
 MapServer::~MapServer() {
+  stop_loading_ = true;
+  if (loader_.joinable()) loader_.join();
   queue_.Close();
   if (worker_.joinable()) worker_.join();
+  if (ready_ && since_checkpoint_ > 0) {
+    if (Status s = Checkpoint(); !s.ok()) spdlog::warn("checkpoint at shutdown: {}", s.ToString());
+  }
   std::lock_guard<std::mutex> lock(watchers_mu_);
   for (auto& w : watchers_) w->Close();
 }
 
 StatusOr<loci::v1::OpenSessionResponse> MapServer::OpenSession(
     const loci::v1::OpenSessionRequest& req) {
+  LOCI_RETURN_IF_ERROR(CheckReady());
   static const std::regex kRobotName("[A-Za-z0-9_.-]{1,64}");
   if (!std::regex_match(req.robot_name(), kRobotName)) {
     return absl::InvalidArgumentError(
@@ -146,6 +262,7 @@ StatusOr<SessionRecord> MapServer::FindSession(const std::string& session_id,
 
 loci::v1::KeyframeAck MapServer::Ingest(const loci::v1::Keyframe& kf,
                                         const std::string* only_robot) {
+  if (Status ready = CheckReady(); !ready.ok()) return MakeAck(kf.seq(), ready);
   auto session = FindSession(kf.session_id(), only_robot);
   if (!session.ok()) return MakeAck(kf.seq(), session.status());
   if (!session->open) {
@@ -162,6 +279,8 @@ loci::v1::KeyframeAck MapServer::Ingest(const loci::v1::Keyframe& kf,
                  record.status().ToString());
     return MakeAck(kf.seq(), record.status());
   }
+  // Stored and queued under one lock: the worker maps keyframes in id order.
+  std::unique_lock<std::mutex> order(ingest_order_mu_);
   auto inserted = store_->InsertKeyframe(*record);
   const auto t2 = std::chrono::steady_clock::now();
   // fetch_add: `x = x + y` on an atomic loses updates when several streams ingest at once.
@@ -262,13 +381,11 @@ StatusOr<loci::v1::CloseSessionResponse> MapServer::CloseSession(
 void MapServer::WorkerLoop() {
   while (std::optional<MapperKeyframe> kf = queue_.Pop()) {
     const auto t0 = std::chrono::steady_clock::now();
-    if (Status s = DetectIfNeeded(detector_.get(), &*kf); !s.ok()) {
-      spdlog::warn("detector failed on keyframe {}: {}", kf->keyframe_id, s.ToString());
-    }
-    mapper_->Integrate(*kf);
+    MapAndStoreProducts(*mapper_, *kf, detector_.get(), store_.get());
     mapping_ms_total_.fetch_add(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     ++mapping_count_;
+    MaybeCheckpoint();
     std::lock_guard<std::mutex> lock(progress_mu_);
     ++mapped_;
     progress_cv_.notify_all();

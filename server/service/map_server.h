@@ -4,6 +4,8 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
+#include <functional>
 #include <condition_variable>
 #include <cstdint>
 #include <map>
@@ -18,6 +20,7 @@
 #include "loci/v1/mapping.pb.h"
 #include "server/map/bounded_queue.h"
 #include "server/map/mapper.h"
+#include "server/service/replay.h"
 #include "server/service/server_options.h"
 #include "server/storage/map_store.h"
 
@@ -27,12 +30,32 @@ using ObjectEventQueue = BoundedQueue<ObjectEventOut>;
 
 class MapServer {
  public:
-  // Opens the store (SQLite at options.db_path unless `store` is given), rebuilds the map from
-  // the stored keyframes, then starts the mapping worker. `detector` may be null.
+  // Opens the store (SQLite at options.db_path unless `store` is given), loads the map
+  // (replay.h: checkpoint, then products or raw keyframes after it), then starts the mapping
+  // worker. `detector` may be null.
   static StatusOr<std::unique_ptr<MapServer>> Open(
       const ServerOptions& options, std::shared_ptr<MapStore> store = nullptr,
       std::shared_ptr<detection::Detector> detector = nullptr);
-  ~MapServer();  // drains the queue, stops the worker
+  // As Open, but returns once the store is open and loads the map on a background thread:
+  // until ready(), every call but these accessors answers UNAVAILABLE (CheckReady).
+  static StatusOr<std::unique_ptr<MapServer>> OpenAsync(
+      const ServerOptions& options, std::shared_ptr<MapStore> store = nullptr,
+      std::shared_ptr<detection::Detector> detector = nullptr);
+  // Drains the queue, stops the worker and writes a last checkpoint.
+  ~MapServer();
+
+  // Whether the map is loaded and the server takes calls; OK, or UNAVAILABLE saying why not
+  // (loading, with progress, or the load error).
+  bool ready() const { return ready_; }
+  Status CheckReady() const;
+  // Blocks until the map is loaded or failed to load; the load's status.
+  Status WaitReady();
+  // `fn` runs once the map is loaded (at once when it already is), on the loading thread.
+  void OnReady(std::function<void()> fn);
+  const LoadReport& load_report() const { return load_report_; }
+  // Writes a checkpoint of the map now (on the caller's thread; call between keyframes, e.g.
+  // after Flush). The checkpoint covers every keyframe mapped so far.
+  Status Checkpoint();
   MapServer(const MapServer&) = delete;
   MapServer& operator=(const MapServer&) = delete;
 
@@ -68,6 +91,12 @@ class MapServer {
   MapServer(const ServerOptions& options, std::shared_ptr<MapStore> store,
             std::shared_ptr<detection::Detector> detector);
   void WorkerLoop();
+  void LoadLoop();
+  void FinishLoad(const Status& status);
+  // Checkpoints when checkpoint_keyframes or checkpoint_interval_s have passed (worker thread).
+  void MaybeCheckpoint();
+  // Drops raw images as server.raw_keep_days / raw_keep_last say (after a checkpoint).
+  Status ApplyRetention();
   StatusOr<SessionRecord> FindSession(const std::string& session_id,
                                       const std::string* only_robot = nullptr);
   // Validates under a decode slot, then checks the stamp against the session's last keyframe.
@@ -82,6 +111,24 @@ class MapServer {
   std::shared_ptr<detection::Detector> detector_;
   std::unique_ptr<Mapper> mapper_;
   uint64_t replayed_ = 0;
+
+  std::thread loader_;
+  std::atomic<bool> stop_loading_{false};
+  std::atomic<bool> ready_{false};
+  std::atomic<uint64_t> load_done_{0}, load_total_{0};
+  mutable std::mutex ready_mu_;
+  std::condition_variable ready_cv_;
+  bool load_finished_ = false;  // guarded by ready_mu_
+  Status load_status_;          // guarded by ready_mu_
+  std::vector<std::function<void()>> ready_callbacks_;  // guarded by ready_mu_
+  LoadReport load_report_;
+  // Worker thread only: keyframes mapped and time since the last checkpoint.
+  uint64_t since_checkpoint_ = 0;
+  std::chrono::steady_clock::time_point last_checkpoint_ = std::chrono::steady_clock::now();
+  std::mutex checkpoint_mu_;  // one checkpoint at a time
+  // Held from storing a keyframe until it is queued, so the worker maps keyframes in id order
+  // (the order a restart loads them in).
+  std::mutex ingest_order_mu_;
 
   std::mutex sessions_mu_;
   std::map<std::string, SessionRecord> sessions_;  // cache by session_id

@@ -4,9 +4,74 @@
 
 #include <map>
 
+#include "server/map/product_codec.h"
 #include "server/service/keyframe_decoder.h"
 
 namespace loci::server {
+namespace {
+
+// The mapper input of a keyframe mapped from products: pose, camera and gravity only.
+MapperKeyframe MetaOf(const KeyframeRecord& rec, const SessionRecord& session) {
+  MapperKeyframe kf;
+  kf.keyframe_id = rec.id;
+  kf.session_row = rec.session_row;
+  kf.robot = session.robot_name;
+  kf.t_ns = rec.t_ns;
+  kf.T_base_kf = session.T_base_odom * rec.T_odom_cam;
+  kf.camera = rec.camera;
+  kf.has_gravity = rec.has_gravity;
+  kf.gravity_cam = rec.gravity_cam;
+  return kf;
+}
+
+// Maps one stored keyframe; false when it had to be skipped.
+bool LoadKeyframe(const KeyframeRecord& rec, const SessionRecord& session, Mapper& mapper,
+                  detection::Detector* detector, MapStore* store, LoadReport* report) {
+  const std::string fingerprint = mapper.options().ProductsFingerprint();
+  if (!rec.products.empty()) {
+    auto products = DecodeProducts(rec.products, fingerprint);
+    if (products.ok()) {
+      mapper.Integrate(MetaOf(rec, session), *products);
+      ++report->from_products;
+      return true;
+    }
+    spdlog::warn("load: products of keyframe {} unusable ({}); recomputing them", rec.id,
+                 products.status().ToString());
+  }
+  if (rec.rgb_jpeg.empty()) {
+    spdlog::warn("load: keyframe {} skipped: its images were dropped (retention) and it has no "
+                 "products for the current options", rec.id);
+    return false;
+  }
+  auto kf = DecodeKeyframe(rec, session);
+  if (!kf.ok()) {
+    // Stored keyframes were validated on ingest; a corrupt row is skipped, not fatal.
+    spdlog::warn("load: keyframe {} skipped: {}", rec.id, kf.status().ToString());
+    return false;
+  }
+  MapAndStoreProducts(mapper, *kf, detector, store);
+  ++report->from_raw;
+  return true;
+}
+
+// Restores the latest checkpoint into `mapper`; the id after which keyframes remain.
+int64_t RestoreCheckpoint(MapStore& store, std::unique_ptr<Mapper>* mapper, LoadReport* report) {
+  auto checkpoint = store.LatestCheckpoint();
+  if (!checkpoint.ok() || !checkpoint->has_value()) {
+    if (!checkpoint.ok()) report->checkpoint_skipped = checkpoint.status().ToString();
+    return 0;
+  }
+  const Status st = (*mapper)->LoadCheckpoint((*checkpoint)->data);
+  if (!st.ok()) {
+    report->checkpoint_skipped = st.ToString();
+    *mapper = std::make_unique<Mapper>((*mapper)->options());  // may be half loaded
+    return 0;
+  }
+  report->checkpoint_keyframe_id = (*checkpoint)->last_keyframe_id;
+  return (*checkpoint)->last_keyframe_id;
+}
+
+}  // namespace
 
 Status DetectIfNeeded(detection::Detector* detector, MapperKeyframe* kf) {
   if (detector == nullptr || !kf->detections.empty()) return absl::OkStatus();
@@ -14,34 +79,61 @@ Status DetectIfNeeded(detection::Detector* detector, MapperKeyframe* kf) {
   return absl::OkStatus();
 }
 
-StatusOr<int64_t> ReplayStore(MapStore& store, Mapper& mapper, detection::Detector* detector,
-                              int64_t after_id, uint64_t* count) {
+StageTimes MapAndStoreProducts(Mapper& mapper, MapperKeyframe& kf, detection::Detector* detector,
+                               MapStore* store) {
+  if (Status s = DetectIfNeeded(detector, &kf); !s.ok()) {
+    spdlog::warn("detector failed on keyframe {}: {}", kf.keyframe_id, s.ToString());
+  }
+  const KeyframeProducts products = mapper.BuildProducts(kf);
+  const StageTimes times = mapper.Integrate(kf, products);
+  if (store != nullptr) {
+    const std::string fingerprint = mapper.options().ProductsFingerprint();
+    if (Status s = store->PutProducts(kf.keyframe_id, fingerprint,
+                                      EncodeProducts(products, fingerprint));
+        !s.ok()) {
+      spdlog::warn("products of keyframe {} not stored ({}); they are recomputed on restart",
+                   kf.keyframe_id, s.ToString());
+    }
+  }
+  return times;
+}
+
+StatusOr<LoadReport> LoadMap(MapStore& store, std::unique_ptr<Mapper>* mapper,
+                             detection::Detector* detector, const LoadOptions& options) {
+  LoadReport report;
+  const int64_t after_id = options.use_checkpoint ? RestoreCheckpoint(store, mapper, &report) : 0;
+  if (!report.checkpoint_skipped.empty()) {
+    spdlog::warn("load: checkpoint not used: {}", report.checkpoint_skipped);
+  }
   LOCI_ASSIGN_OR_RETURN(std::vector<SessionRecord> sessions, store.ListSessions());
   std::map<int64_t, SessionRecord> by_row;
   for (auto& s : sessions) by_row[s.row_id] = std::move(s);
-  int64_t last_id = after_id;
-  uint64_t n = 0;
-  LOCI_RETURN_IF_ERROR(store.ForEachKeyframe(after_id, [&](KeyframeRecord rec) -> Status {
-    last_id = rec.id;
-    auto it = by_row.find(rec.session_row);
-    if (it == by_row.end()) {
-      return absl::DataLossError(absl::StrCat("keyframe ", rec.id, " has no session"));
-    }
-    auto kf = DecodeKeyframe(rec, it->second);
-    if (!kf.ok()) {
-      // Stored keyframes were validated on ingest; a corrupt row is skipped, not fatal.
-      spdlog::warn("replay: keyframe {} skipped: {}", rec.id, kf.status().ToString());
-      return absl::OkStatus();
-    }
-    if (Status s = DetectIfNeeded(detector, &*kf); !s.ok()) {
-      spdlog::warn("replay: detector failed on keyframe {}: {}", rec.id, s.ToString());
-    }
-    mapper.Integrate(*kf);
-    ++n;
-    return absl::OkStatus();
-  }));
-  if (count != nullptr) *count = n;
-  return last_id;
+  LOCI_ASSIGN_OR_RETURN(const uint64_t total, store.CountKeyframes(std::nullopt));
+  report.last_keyframe_id = after_id;
+  KeyframeScan scan;
+  scan.products_fingerprint = (*mapper)->options().ProductsFingerprint();
+  MapStore* product_store = options.store_products ? &store : nullptr;
+  uint64_t seen = 0;
+  LOCI_RETURN_IF_ERROR(store.ForEachKeyframe(
+      after_id,
+      [&](KeyframeRecord rec) -> Status {
+        if (options.stop != nullptr && options.stop->load()) {
+          return absl::CancelledError("the map load was stopped");
+        }
+        report.last_keyframe_id = rec.id;
+        auto it = by_row.find(rec.session_row);
+        if (it == by_row.end()) {
+          return absl::DataLossError(absl::StrCat("keyframe ", rec.id, " has no session"));
+        }
+        if (!LoadKeyframe(rec, it->second, **mapper, detector, product_store, &report)) {
+          ++report.skipped;
+        }
+        if (options.progress && ++seen % 200 == 0) options.progress(seen, total);
+        return absl::OkStatus();
+      },
+      scan));
+  if (options.progress) options.progress(seen, total);
+  return report;
 }
 
 }  // namespace loci::server

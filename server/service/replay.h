@@ -1,8 +1,15 @@
-// Rebuilds a map from stored keyframes (server restart, offline export and evaluation): the
-// map products are a pure function of the stored keyframes, replayed in id order.
+// Loads the map from the database (server start, `loci export`, `loci eval objects`,
+// `loci reprocess`): the latest checkpoint of the derived map, then every keyframe after it
+// from its stored products (server/map/product_codec.h), or from its raw images when it has
+// none, whose new products are stored. Keyframes are mapped in id order, the order the live
+// server maps them in, so a loaded map equals the live one.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
 
 #include "common/status.h"
 #include "detection/detector.h"
@@ -14,9 +21,32 @@ namespace loci::server {
 // Runs the detector on keyframes stored without detections (when `detector` is non-null).
 Status DetectIfNeeded(detection::Detector* detector, MapperKeyframe* keyframe);
 
-// Integrates every stored keyframe with id > after_id into `mapper`; returns the last id seen
-// (after_id when none) and counts them in *count.
-StatusOr<int64_t> ReplayStore(MapStore& store, Mapper& mapper, detection::Detector* detector,
-                              int64_t after_id = 0, uint64_t* count = nullptr);
+// Maps one decoded keyframe from its images (detector when needed, products, fusion) and
+// stores its products when `store` is non-null (a failure to store is logged: the products are
+// recomputed on the next start). Returns the mapping stage times.
+StageTimes MapAndStoreProducts(Mapper& mapper, MapperKeyframe& keyframe,
+                               detection::Detector* detector, MapStore* store);
+
+struct LoadOptions {
+  bool use_checkpoint = true;
+  bool store_products = true;  // products made from raw keyframes are written back
+  // Called every 200 keyframes and at the end with (keyframes mapped so far, keyframes stored).
+  std::function<void(uint64_t, uint64_t)> progress;
+  // When set and true, the load stops with CANCELLED (server shutting down while loading).
+  const std::atomic<bool>* stop = nullptr;
+};
+
+struct LoadReport {
+  int64_t checkpoint_keyframe_id = 0;  // 0 = no checkpoint used
+  std::string checkpoint_skipped;      // why a stored checkpoint was not used
+  uint64_t from_products = 0, from_raw = 0, skipped = 0;
+  int64_t last_keyframe_id = 0;
+  uint64_t keyframes() const { return from_products + from_raw; }
+};
+
+// Loads the map into `*mapper` (fresh; replaced by a fresh one when a checkpoint turns out to
+// be unusable).
+StatusOr<LoadReport> LoadMap(MapStore& store, std::unique_ptr<Mapper>* mapper,
+                             detection::Detector* detector, const LoadOptions& options = {});
 
 }  // namespace loci::server

@@ -16,7 +16,9 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
                                         {"listen", "db", "http", "max_message_mb", "queue_capacity",
                                          "max_detections", "max_image_px", "map_extent_m", "max_future_s",
                                          "stamp_backwards_ms", "decode_slots", "max_watchers",
-                                         "classes_file"}));
+                                         "classes_file", "checkpoint_keyframes",
+                                         "checkpoint_interval_s", "raw_keep_days",
+                                         "raw_keep_last"}));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "listen", &listen));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "db", &db_path));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "http", &http));
@@ -30,6 +32,10 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "decode_slots", &decode_slots));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "max_watchers", &max_watchers));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "classes_file", &classes_file));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "checkpoint_keyframes", &checkpoint_keyframes));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "checkpoint_interval_s", &checkpoint_interval_s));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "raw_keep_days", &raw_keep_days));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "raw_keep_last", &raw_keep_last));
     if (!classes_file.empty() && std::filesystem::path(classes_file).is_relative() &&
         !std::filesystem::exists(classes_file)) {
       classes_file = (std::filesystem::path(path).parent_path() / classes_file).string();
@@ -40,6 +46,8 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
     LOCI_RETURN_IF_ERROR(ReadOptional(d, "enabled", &detector_enabled));
     detector_config = YAML::Clone(d);  // the detector's own keys (checked when it is made)
     detector_config.remove("enabled");
+    // Keyframes without detections get the server detector's: its options shape the products.
+    if (detector_enabled) map.NoteProductsInput("detector\n" + YAML::Dump(detector_config));
   }
   LOCI_RETURN_IF_ERROR(LoadClasses());
   LOCI_RETURN_IF_ERROR(map.FromYaml(root["map"]));
@@ -82,6 +90,14 @@ Status ServerOptions::ValidateLimits() const {
   }
   if (decode_slots < 1 || decode_slots > 256) {
     return absl::InvalidArgumentError("server.decode_slots must be in [1, 256]");
+  }
+  if (checkpoint_keyframes < 1 || !(checkpoint_interval_s > 0)) {
+    return absl::InvalidArgumentError(
+        "server.checkpoint_keyframes must be >= 1 and server.checkpoint_interval_s > 0");
+  }
+  if (!(raw_keep_days == -1 || raw_keep_days >= 0) || raw_keep_last < -1) {
+    return absl::InvalidArgumentError(
+        "server.raw_keep_days must be -1 (keep) or >= 0, server.raw_keep_last -1 or >= 0");
   }
   return absl::OkStatus();
 }

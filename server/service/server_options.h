@@ -27,6 +27,17 @@ struct ServerOptions {
   double stamp_backwards_ms = 1000.0;
   int max_watchers = 64;  // WatchObjects streams at once (each holds a thread); more: RESOURCE_EXHAUSTED
   int decode_slots = 4;  // keyframes validated (images decoded) at once; more wait (4)
+  // A checkpoint of the derived map is written after this many mapped keyframes or this many
+  // seconds with keyframes, whichever comes first, and at shutdown (500, 300 s).
+  int checkpoint_keyframes = 500;
+  double checkpoint_interval_s = 300.0;
+  // Retention of the raw keyframe images, applied after each checkpoint to keyframes whose
+  // products are stored: images older than raw_keep_days are dropped (-1 = kept forever,
+  // 0 = dropped once the products exist), and only the newest raw_keep_last keyframes keep
+  // theirs (-1 = no limit). Without images a keyframe cannot be re-processed with other
+  // product options (`loci reprocess` skips it).
+  double raw_keep_days = -1;
+  int64_t raw_keep_last = -1;
   // Server-side detector for keyframes that arrive without detections (section `detector`:
   // `enabled` (default false) plus the keys of detection::DetectorOptions).
   bool detector_enabled = false;

@@ -58,6 +58,7 @@ grpc::Status MappingService::StreamKeyframes(
     return ToGrpc(absl::PermissionDeniedError("a query token may not stream keyframes"));
   }
   const std::string* only_robot = who->role == Principal::Role::kRobot ? &who->robot : nullptr;
+  if (Status ready = server_->CheckReady(); !ready.ok()) return ToGrpc(ready);
   loci::v1::Keyframe kf;
   while (!ctx->IsCancelled() && stream->Read(&kf)) {
     const loci::v1::KeyframeAck ack = server_->Ingest(kf, only_robot);
@@ -115,6 +116,7 @@ grpc::Status QueryService::GetStats(grpc::ServerContext* ctx, const loci::v1::Ge
 
 grpc::Status QueryService::Ask(const loci::v1::AskRequest& req,
                                loci::v1::AskResponse* resp) {
+  if (Status ready = server_->CheckReady(); !ready.ok()) return ToGrpc(ready);
   if (!engine_) {
     return grpc::Status(grpc::StatusCode::UNIMPLEMENTED,
                         "this server answers no questions (no query engine); use FindObjects");
@@ -127,6 +129,7 @@ grpc::Status QueryService::Ask(const loci::v1::AskRequest& req,
 
 grpc::Status QueryService::FindObjects(const loci::v1::FindObjectsRequest& req,
                                        loci::v1::FindObjectsResponse* resp) {
+  if (Status ready = server_->CheckReady(); !ready.ok()) return ToGrpc(ready);
   if (!std::isfinite(req.min_confidence()) || !std::isfinite(req.radius_m()) ||
       req.radius_m() < 0) {
     return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
@@ -150,6 +153,7 @@ grpc::Status QueryService::FindObjects(const loci::v1::FindObjectsRequest& req,
 
 grpc::Status QueryService::GetObject(const loci::v1::GetObjectRequest& req,
                                      loci::v1::GetObjectResponse* resp) {
+  if (Status ready = server_->CheckReady(); !ready.ok()) return ToGrpc(ready);
   std::vector<ColoredPoint> cloud;
   std::vector<int64_t> keyframes;
   auto o = server_->mapper().GetObject(req.id(), req.with_cloud() ? &cloud : nullptr, &keyframes);
@@ -165,6 +169,7 @@ grpc::Status QueryService::GetObject(const loci::v1::GetObjectRequest& req,
 grpc::Status QueryService::GetCloud(grpc::ServerContext* ctx, const loci::v1::GetCloudRequest* req,
                                     loci::v1::GetCloudResponse* resp) {
   if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
+  if (Status ready = server_->CheckReady(); !ready.ok()) return ToGrpc(ready);
   if (!std::isfinite(req->voxel_m()) || req->voxel_m() < 0) {
     return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "voxel_m must be finite and >= 0");
   }
@@ -179,6 +184,7 @@ grpc::Status QueryService::GetOctomap(grpc::ServerContext* ctx,
                                       const loci::v1::GetOctomapRequest*,
                                       loci::v1::GetOctomapResponse* resp) {
   if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
+  if (Status ready = server_->CheckReady(); !ready.ok()) return ToGrpc(ready);
   resp->set_octomap_bt(server_->mapper().OctomapBt());
   resp->set_resolution_m(server_->mapper().OctomapResolution());
   resp->set_node_count(server_->mapper().Stats().octomap_nodes);
@@ -189,6 +195,7 @@ grpc::Status QueryService::WatchObjects(grpc::ServerContext* ctx,
                                         const loci::v1::WatchObjectsRequest*,
                                         grpc::ServerWriter<loci::v1::ObjectEvent>* writer) {
   if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
+  if (Status ready = server_->CheckReady(); !ready.ok()) return ToGrpc(ready);
   auto queue = std::make_shared<ObjectEventQueue>(1024);
   if (Status s = server_->Subscribe(queue); !s.ok()) return ToGrpc(s);
   // Initial metadata tells the client that the watch is registered: every later event comes.
@@ -221,6 +228,7 @@ grpc::Status QueryService::WatchObjects(grpc::ServerContext* ctx,
 }
 
 grpc::Status QueryService::GetStats(loci::v1::GetStatsResponse* resp) {
+  if (Status ready = server_->CheckReady(); !ready.ok()) return ToGrpc(ready);
   auto sessions = server_->store().ListSessions();
   auto keyframes = server_->store().CountKeyframes(std::nullopt);
   if (!sessions.ok()) return ToGrpc(sessions.status());

@@ -44,6 +44,32 @@ struct KeyframeRecord {
   std::string rgb_jpeg;
   std::string depth_png;  // 16-bit PNG
   std::vector<Detection2D> detections;
+  // Stored map products (loci.store.v1.KeyframeProducts), when read with them; empty = none.
+  std::string products;
+};
+
+// What ForEachKeyframe reads besides the pose and metadata.
+struct KeyframeScan {
+  bool images = true;  // rgb_jpeg, depth_png, detections
+  // Non-empty: KeyframeRecord::products of this fingerprint (MapOptions::ProductsFingerprint),
+  // and the images only of keyframes without such products (a restart needs nothing else).
+  std::string products_fingerprint;
+};
+
+// A checkpoint of the derived map.
+struct CheckpointRecord {
+  int64_t last_keyframe_id = 0;
+  std::string data;  // loci.store.v1.MapperCheckpoint
+};
+
+// Bytes the database spends, by kind (payload bytes, without SQLite's overhead).
+struct StorageBytes {
+  uint64_t keyframes = 0;          // keyframes stored
+  uint64_t keyframes_with_raw = 0;  // ... that still hold their images
+  uint64_t raw_bytes = 0;          // images + detections
+  uint64_t products = 0;           // keyframes with products
+  uint64_t product_bytes = 0;
+  uint64_t checkpoint_bytes = 0;   // the latest checkpoint
 };
 
 // Result of storing a keyframe.
@@ -86,7 +112,22 @@ class MapStore {
   virtual StatusOr<uint64_t> CountKeyframes(std::optional<int64_t> session_row) = 0;
   // Calls `fn` for every keyframe with id > after_id, in id order; stops at the first error.
   virtual Status ForEachKeyframe(int64_t after_id,
-                                 const std::function<Status(KeyframeRecord)>& fn) = 0;
+                                 const std::function<Status(KeyframeRecord)>& fn,
+                                 const KeyframeScan& scan = {}) = 0;
+
+  // Stores (or replaces) a keyframe's products in their own transaction: idempotent.
+  virtual Status PutProducts(int64_t keyframe_id, const std::string& fingerprint,
+                             const std::string& data) = 0;
+  // Deletes every keyframe's products (`loci reprocess`).
+  virtual Status DeleteAllProducts() = 0;
+  // Stores a checkpoint and drops the older ones.
+  virtual Status PutCheckpoint(const CheckpointRecord& checkpoint) = 0;
+  virtual StatusOr<std::optional<CheckpointRecord>> LatestCheckpoint() = 0;
+  virtual Status DeleteCheckpoints() = 0;
+  // Retention: empties the images of keyframes that have products and match the policy
+  // (older than before_ns, or all but the newest keep_last); returns how many were emptied.
+  virtual StatusOr<uint64_t> DropRawImages(int64_t before_stored_ns, int64_t keep_last) = 0;
+  virtual StatusOr<StorageBytes> Bytes() = 0;
   // Size of the database files (main + WAL), bytes.
   virtual uint64_t DbBytes() = 0;
 };

@@ -32,11 +32,9 @@ using sqlite::Exec;
 using sqlite::SqlError;
 using sqlite::Stmt;
 using sqlite::Transaction;
+using sqlite::CameraFrom;
+using sqlite::PoseFrom;
 
-SE3d PoseFrom(const Stmt& s, int c) {
-  return MakeSE3(Vec3d(s.Real(c), s.Real(c + 1), s.Real(c + 2)),
-                 Quatd(s.Real(c + 3), s.Real(c + 4), s.Real(c + 5), s.Real(c + 6)));
-}
 
 void BindPose(Stmt& s, int i, const SE3d& T) {
   const Quatd q = QuatOf(T);
@@ -44,14 +42,6 @@ void BindPose(Stmt& s, int i, const SE3d& T) {
   s.Bind(i + 3, q.w()).Bind(i + 4, q.x()).Bind(i + 5, q.y()).Bind(i + 6, q.z());
 }
 
-PinholeCamera CameraFrom(const Stmt& s, int c) {
-  return {s.Real(c),
-          s.Real(c + 1),
-          s.Real(c + 2),
-          s.Real(c + 3),
-          static_cast<int>(s.Int(c + 4)),
-          static_cast<int>(s.Int(c + 5))};
-}
 
 void BindCamera(Stmt& s, int i, const PinholeCamera& c) {
   s.Bind(i, c.fx).Bind(i + 1, c.fy).Bind(i + 2, c.cx).Bind(i + 3, c.cy);
@@ -291,7 +281,7 @@ StatusOr<InsertResult> SqliteStore::InsertKeyframe(const KeyframeRecord& kf) {
     result.duplicate = true;
     Stmt q(db,
            "SELECT id, t_ns = ? AND tx = ? AND ty = ? AND tz = ? AND qw = ? AND qx = ? AND"
-           " qy = ? AND qz = ? AND rgb_jpeg = ? AND depth_png = ?"
+           " qy = ? AND qz = ? AND ((rgb_jpeg = ? AND depth_png = ?) OR length(rgb_jpeg) = 0)"
            " FROM keyframes WHERE session = ? AND seq = ?");
     q.Bind(1, kf.t_ns);
     BindPose(q, 2, kf.T_odom_cam);
@@ -341,39 +331,6 @@ StatusOr<uint64_t> SqliteStore::CountKeyframes(std::optional<int64_t> session_ro
   if (session_row) q.Bind(1, *session_row);
   if (q.Step() != SQLITE_ROW) return SqlError(db, "count keyframes");
   return static_cast<uint64_t>(q.Int(0));
-}
-
-Status SqliteStore::ForEachKeyframe(int64_t after_id,
-                                    const std::function<Status(KeyframeRecord)>& fn) {
-  LOCI_ASSIGN_OR_RETURN(auto reader, readers_.Acquire());
-  sqlite3* db = reader.get();
-  Stmt q(db,
-         "SELECT id, session, seq, t_ns, tx, ty, tz, qw, qx, qy, qz, fx, fy, cx, cy, width_px,"
-         " height_px, depth_scale, has_gravity, gx, gy, gz, segment, rgb_jpeg, depth_png,"
-         " detections FROM keyframes WHERE id > ? ORDER BY id");
-  LOCI_RETURN_IF_ERROR(q.status());
-  q.Bind(1, after_id);
-  int rc;
-  while ((rc = q.Step()) == SQLITE_ROW) {
-    KeyframeRecord kf;
-    kf.id = q.Int(0);
-    kf.session_row = q.Int(1);
-    kf.seq = q.Int(2);
-    kf.t_ns = q.Int(3);
-    kf.T_odom_cam = PoseFrom(q, 4);
-    kf.camera = CameraFrom(q, 11);
-    kf.depth_scale = q.Real(17);
-    kf.has_gravity = q.Int(18) != 0;
-    kf.gravity_cam = Vec3d(q.Real(19), q.Real(20), q.Real(21));
-    kf.segment = static_cast<int>(q.Int(22));
-    kf.rgb_jpeg = q.Text(23);
-    kf.depth_png = q.Text(24);
-    LOCI_ASSIGN_OR_RETURN(FrameDetections dets, DetectionsFromJsonLine(q.Text(25)));
-    kf.detections = std::move(dets.detections);
-    LOCI_RETURN_IF_ERROR(fn(std::move(kf)));
-  }
-  if (rc != SQLITE_DONE) return SqlError(db, "read keyframes");
-  return absl::OkStatus();
 }
 
 uint64_t SqliteStore::DbBytes() {

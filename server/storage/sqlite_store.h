@@ -5,12 +5,16 @@
 
 #include <memory>
 #include <mutex>
+#include <functional>
 #include <string>
 
 #include "server/storage/map_store.h"
 #include "server/storage/sqlite_pool.h"
 
 namespace loci::server {
+namespace sqlite {
+class Stmt;
+}  // namespace sqlite
 
 struct SqliteStoreOptions {
   // Milliseconds a writer waits for a lock held by another connection before failing (default
@@ -45,8 +49,17 @@ class SqliteStore final : public MapStore {
   StatusOr<int64_t> LastStoredSeq(int64_t session_row) override;
   StatusOr<LastStamp> LastStoredStamp(int64_t session_row) override;
   StatusOr<uint64_t> CountKeyframes(std::optional<int64_t> session_row) override;
-  Status ForEachKeyframe(int64_t after_id,
-                         const std::function<Status(KeyframeRecord)>& fn) override;
+  // The keyframe scan, products and checkpoints are in sqlite_products.cc.
+  Status ForEachKeyframe(int64_t after_id, const std::function<Status(KeyframeRecord)>& fn,
+                         const KeyframeScan& scan = {}) override;
+  Status PutProducts(int64_t keyframe_id, const std::string& fingerprint,
+                     const std::string& data) override;
+  Status DeleteAllProducts() override;
+  Status PutCheckpoint(const CheckpointRecord& checkpoint) override;
+  StatusOr<std::optional<CheckpointRecord>> LatestCheckpoint() override;
+  Status DeleteCheckpoints() override;
+  StatusOr<uint64_t> DropRawImages(int64_t before_stored_ns, int64_t keep_last) override;
+  StatusOr<StorageBytes> Bytes() override;
   uint64_t DbBytes() override;
 
   // Connections open now: the writer and the pooled readers (bounded; tests check it).
@@ -58,6 +71,9 @@ class SqliteStore final : public MapStore {
   // The write connection; FailedPrecondition when read-only. Call with write_mu_ held.
   StatusOr<sqlite3*> Writer();
   Status Migrate(sqlite3* db);
+  // Runs one write statement with `bind` in its own transaction.
+  Status WriteOne(const char* sql, const std::function<void(sqlite::Stmt&)>& bind,
+                  const char* what);
   StatusOr<std::vector<SessionRecord>> QuerySessions(const std::string& where_sql,
                                                      const std::string& arg);
 

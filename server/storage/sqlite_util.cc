@@ -73,4 +73,18 @@ Status Transaction::Commit() {
   return s;
 }
 
+SE3d PoseFrom(const Stmt& s, int c) {
+  return MakeSE3(Vec3d(s.Real(c), s.Real(c + 1), s.Real(c + 2)),
+                 Quatd(s.Real(c + 3), s.Real(c + 4), s.Real(c + 5), s.Real(c + 6)));
+}
+
+PinholeCamera CameraFrom(const Stmt& s, int c) {
+  return {s.Real(c),
+          s.Real(c + 1),
+          s.Real(c + 2),
+          s.Real(c + 3),
+          static_cast<int>(s.Int(c + 4)),
+          static_cast<int>(s.Int(c + 5))};
+}
+
 }  // namespace loci::server::sqlite

@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <string>
 
+#include "common/camera.h"
+#include "common/se3.h"
 #include "common/status.h"
 
 namespace loci::server::sqlite {
@@ -58,5 +60,10 @@ class Transaction {
   Status begin_;
   bool open_ = false;
 };
+
+// Row readers of the store's columns: a pose (tx ty tz qw qx qy qz) and a camera
+// (fx fy cx cy width_px height_px) starting at column c.
+SE3d PoseFrom(const Stmt& s, int c);
+PinholeCamera CameraFrom(const Stmt& s, int c);
 
 }  // namespace loci::server::sqlite

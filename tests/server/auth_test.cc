@@ -184,6 +184,7 @@ TEST_F(AuthTest, TokensAndRolesOnGrpcAndHttp) {
 TEST_F(AuthTest, TlsAndMutualTls) {
   auto server = Start({"--tls-cert", File("server.pem"), "--tls-key", File("server.key")});
   ASSERT_GT(server->port(), 0);
+  ASSERT_TRUE(server->WaitServing({.token = kQuery, .tls_ca_file = File("ca.pem")}).ok());
   EXPECT_EQ(FindObjects(Channel(*server, {.token = kQuery, .tls_ca_file = File("ca.pem")})),
             grpc::StatusCode::OK);
   // A client that does not trust the server's CA, or speaks plaintext, gets nowhere.
@@ -198,6 +199,11 @@ TEST_F(AuthTest, TlsAndMutualTls) {
   auto mutual = Start({"--tls-cert", File("server.pem"), "--tls-key", File("server.key"),
                        "--tls-client-ca", File("ca.pem")});
   ASSERT_GT(mutual->port(), 0);
+  ASSERT_TRUE(mutual->WaitServing({.token = kQuery,
+                                   .tls_ca_file = File("ca.pem"),
+                                   .tls_cert_file = File("client.pem"),
+                                   .tls_key_file = File("client.key")})
+                  .ok());
   EXPECT_EQ(FindObjects(Channel(*mutual, {.token = kQuery, .tls_ca_file = File("ca.pem")})),
             grpc::StatusCode::UNAVAILABLE);  // no client certificate
   EXPECT_EQ(FindObjects(Channel(*mutual, {.token = kQuery,

@@ -49,6 +49,17 @@ ServerProcess::ServerProcess(ServerProcessOptions options) {
   const auto& x = options.extra_args;
   const auto http = std::find(x.begin(), x.end(), "--http");
   ReadReadyLines(http != x.end() && http + 1 != x.end() && *(http + 1) != "off");
+  const bool tls = std::find(x.begin(), x.end(), "--tls-cert") != x.end();
+  if (port_ != 0 && !tls) serving_ = WaitServing(ChannelSecurity{});
+}
+
+Status ServerProcess::WaitServing(const ChannelSecurity& security) {
+  if (port_ == 0) return absl::UnavailableError("the server ended before listening");
+  LOCI_ASSIGN_OR_RETURN(std::shared_ptr<grpc::Channel> channel,
+                        MakeChannel(address(), security));
+  // The health service turns SERVING once the map is loaded: a real signal, no fixed wait.
+  return loci::WaitForServing(*channel,
+                              std::chrono::system_clock::now() + std::chrono::minutes(5));
 }
 
 void ServerProcess::ReadReadyLines(bool want_http) {

@@ -1,11 +1,14 @@
-// A loci-server child process for tests. It is ready when it prints "listening on HOST:PORT"
-// (the database replayed, the port bound): the constructor waits for that line, or for the
-// process to end before it.
+// A loci-server child process for tests. The constructor waits for "listening on HOST:PORT"
+// (the port is bound; the map may still be loading), or for the process to end before it, and
+// then, for a plaintext server, for the gRPC health service to report SERVING (map loaded).
 #pragma once
 
 #include <sys/types.h>
 
 #include <cstdio>
+
+#include "common/status.h"
+#include "proto/channel.h"
 #include <string>
 #include <vector>
 
@@ -31,6 +34,10 @@ class ServerProcess {
   // The HTTP port from "http on HOST:PORT" (0 without --http).
   int http_port() const { return http_port_; }
   std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
+  // Waits for health SERVING over a channel with `security` (TLS servers; the constructor
+  // already waited for plaintext ones: serving()).
+  Status WaitServing(const ChannelSecurity& security);
+  const Status& serving() const { return serving_; }
   // Sends `sig` (0: none, only waits) and returns the wait status; -1 when not running.
   int Stop(int sig);
 
@@ -41,6 +48,7 @@ class ServerProcess {
   int port_ = 0;
   int http_port_ = 0;
   FILE* out_ = nullptr;
+  Status serving_;
 };
 
 }  // namespace loci::testing

@@ -1,0 +1,226 @@
+// The checkpoint of the derived map (loci.store.v1.MapperCheckpoint): the state of the mapper,
+// its objects, cloud and OctoMap, written on the mapping thread and loaded into a fresh mapper
+// on start, so a restart re-derives only the keyframes after it.
+#include "loci/store/v1/map_state.pb.h"
+#include "server/map/mapper.h"
+
+namespace loci::server {
+namespace {
+
+void ToState(const SE3d& T, loci::store::v1::Pose* out) {
+  const Eigen::Quaterniond q(T.linear());
+  out->set_tx(T.translation().x());
+  out->set_ty(T.translation().y());
+  out->set_tz(T.translation().z());
+  out->set_qw(q.w());
+  out->set_qx(q.x());
+  out->set_qy(q.y());
+  out->set_qz(q.z());
+}
+
+SE3d FromState(const loci::store::v1::Pose& in) {
+  SE3d T = SE3d::Identity();
+  T.linear() = Eigen::Quaterniond(in.qw(), in.qx(), in.qy(), in.qz()).normalized().toRotationMatrix();
+  T.translation() = Vec3d(in.tx(), in.ty(), in.tz());
+  return T;
+}
+
+}  // namespace
+
+void LabelDistribution::SaveState(loci::store::v1::LabelState* out) const {
+  for (const auto& [name, lp] : log_p_) (*out->mutable_log_p())[name] = lp;
+  out->set_log_p_unseen(log_p_unseen_);
+}
+
+void LabelDistribution::LoadState(const loci::store::v1::LabelState& in) {
+  log_p_.clear();
+  for (const auto& [name, lp] : in.log_p()) log_p_[name] = lp;
+  log_p_unseen_ = in.log_p_unseen();
+}
+
+void FusedObject::SaveState(loci::store::v1::FusedObjectState* out) const {
+  out->set_id(id_);
+  for (const auto& [key, v] : voxels_) {
+    out->add_voxel_key(key);
+    for (int i = 0; i < 3; ++i) out->add_voxel_sum_m(v.sum_m[i]);
+    for (int i = 0; i < 3; ++i) out->add_voxel_rgb_sum(v.rgb_sum[i]);
+    out->add_voxel_count(v.count);
+  }
+  for (const auto& [key, c] : cells_) {
+    out->add_cell_key(key);
+    out->add_cell_observations(c.observations);
+    out->add_cell_last(c.last);
+  }
+  labels_.SaveState(out->mutable_labels());
+  out->set_point_observations(point_observations_);
+  out->set_first_seen_ns(first_seen_ns_);
+  out->set_last_seen_ns(last_seen_ns_);
+  for (const std::string& r : robots_) out->add_robots(r);
+  out->set_last_robot(last_robot_);
+  for (int64_t kf : keyframes_) out->add_keyframes(kf);
+  for (const auto& [session, track] : tracks_) {
+    out->add_track_session(session);
+    out->add_track_id(track);
+  }
+  out->set_confirmed(confirmed_);
+  out->set_misses(misses_);
+}
+
+Status FusedObject::LoadState(const loci::store::v1::FusedObjectState& in) {
+  const int nv = in.voxel_key_size();
+  if (in.voxel_sum_m_size() != 3 * nv || in.voxel_rgb_sum_size() != 3 * nv ||
+      in.voxel_count_size() != nv || in.cell_observations_size() != in.cell_key_size() ||
+      in.cell_last_size() != in.cell_key_size() || in.track_id_size() != in.track_session_size()) {
+    return absl::DataLossError(absl::StrCat("checkpoint: object ", in.id(), " is inconsistent"));
+  }
+  for (int i = 0; i < nv; ++i) {
+    Voxel& v = voxels_[in.voxel_key(i)];
+    v.sum_m = Vec3d(in.voxel_sum_m(3 * i), in.voxel_sum_m(3 * i + 1), in.voxel_sum_m(3 * i + 2));
+    v.rgb_sum =
+        Vec3d(in.voxel_rgb_sum(3 * i), in.voxel_rgb_sum(3 * i + 1), in.voxel_rgb_sum(3 * i + 2));
+    v.count = in.voxel_count(i);
+  }
+  for (int i = 0; i < in.cell_key_size(); ++i) {
+    cells_[in.cell_key(i)] = {in.cell_observations(i), in.cell_last(i)};
+  }
+  labels_.LoadState(in.labels());
+  point_observations_ = in.point_observations();
+  first_seen_ns_ = in.first_seen_ns();
+  last_seen_ns_ = in.last_seen_ns();
+  robots_ = {in.robots().begin(), in.robots().end()};
+  last_robot_ = in.last_robot();
+  keyframes_ = {in.keyframes().begin(), in.keyframes().end()};
+  for (int i = 0; i < in.track_id_size(); ++i) tracks_.insert({in.track_session(i), in.track_id(i)});
+  confirmed_ = in.confirmed();
+  misses_ = in.misses();
+  RecomputeGeometry();
+  return absl::OkStatus();
+}
+
+void ObjectMap::SaveState(loci::store::v1::ObjectMapState* out) const {
+  out->set_next_id(next_id_);
+  for (const auto& [id, object] : objects_) object.SaveState(out->add_objects());
+  for (const auto& [from, to] : merged_into_) (*out->mutable_merged_into())[from] = to;
+}
+
+Status ObjectMap::LoadState(const loci::store::v1::ObjectMapState& in) {
+  Clear();
+  next_id_ = in.next_id();
+  for (const auto& o : in.objects()) {
+    FusedObject object = NewObject(o.id());
+    LOCI_RETURN_IF_ERROR(object.LoadState(o));
+    objects_.emplace(o.id(), std::move(object));
+  }
+  for (const auto& [from, to] : in.merged_into()) merged_into_[from] = to;
+  return absl::OkStatus();
+}
+
+void SemanticCloud::SaveState(loci::store::v1::SemanticCloudState* out) const {
+  for (const auto& [key, v] : voxels_) {
+    out->add_key(key);
+    for (int i = 0; i < 3; ++i) out->add_sum_m(v.sum_m[i]);
+    for (int i = 0; i < 3; ++i) out->add_rgb_sum(v.rgb_sum[i]);
+    out->add_count(v.count);
+    out->add_object_id(v.object_id);
+    out->add_votes(v.votes);
+  }
+}
+
+Status SemanticCloud::LoadState(const loci::store::v1::SemanticCloudState& in) {
+  const int n = in.key_size();
+  if (in.sum_m_size() != 3 * n || in.rgb_sum_size() != 3 * n || in.count_size() != n ||
+      in.object_id_size() != n || in.votes_size() != n) {
+    return absl::DataLossError("checkpoint: the semantic cloud is inconsistent");
+  }
+  voxels_.clear();
+  voxels_.reserve(n);
+  for (int i = 0; i < n; ++i) {
+    Voxel& v = voxels_[in.key(i)];
+    v.sum_m = Eigen::Vector3f(in.sum_m(3 * i), in.sum_m(3 * i + 1), in.sum_m(3 * i + 2));
+    v.rgb_sum = Eigen::Vector3f(in.rgb_sum(3 * i), in.rgb_sum(3 * i + 1), in.rgb_sum(3 * i + 2));
+    v.count = in.count(i);
+    v.object_id = in.object_id(i);
+    v.votes = in.votes(i);
+  }
+  return absl::OkStatus();
+}
+
+std::string Mapper::SaveCheckpoint() const {
+  if (!frame_settled_) return {};
+  if (octomap_) FlushOctomap();
+  loci::store::v1::MapperCheckpoint out;
+  out.set_fingerprint(options_.MapFingerprint());
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    out.set_last_keyframe_id(keyframe_poses_.empty() ? 0 : keyframe_poses_.back().keyframe_id);
+    ToState(T_map_base_, out.mutable_t_map_base());
+    out.set_frame_source(frame_source_);
+    objects_.SaveState(out.mutable_objects());
+    cloud_.SaveState(out.mutable_cloud());
+    out.mutable_gravity_sum_map()->set_x(gravity_sum_map_.x());
+    out.mutable_gravity_sum_map()->set_y(gravity_sum_map_.y());
+    out.mutable_gravity_sum_map()->set_z(gravity_sum_map_.z());
+    out.set_gravity_count(gravity_count_);
+    for (const KeyframePose& k : keyframe_poses_) {
+      auto* ks = out.add_keyframes();
+      ks->set_keyframe_id(k.keyframe_id);
+      ks->set_robot(k.robot);
+      ks->set_t_ns(k.t_ns);
+      ToState(k.T_base_kf, ks->mutable_t_base_kf());
+      for (int64_t id : k.observation_object_ids) ks->add_observation_object_id(id);
+    }
+    for (const auto& [robot, pose] : latest_poses_) {
+      auto& rp = (*out.mutable_latest_poses())[robot];
+      rp.set_t_ns(pose.t_ns);
+      ToState(pose.T_map_cam, rp.mutable_t_map_cam());
+    }
+    out.set_keyframe_count(stats_.keyframes);
+  }
+  if (octomap_) {
+    std::lock_guard<std::mutex> lock(octo_mu_);
+    out.set_octomap_ot(octomap_->SerializeState());
+  }
+  return out.SerializeAsString();
+}
+
+Status Mapper::LoadCheckpoint(const std::string& bytes) {
+  loci::store::v1::MapperCheckpoint in;
+  if (!in.ParseFromString(bytes)) return absl::DataLossError("the map checkpoint does not parse");
+  if (in.fingerprint() != options_.MapFingerprint()) {
+    return absl::FailedPreconditionError(absl::StrCat("the map checkpoint was made with options ",
+                                                      in.fingerprint(), ", not ",
+                                                      options_.MapFingerprint()));
+  }
+  if (octomap_ && !in.octomap_ot().empty()) {
+    std::lock_guard<std::mutex> lock(octo_mu_);
+    LOCI_RETURN_IF_ERROR(octomap_->LoadState(in.octomap_ot()));
+  }
+  std::lock_guard<std::mutex> lock(mu_);
+  LOCI_RETURN_IF_ERROR(objects_.LoadState(in.objects()));
+  LOCI_RETURN_IF_ERROR(cloud_.LoadState(in.cloud()));
+  T_map_base_ = FromState(in.t_map_base());
+  frame_source_ = in.frame_source();
+  have_frame_ = frame_settled_ = true;
+  gravity_sum_map_ = Vec3d(in.gravity_sum_map().x(), in.gravity_sum_map().y(),
+                           in.gravity_sum_map().z());
+  gravity_count_ = in.gravity_count();
+  keyframe_poses_.clear();
+  keyframe_poses_.reserve(in.keyframes_size());
+  for (const auto& k : in.keyframes()) {
+    keyframe_poses_.push_back({k.keyframe_id(), k.robot(), k.t_ns(), FromState(k.t_base_kf()),
+                               {k.observation_object_id().begin(), k.observation_object_id().end()}});
+  }
+  latest_poses_.clear();
+  for (const auto& [robot, rp] : in.latest_poses()) {
+    latest_poses_[robot] = {rp.t_ns(), FromState(rp.t_map_cam())};
+  }
+  stats_.keyframes = in.keyframe_count();
+  return absl::OkStatus();
+}
+
+int64_t Mapper::last_keyframe_id() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return keyframe_poses_.empty() ? 0 : keyframe_poses_.back().keyframe_id;
+}
+
+}  // namespace loci::server
