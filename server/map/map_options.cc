@@ -56,7 +56,11 @@ std::string Fnv1aHex(const std::string& text) {
   return out;
 }
 
-std::string DumpOrTilde(const YAML::Node& node) { return node ? YAML::Dump(node) + "\n" : "~\n"; }
+// "key:\n<yaml>\n" for a present key, "" for an absent one (defaults: kMapCodeVersion).
+std::string DumpKey(const YAML::Node& node, const char* key) {
+  const YAML::Node value = node[key];
+  return value ? absl::StrCat(key, ":\n", YAML::Dump(value), "\n") : std::string();
+}
 
 }  // namespace
 
@@ -72,9 +76,9 @@ std::string MapOptions::MapFingerprint() const {
 Status MapOptions::FromYaml(const YAML::Node& node) {
   if (!node) return absl::OkStatus();
   LOCI_RETURN_IF_ERROR(CheckMapKeys(node));
-  products_yaml_ += DumpOrTilde(node["cloud"]) + DumpOrTilde(node["observation"]) +
-                    DumpOrTilde(node["dynamic_classes"]) + DumpOrTilde(node["mapped_classes"]);
-  map_yaml_ += DumpOrTilde(node);
+  products_yaml_ += DumpKey(node, "cloud") + DumpKey(node, "observation") +
+                    DumpKey(node, "dynamic_classes") + DumpKey(node, "mapped_classes");
+  map_yaml_ += YAML::Dump(node) + "\n";
   if (const YAML::Node n = node["cloud"]) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_depth_m", &cloud.min_depth_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_depth_m", &cloud.max_depth_m));
@@ -151,7 +155,7 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
 }
 
 Status MapOptions::ClassesFromYaml(const YAML::Node& node) {
-  products_yaml_ += DumpOrTilde(node);
+  products_yaml_ += YAML::Dump(node) + "\n";
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "dynamic_classes", &dynamic_classes));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "mapped", &mapped_classes));
   if (const YAML::Node sizes = node["max_size_m"]) {

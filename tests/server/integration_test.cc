@@ -68,12 +68,32 @@ class Integration : public ::testing::Test {
     delete dir_;
   }
 
-  static ServerOptions Options(const std::string& db) {
+  // Options on a fresh database `db` (removed first unless `keep_db`).
+  static ServerOptions Options(const std::string& db, bool keep_db = false) {
     ServerOptions o;
     EXPECT_TRUE(o.FromYamlFile(*dir_ + "/server.yaml").ok());
     o.db_path = db;
-    for (const char* s : {"", "-wal", "-shm"}) fs::remove(db + s);
+    if (!keep_db) {
+      for (const char* s : {"", "-wal", "-shm"}) fs::remove(db + s);
+    }
     return o;
+  }
+
+  // Reopens `db` and checks the loaded map against `reference` (1 mm); returns the load report.
+  static LoadReport ReopenAndCompare(const std::string& db,
+                                     const std::vector<MapObject>& reference) {
+    auto server = MapServer::Open(Options(db, /*keep_db=*/true));
+    EXPECT_TRUE(server.ok()) << server.status();
+    if (!server.ok()) return {};
+    const auto objects = (*server)->mapper().Snapshot(true);
+    EXPECT_EQ(objects.size(), reference.size());
+    for (size_t i = 0; i < std::min(objects.size(), reference.size()); ++i) {
+      EXPECT_EQ(objects[i].id, reference[i].id);
+      EXPECT_EQ(objects[i].class_name, reference[i].class_name);
+      EXPECT_LT((objects[i].centroid_m - reference[i].centroid_m).norm(), 1e-3);
+      EXPECT_EQ(objects[i].observation_count, reference[i].observation_count);
+    }
+    return (*server)->load_report();
   }
 
   // Streams keyframes [begin, end) on one stream, waiting for each ack.
@@ -323,6 +343,42 @@ TEST_F(Integration, SigkillMidStreamThenRestartLosesNothing) {
     EXPECT_LT((objects[i].centroid_m - reference[i].centroid_m).norm(), 1e-6);
     EXPECT_EQ(objects[i].observation_count, reference[i].observation_count);
   }
+}
+
+// A restart loads the checkpoint written at shutdown and maps nothing again; without it, every
+// keyframe comes from its stored products; without those, from its images (and its products
+// are stored again). Each time the map is the uninterrupted run's.
+TEST_F(Integration, RestartLoadsCheckpointThenProductsThenImagesToTheSameMap) {
+  const std::string db = *dir_ + "/restart.db";
+  std::vector<MapObject> reference;
+  {
+    std::unique_ptr<MapServer> server;
+    reference = UninterruptedRun(db, &server);
+  }  // shutdown: a last checkpoint
+  ASSERT_GE(reference.size(), 5u);
+  const auto n = static_cast<uint64_t>(keyframes_->size());
+
+  LoadReport r = ReopenAndCompare(db, reference);
+  EXPECT_EQ(r.checkpoint_keyframe_id, static_cast<int64_t>(n));
+  EXPECT_EQ(r.keyframes(), 0u);
+
+  auto store = SqliteStore::Open(db);
+  ASSERT_TRUE(store.ok()) << store.status();
+  ASSERT_TRUE((*store)->DeleteCheckpoints().ok());
+  r = ReopenAndCompare(db, reference);
+  EXPECT_EQ(r.checkpoint_keyframe_id, 0);
+  EXPECT_EQ(r.from_products, n);
+  EXPECT_EQ(r.from_raw, 0u);
+
+  ASSERT_TRUE((*store)->DeleteCheckpoints().ok());  // the reopen wrote one (>= 500 keyframes: no)
+  ASSERT_TRUE((*store)->DeleteAllProducts().ok());
+  r = ReopenAndCompare(db, reference);
+  EXPECT_EQ(r.from_raw, n);
+  auto bytes = (*store)->Bytes();
+  ASSERT_TRUE(bytes.ok());
+  EXPECT_EQ(bytes->products, n);  // stored again while loading
+  EXPECT_GT(bytes->product_bytes, 0u);
+  EXPECT_EQ(bytes->keyframes_with_raw, n);
 }
 
 }  // namespace
