@@ -30,6 +30,9 @@ void RegisterExportCommand(CLI::App& app);
 void RegisterEvalObjectsCommand(CLI::App& app);
 void RegisterBenchIngestCommand(CLI::App& app);
 void RegisterBenchLoadCommand(CLI::App& app);
+// `loci reprocess` and `loci bench restart` (server/: products, checkpoints, restart).
+void RegisterReprocessCommand(CLI::App& app);
+void RegisterBenchRestartCommand(CLI::App& app);
 
 // `loci bench report` (cli/report/): evaluation report on a TUM folder.
 void RegisterBenchReportCommand(CLI::App& app);

@@ -33,6 +33,8 @@ int main(int argc, char** argv) {
   loci::cli::RegisterEvalObjectsCommand(app);
   loci::cli::RegisterBenchIngestCommand(app);
   loci::cli::RegisterBenchLoadCommand(app);
+  loci::cli::RegisterReprocessCommand(app);
+  loci::cli::RegisterBenchRestartCommand(app);
   loci::cli::RegisterDetectCommand(app);
   loci::cli::RegisterBenchDetectCommand(app);
   loci::cli::RegisterBenchTrackCommand(app);

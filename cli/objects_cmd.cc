@@ -100,6 +100,13 @@ int RunStats(const ServerArgs& a) {
   std::printf("cloud points       %llu\n", static_cast<unsigned long long>(resp.cloud_points()));
   std::printf("octomap nodes      %llu\n", static_cast<unsigned long long>(resp.octomap_nodes()));
   std::printf("database           %.1f MB\n", resp.db_bytes() / 1e6);
+  std::printf("raw per keyframe   %.1f KB (%llu keyframes keep their images)\n",
+              resp.raw_bytes_per_keyframe() / 1e3,
+              static_cast<unsigned long long>(resp.keyframes_with_raw()));
+  std::printf("products per kf    %.1f KB (%llu keyframes)\n",
+              resp.product_bytes_per_keyframe() / 1e3,
+              static_cast<unsigned long long>(resp.keyframes_with_products()));
+  std::printf("checkpoint         %.1f MB\n", resp.checkpoint_bytes() / 1e6);
   std::printf("queue depth        %llu\n", static_cast<unsigned long long>(resp.queue_depth()));
   std::printf("mapping per kf     %.1f ms\n", resp.ingest_ms_mean());
   return 0;

@@ -12,28 +12,9 @@
 #include "server/service/grpc_server.h"
 #include "server/service/map_server.h"
 #include "server/service/query_adapter.h"
-#ifdef LOCI_HAVE_DETECTION
-#include "detection/detector_options.h"
-#endif
+#include "server/service/server_detector.h"
 
 namespace {
-
-loci::StatusOr<std::shared_ptr<loci::detection::Detector>> MakeServerDetector(
-    const loci::server::ServerOptions& options, const std::string& config_path) {
-  if (!options.detector_enabled) return std::shared_ptr<loci::detection::Detector>();
-#ifdef LOCI_HAVE_DETECTION
-  const loci::ConfigFileScope scope(config_path);
-  LOCI_ASSIGN_OR_RETURN(auto det_options, loci::detection::DetectorOptions::FromYaml(
-                                              options.detector_config, loci::SourceDir()));
-  LOCI_ASSIGN_OR_RETURN(auto detector, loci::detection::MakeDetector(det_options));
-  spdlog::info("server-side detector: {}", detector->Name());
-  return std::shared_ptr<loci::detection::Detector>(std::move(detector));
-#else
-  return absl::FailedPreconditionError(
-      "detector.enabled is set but loci-server was built "
-      "without the detection module");
-#endif
-}
 
 // Without tokens every caller is admin: refuse to serve anything but loopback.
 loci::Status CheckExposure(const loci::server::ServerOptions& options,
@@ -130,7 +111,7 @@ int main(int argc, char** argv) {
   sigaddset(&signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
-  auto detector = MakeServerDetector(options, config_path);
+  auto detector = loci::server::MakeServerDetector(options, config_path);
   if (!detector.ok()) {
     std::cerr << "error: " << detector.status().message() << "\n";
     return 2;

@@ -245,6 +245,14 @@ grpc::Status QueryService::GetStats(loci::v1::GetStatsResponse* resp) {
   resp->set_ingest_ms_mean(server_->ingest_ms_mean());
   resp->set_frame_up_source(server_->mapper().FrameSource());
   resp->set_frame_settled(server_->mapper().FrameSettled());
+  auto bytes = server_->store().Bytes();
+  if (!bytes.ok()) return ToGrpc(bytes.status());
+  auto per = [](uint64_t total, uint64_t n) { return n == 0 ? 0.0 : double(total) / double(n); };
+  resp->set_raw_bytes_per_keyframe(per(bytes->raw_bytes, bytes->keyframes_with_raw));
+  resp->set_product_bytes_per_keyframe(per(bytes->product_bytes, bytes->products));
+  resp->set_keyframes_with_raw(bytes->keyframes_with_raw);
+  resp->set_keyframes_with_products(bytes->products);
+  resp->set_checkpoint_bytes(bytes->checkpoint_bytes);
   return grpc::Status::OK;
 }
 
@@ -252,6 +260,7 @@ grpc::Status QueryService::GetTrajectories(grpc::ServerContext* ctx,
                                            const loci::v1::GetTrajectoriesRequest* req,
                                            loci::v1::GetTrajectoriesResponse* resp) {
   if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
+  if (Status ready = server_->CheckReady(); !ready.ok()) return ToGrpc(ready);
   const std::set<std::string> wanted(req->robots().begin(), req->robots().end());
   for (const auto& [robot, traj] : server_->mapper().Trajectories()) {
     if (!wanted.empty() && !wanted.count(robot)) continue;
