@@ -26,6 +26,37 @@ void FusedObject::AddPoints(const std::vector<ColoredPoint>& points_m) {
   RecomputeGeometry();
 }
 
+void FusedObject::MovePoints(const std::vector<ColoredPoint>& old_m,
+                             const std::vector<ColoredPoint>& new_m) {
+  std::unordered_set<VoxelKey> old_cells, new_cells;
+  for (const ColoredPoint& cp : old_m) {
+    const Eigen::Vector3d p = cp.p_m.cast<double>();
+    old_cells.insert(KeyOf(p, support_.cell_m));
+    auto it = voxels_.find(KeyOf(p, voxel_m_));
+    if (it == voxels_.end()) continue;  // not this object's (it never held the observation)
+    Voxel& v = it->second;
+    v.sum_m -= p;
+    v.rgb_sum -= Eigen::Vector3d((cp.rgb >> 16) & 0xff, (cp.rgb >> 8) & 0xff, cp.rgb & 0xff);
+    if (--v.count == 0) voxels_.erase(it);
+  }
+  for (VoxelKey key : old_cells) {
+    auto it = cells_.find(key);
+    if (it != cells_.end() && --it->second.observations == 0) cells_.erase(it);
+  }
+  for (const ColoredPoint& cp : new_m) {
+    const Eigen::Vector3d p = cp.p_m.cast<double>();
+    new_cells.insert(KeyOf(p, support_.cell_m));
+    Voxel& v = voxels_[KeyOf(p, voxel_m_)];
+    v.sum_m += p;
+    v.rgb_sum += Eigen::Vector3d((cp.rgb >> 16) & 0xff, (cp.rgb >> 8) & 0xff, cp.rgb & 0xff);
+    ++v.count;
+  }
+  // A moved observation counts once per cell, as in AddPoints (its tag stays below every
+  // later AddPoints tag).
+  for (VoxelKey key : new_cells) ++cells_[key].observations;
+  RecomputeGeometry();
+}
+
 void FusedObject::Absorb(const FusedObject& other) {
   for (const auto& [key, ov] : other.voxels_) {
     Voxel& v = voxels_[key];

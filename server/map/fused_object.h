@@ -60,6 +60,9 @@ class FusedObject {
 
   // Adds one observation's points (map frame); each voxel keeps the mean of its points.
   void AddPoints(const std::vector<ColoredPoint>& points_m);
+  // Moves one earlier observation: takes out its points as they were added (old_m, exactly the
+  // same values) and adds them at their new place (new_m); labels and bookkeeping stay.
+  void MovePoints(const std::vector<ColoredPoint>& old_m, const std::vector<ColoredPoint>& new_m);
   // Absorbs another object (duplicate merge): points, labels, bookkeeping.
   void Absorb(const FusedObject& other);
   // Records one keyframe's observation of this object.

@@ -5,6 +5,7 @@
 #include <unordered_map>
 
 #include "server/map/keyframe_products.h"
+#include "server/map/map_points.h"
 
 namespace loci::server {
 namespace {
@@ -85,15 +86,13 @@ MapObservation ToMap(const ObjectObservation& o, const MapperKeyframe& kf,
   m.track_id = o.track_id;
   m.class_name = o.class_name;
   m.score = o.score;
-  m.points_m.reserve(o.cloud_kf.size());
+  m.points_m = ObservationPointsMap(o, T_map_kf);
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   Eigen::Vector3f lo = Eigen::Vector3f::Constant(1e30f), hi = -lo;
-  for (const auto& p : o.cloud_kf) {
-    const Eigen::Vector3f q = T_map_kf * p.getVector3fMap();
-    m.points_m.push_back({q, PackRgb(p.r, p.g, p.b)});
-    sum += q.cast<double>();
-    lo = lo.cwiseMin(q);
-    hi = hi.cwiseMax(q);
+  for (const ColoredPoint& q : m.points_m) {
+    sum += q.p_m.cast<double>();
+    lo = lo.cwiseMin(q.p_m);
+    hi = hi.cwiseMax(q.p_m);
   }
   // The same centroid definition as the fused objects (FusionOptions::centroid_from_box).
   m.centroid_m = centroid_from_box ? Eigen::Vector3d((0.5f * (lo + hi)).cast<double>())
@@ -103,6 +102,25 @@ MapObservation ToMap(const ObjectObservation& o, const MapperKeyframe& kf,
 }
 
 }  // namespace
+
+void Mapper::AppendEvents(const std::vector<ObjectChange>& changes,
+                          std::vector<ObjectEventOut>* events) const {
+  for (const ObjectChange& c : changes) {
+    ObjectEventOut e;
+    e.kind = c.kind;
+    e.merged_from_id = c.merged_from_id;
+    if (c.kind == ObjectChange::Kind::kRemoved) {  // gone: its last state, its own id
+      e.object = c.removed_state;
+      e.object.id = c.object_id;
+      events->push_back(std::move(e));
+      continue;
+    }
+    const FusedObject* obj = objects_.Find(objects_.Resolve(c.object_id));
+    if (obj != nullptr) e.object = obj->Snapshot();
+    e.object.id = objects_.Resolve(c.object_id);
+    events->push_back(std::move(e));
+  }
+}
 
 KeyframeProducts Mapper::BuildProducts(const MapperKeyframe& kf) const {
   return BuildKeyframeProducts(kf.bgr, kf.depth_m, kf.camera, kf.detections, options_,
@@ -222,11 +240,7 @@ std::vector<int64_t> Mapper::IntegrateProducts(const MapperKeyframe& kf,
     observations.push_back(ToMap(o, kf, T_map_kf_f, options_.fusion.centroid_from_box));
   }
   std::vector<int64_t> ids;
-  std::vector<Eigen::Vector3f> static_points_m;
-  static_points_m.reserve(products.static_cloud_kf.size());
-  for (const auto& p : products.static_cloud_kf) {
-    static_points_m.push_back(T_map_kf_f * p.getVector3fMap());
-  }
+  std::vector<SemanticPoint> points;
   {
     std::lock_guard<std::mutex> lock(mu_);
     double t0 = ThreadCpuMs();
@@ -235,31 +249,11 @@ std::vector<int64_t> Mapper::IntegrateProducts(const MapperKeyframe& kf,
     const KeyframeView view{&kf.camera, &products.visibility_depth_m, products.depth_stride,
                             T_map_kf.inverse(), &products.detection_boxes};
     objects_.ObserveView(view, ids, &changes);
-    for (const ObjectChange& c : changes) {
-      ObjectEventOut e;
-      e.kind = c.kind;
-      e.merged_from_id = c.merged_from_id;
-      if (c.kind == ObjectChange::Kind::kRemoved) {  // gone: its last state, its own id
-        e.object = c.removed_state;
-        e.object.id = c.object_id;
-        events->push_back(std::move(e));
-        continue;
-      }
-      const FusedObject* obj = objects_.Find(objects_.Resolve(c.object_id));
-      if (obj != nullptr) e.object = obj->Snapshot();
-      e.object.id = objects_.Resolve(c.object_id);
-      events->push_back(std::move(e));
-    }
+    AppendEvents(changes, events);
     times->fusion_ms = MsSince(t0);
 
     t0 = ThreadCpuMs();
-    std::vector<SemanticPoint> points;
-    points.reserve(static_points_m.size());
-    for (size_t i = 0; i < static_points_m.size(); ++i) {
-      const auto& p = products.static_cloud_kf[i];
-      const int64_t object_id = p.label > 0 && p.label <= ids.size() ? ids[p.label - 1] : 0;
-      points.push_back({static_points_m[i], PackRgb(p.r, p.g, p.b), object_id});
-    }
+    points = StaticPointsMap(products, T_map_kf_f, ids);
     cloud_.Add(points);
     times->cloud_ms = MsSince(t0);
 
@@ -271,21 +265,21 @@ std::vector<int64_t> Mapper::IntegrateProducts(const MapperKeyframe& kf,
     if (kf.t_ns >= pose.t_ns) pose = {kf.t_ns, T_map_kf};
     ++stats_.keyframes;
   }
-  if (octomap_) PushOctomap(static_points_m, T_map_kf.translation());
+  if (octomap_) PushOctomap(points, T_map_kf.translation());
   AddTimes(*times);
   return ids;
 }
 
-void Mapper::PushOctomap(const std::vector<Eigen::Vector3f>& static_points_m,
+void Mapper::PushOctomap(const std::vector<SemanticPoint>& static_points_m,
                          const Vec3d& origin_m) {
   // One ray per OctoMap leaf is enough: thin the cloud to the OctoMap resolution first.
   OctomapJob job;
   job.origin_m = origin_m;
   std::unordered_map<VoxelKey, std::pair<Eigen::Vector3f, int>> leaves;
-  for (const Eigen::Vector3f& p : static_points_m) {
-    auto& [sum, n] = leaves[KeyOf(p.cast<double>(), options_.octomap.resolution_m)];
+  for (const SemanticPoint& sp : static_points_m) {
+    auto& [sum, n] = leaves[KeyOf(sp.p_m.cast<double>(), options_.octomap.resolution_m)];
     if (n == 0) sum.setZero();
-    sum += p;
+    sum += sp.p_m;
     ++n;
   }
   job.points_m.reserve(leaves.size());

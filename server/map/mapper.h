@@ -108,6 +108,20 @@ class Mapper {
   // Id of the last keyframe integrated (0 = none).
   int64_t last_keyframe_id() const;
 
+  // Moves mapped keyframes to new poses (T_base_kf; loop closure, robot alignment) and
+  // re-derives what they touch (mapper_poses.cc): their object points and cloud points leave
+  // the old place and enter the new one, and moved objects that now coincide with others merge.
+  // Emits UPDATED / MERGED / REMOVED events. Products come from `source` (the store). Call on
+  // the mapping thread, between Integrate calls. NotFound for an unmapped keyframe (nothing
+  // moves); the OctoMap does not follow yet (it keeps the old poses until a reprocess).
+  using ProductSource = std::function<StatusOr<KeyframeProducts>(int64_t keyframe_id)>;
+  struct KeyframePoseUpdate {
+    int64_t keyframe_id = 0;
+    SE3d T_base_kf = SE3d::Identity();
+  };
+  StatusOr<size_t> UpdateKeyframePoses(const std::vector<KeyframePoseUpdate>& updates,
+                                       const ProductSource& source);
+
   // Called (on the mapping thread, outside the map's locks) for every object change.
   void SetEventListener(std::function<void(const std::vector<ObjectEventOut>&)> listener);
 
@@ -163,7 +177,13 @@ class Mapper {
   void FixFirstFrame(const MapperKeyframe& kf, const std::optional<Vec3d>& gravity_cam);
   void CollectFrameEvidence(const MapperKeyframe& kf, const std::optional<Vec3d>& gravity_cam,
                             const KeyframeProducts& products);
-  void PushOctomap(const std::vector<Eigen::Vector3f>& static_points_m, const Vec3d& origin_m);
+  void PushOctomap(const std::vector<SemanticPoint>& static_points_m, const Vec3d& origin_m);
+  // Moves keyframe_poses_[index] and its points (mu_ held).
+  void MoveKeyframe(size_t index, const SE3d& T_base_kf, const KeyframeProducts& products,
+                    std::vector<ObjectChange>* changes, std::vector<int64_t>* moved_objects);
+  // Object events of fusion changes, with the objects' state now; call with mu_ held.
+  void AppendEvents(const std::vector<ObjectChange>& changes,
+                    std::vector<ObjectEventOut>* events) const;
   // Fixes the map frame from the settling keyframes and re-derives the map from them.
   void SettleFrame(std::vector<ObjectEventOut>* events);
   void AddTimes(const StageTimes& times);

@@ -155,6 +155,25 @@ int64_t ObjectMap::MergeDuplicates(int64_t id, std::vector<ObjectChange>* change
   return id;
 }
 
+bool ObjectMap::MoveObservation(int64_t object_id, const std::vector<ColoredPoint>& old_m,
+                                const std::vector<ColoredPoint>& new_m,
+                                std::vector<ObjectChange>* changes) {
+  const int64_t id = Resolve(object_id);
+  auto it = objects_.find(id);
+  if (it == objects_.end()) return false;
+  it->second.MovePoints(old_m, new_m);
+  changes->push_back({ObjectChange::Kind::kUpdated, id, 0, {}});
+  return true;
+}
+
+void ObjectMap::MergeMoved(const std::vector<int64_t>& object_ids,
+                           std::vector<ObjectChange>* changes) {
+  for (int64_t object_id : object_ids) {
+    const int64_t id = Resolve(object_id);
+    if (objects_.count(id)) MergeDuplicates(id, changes);
+  }
+}
+
 void ObjectMap::ObserveView(const KeyframeView& view, const std::vector<int64_t>& observed_ids,
                             std::vector<ObjectChange>* changes) {
   std::unordered_set<int64_t> observed;

@@ -17,6 +17,21 @@ void SemanticCloud::Add(const std::vector<SemanticPoint>& points_m) {
   }
 }
 
+void SemanticCloud::Remove(const std::vector<SemanticPoint>& points_m) {
+  for (const SemanticPoint& sp : points_m) {
+    auto it = voxels_.find(KeyOf(sp.p_m.cast<double>(), voxel_m_));
+    if (it == voxels_.end()) continue;
+    Voxel& v = it->second;
+    if (--v.count == 0) {
+      voxels_.erase(it);
+      continue;
+    }
+    v.sum_m -= sp.p_m;
+    v.rgb_sum -= Eigen::Vector3f((sp.rgb >> 16) & 0xff, (sp.rgb >> 8) & 0xff, sp.rgb & 0xff);
+    if (v.object_id == sp.object_id && v.votes > 0) --v.votes;
+  }
+}
+
 std::vector<SemanticPoint> SemanticCloud::Points(double voxel_m,
                                                  const std::function<int64_t(int64_t)>& resolve,
                                                  const std::function<bool(int64_t)>& keep) const {

@@ -29,6 +29,10 @@ class SemanticCloud {
 
   // Adds points already in the map frame.
   void Add(const std::vector<SemanticPoint>& points_m);
+  // Takes out points added earlier (the same values; a keyframe that moves). A voxel's majority
+  // object id is a running vote: a removed point of the leading id takes one vote back, others
+  // leave it as it is.
+  void Remove(const std::vector<SemanticPoint>& points_m);
   // Points downsampled to voxel_m (<= the cloud's voxel: every voxel as is); object ids mapped
   // through `resolve` (merged objects); `keep` filters by resolved object id.
   std::vector<SemanticPoint> Points(double voxel_m, const std::function<int64_t(int64_t)>& resolve,

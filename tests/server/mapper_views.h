@@ -9,8 +9,11 @@
 
 namespace loci::server::testing {
 
-// n keyframes (ids 1..n, robot1, 1 s apart) looking at the boxes from an arc of 70 degrees.
-std::vector<MapperKeyframe> Views(const std::vector<WorldBox>& boxes, int n, bool masks);
+// n keyframes (ids first_id.., robot1, 1 s apart) looking at `target` from an arc of 70
+// degrees, 1.4 m out and 0.9 m up.
+std::vector<MapperKeyframe> Views(const std::vector<WorldBox>& boxes, int n, bool masks,
+                                  const Eigen::Vector3d& target = {0.1, 0.05, 0.05},
+                                  int64_t first_id = 1);
 
 // Map options for DefaultBoxes: book, cup, laptop mapped; person dynamic.
 MapOptions BoxWorldOptions();

@@ -1,0 +1,81 @@
+// Mapper::UpdateKeyframePoses: keyframes whose poses changed (loop closure, robot alignment)
+// move their contribution to the objects and the cloud: what they added at the old pose comes
+// out, the same products go back in at the new pose, and moved objects that now coincide with
+// others merge. Only the moved keyframes' products are read.
+#include <algorithm>
+
+#include "server/map/map_points.h"
+#include "server/map/mapper.h"
+
+namespace loci::server {
+
+StatusOr<size_t> Mapper::UpdateKeyframePoses(const std::vector<KeyframePoseUpdate>& updates,
+                                             const ProductSource& source) {
+  if (!frame_settled_) {
+    return absl::FailedPreconditionError(
+        "keyframe poses can change once the map frame is settled (the first keyframes)");
+  }
+  std::vector<size_t> index;  // into keyframe_poses_, per update
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    for (const KeyframePoseUpdate& u : updates) {
+      if (!u.T_base_kf.matrix().allFinite()) {
+        return absl::InvalidArgumentError(absl::StrCat("pose of keyframe ", u.keyframe_id,
+                                                       " is not finite"));
+      }
+      auto it = std::lower_bound(
+          keyframe_poses_.begin(), keyframe_poses_.end(), u.keyframe_id,
+          [](const KeyframePose& k, int64_t id) { return k.keyframe_id < id; });
+      if (it == keyframe_poses_.end() || it->keyframe_id != u.keyframe_id) {
+        return absl::NotFoundError(absl::StrCat("keyframe ", u.keyframe_id, " is not mapped"));
+      }
+      index.push_back(static_cast<size_t>(it - keyframe_poses_.begin()));
+    }
+  }
+  std::vector<ObjectChange> changes;
+  std::vector<int64_t> moved_objects;
+  Status status;
+  size_t moved = 0;
+  for (size_t i = 0; i < updates.size(); ++i) {
+    StatusOr<KeyframeProducts> products = source(updates[i].keyframe_id);
+    if (!products.ok()) {
+      status = products.status();  // the keyframes before it moved; this one and the rest not
+      break;
+    }
+    std::lock_guard<std::mutex> lock(mu_);
+    MoveKeyframe(index[i], updates[i].T_base_kf, *products, &changes, &moved_objects);
+    ++moved;
+  }
+  std::vector<ObjectEventOut> events;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    objects_.MergeMoved(moved_objects, &changes);
+    AppendEvents(changes, &events);
+  }
+  if (listener_ && !events.empty()) listener_(events);
+  if (!status.ok()) return status;
+  return moved;
+}
+
+void Mapper::MoveKeyframe(size_t index, const SE3d& T_base_kf, const KeyframeProducts& products,
+                          std::vector<ObjectChange>* changes, std::vector<int64_t>* moved_objects) {
+  KeyframePose& k = keyframe_poses_[index];
+  const Eigen::Isometry3f T_old = (T_map_base_ * k.T_base_kf).cast<float>();
+  const SE3d T_map_kf_new = T_map_base_ * T_base_kf;
+  const Eigen::Isometry3f T_new = T_map_kf_new.cast<float>();
+  const size_t n = std::min(products.observations.size(), k.observation_object_ids.size());
+  for (size_t i = 0; i < n; ++i) {
+    const ObjectObservation& o = products.observations[i];
+    if (objects_.MoveObservation(k.observation_object_ids[i], ObservationPointsMap(o, T_old),
+                                 ObservationPointsMap(o, T_new), changes)) {
+      moved_objects->push_back(k.observation_object_ids[i]);
+    }
+  }
+  cloud_.Remove(StaticPointsMap(products, T_old, k.observation_object_ids));
+  cloud_.Add(StaticPointsMap(products, T_new, k.observation_object_ids));
+  k.T_base_kf = T_base_kf;
+  RobotPose& latest = latest_poses_[k.robot];
+  if (latest.t_ns == k.t_ns) latest.T_map_cam = T_map_kf_new;
+}
+
+}  // namespace loci::server
