@@ -27,6 +27,9 @@ struct ServerOptions {
   double stamp_backwards_ms = 1000.0;
   int max_watchers = 64;  // WatchObjects streams at once (each holds a thread); more: RESOURCE_EXHAUSTED
   int decode_slots = 4;  // keyframes validated (images decoded) at once; more wait (4)
+  // HTTP /api/events streams at once (each holds one of the HTTP API's 32 worker threads); more
+  // are answered 503. In [0, 16].
+  int max_event_clients = 8;
   // Server-side detector for keyframes that arrive without detections (section `detector`:
   // `enabled` (default false) plus the keys of detection::DetectorOptions).
   bool detector_enabled = false;
