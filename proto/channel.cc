@@ -93,9 +93,9 @@ Status WaitForServing(grpc::Channel& channel, std::chrono::system_clock::time_po
   const auto t0 = Clock::now();
   auto next_note = t0 + std::chrono::seconds(2);
   std::string last = "no answer";
-  while (true) {
+  for (auto now = Clock::now(); now < deadline; now = Clock::now()) {
     grpc::ClientContext ctx;
-    ctx.set_deadline(std::min(deadline, Clock::now() + std::chrono::seconds(2)));
+    ctx.set_deadline(std::min(deadline, now + std::chrono::seconds(2)));
     ctx.set_wait_for_ready(true);  // a server still binding its port is waited for, not failed
     grpc::health::v1::HealthCheckRequest req;
     grpc::health::v1::HealthCheckResponse resp;
@@ -106,19 +106,19 @@ Status WaitForServing(grpc::Channel& channel, std::chrono::system_clock::time_po
     if (s.error_code() == grpc::StatusCode::UNIMPLEMENTED) return absl::OkStatus();
     last = s.ok() ? grpc::health::v1::HealthCheckResponse::ServingStatus_Name(resp.status())
                   : s.error_message();
-    const auto now = Clock::now();
-    if (now >= deadline) {
-      return absl::UnavailableError(
-          absl::StrCat("loci-server not SERVING after ",
-                       static_cast<int>(std::chrono::duration<double>(now - t0).count()),
-                       " s (health: ", last, ")"));
-    }
+    now = Clock::now();
     if (on_wait && now >= next_note) {
       on_wait(std::chrono::duration<double>(now - t0).count(), last);
       next_note = now + std::chrono::seconds(2);
     }
-    std::this_thread::sleep_until(std::min(deadline, now + std::chrono::milliseconds(500)));
+    const auto next = now + std::chrono::milliseconds(500);
+    if (next >= deadline) break;
+    std::this_thread::sleep_until(next);
   }
+  return absl::UnavailableError(absl::StrCat(
+      "loci-server not SERVING after ",
+      static_cast<int>(std::chrono::duration<double>(Clock::now() - t0).count()), " s (health: ",
+      last, ")"));
 }
 
 }  // namespace loci

@@ -1,17 +1,28 @@
 #!/usr/bin/env bash
 # The main job (./loci.sh demo): a real loci-server on loopback with a fresh SQLite map, loci-track
 # streaming a real TUM sequence with YOLOX-Nano detection, then questions, ATE and exports.
-# usage: scripts/demo.sh BIN_DIR [TUM_DIR]
+# usage: scripts/demo.sh BIN_DIR [TUM_DIR] [--serve]
+# --serve: after the questions, keep the server up for the web viewer (its URL is printed) until
+# Ctrl-C, then stop it and write the exports.
 # Data: TUM_DIR, else ../shared/data/tum_fr1_rpy next to the repo, else $LOCI_DATA (a TUM folder or
 # a folder holding tum_fr1_rpy), else the 60-frame sample shipped in tests/data.
 # Environment: LOCI_DEMO_OUT (output folder, default out/demo-DATE), LOCI_DEMO_MAX_FRAMES (0 = all).
 set -euo pipefail
 
 if [ $# -lt 1 ] || [ ! -x "$1/loci-server" ] || [ ! -x "$1/loci-track" ] || [ ! -x "$1/loci" ]; then
-  echo "usage: $0 BIN_DIR [TUM_DIR]  (BIN_DIR holds loci-server, loci-track and loci)" >&2
+  echo "usage: $0 BIN_DIR [TUM_DIR] [--serve]  (BIN_DIR holds loci-server, loci-track and loci)" >&2
   exit 2
 fi
 BIN="$(cd "$1" && pwd)"
+shift
+SERVE=0
+TUM_ARG=""
+for arg in "$@"; do
+  case "$arg" in
+    --serve) SERVE=1 ;;
+    *) TUM_ARG="$arg" ;;
+  esac
+done
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 START_S=$(date +%s.%N)
 log() { printf '\033[1;32m[demo]\033[0m %s\n' "$*" >&2; }
@@ -28,7 +39,7 @@ pick_data() {
   fi
   echo "$ROOT/tests/data/tum_fr1_rpy_sample"
 }
-DATA="$(pick_data "${2:-}")"
+DATA="$(pick_data "$TUM_ARG")"
 [ -f "$DATA/rgb.txt" ] || { log "no TUM sequence in $DATA (rgb.txt missing)"; exit 2; }
 OUT="${LOCI_DEMO_OUT:-$ROOT/out/demo-$(date +%Y%m%d-%H%M%S)}"
 mkdir -p "$OUT"
@@ -54,6 +65,9 @@ for _ in $(seq 1 300); do
 done
 [ -n "$ADDR" ] || { log "loci-server did not start within 30 s"; exit 1; }
 log "loci-server (pid $SERVER_PID) listening on $ADDR, log $OUT/server.log"
+if [ "$HTTP_PORT" != 0 ]; then
+  log "web viewer: http://127.0.0.1:$HTTP_PORT/ (live while the demo runs; --serve keeps it up)"
+fi
 
 log "loci-track: odometry + YOLOX-Nano on keyframes, streaming to $ADDR"
 MAX_FRAMES_ARGS=()
@@ -94,8 +108,15 @@ if [ "$HTTP_PORT" != 0 ] && command -v curl >/dev/null &&
   echo "${body:0:400}"
 fi
 
+if [ "$SERVE" = 1 ] && [ "$HTTP_PORT" != 0 ]; then
+  log "serving the map: open http://127.0.0.1:$HTTP_PORT/ in a browser; Ctrl-C stops the server"
+  log "  (on another machine: ssh -L $HTTP_PORT:127.0.0.1:$HTTP_PORT THIS_HOST, then the same URL)"
+  trap 'log "Ctrl-C"' INT
+  wait "$SERVER_PID" || true  # returns on Ctrl-C (the trap), or if the server dies
+  trap - INT
+fi
 log "stopping the server (SIGTERM)"
-kill -TERM "$SERVER_PID"
+kill -TERM "$SERVER_PID" 2>/dev/null || true
 rc=0
 wait "$SERVER_PID" || rc=$?
 trap - EXIT

@@ -9,6 +9,7 @@
 #include "common/config.h"
 #include "query/query_options.h"
 #include "server/http/http_api.h"
+#include "server/http/viewer_files.h"
 #include "server/service/grpc_server.h"
 #include "server/service/map_server.h"
 #include "server/service/query_adapter.h"
@@ -33,11 +34,22 @@ loci::Status CheckExposure(const loci::server::ServerOptions& options,
   return loci::Status();
 }
 
+// The viewer folder to serve: the flag's ("off": none), else the default one when it is there.
+std::string ViewerDir(const std::string& flag) {
+  if (flag == "off") return "";
+  if (!flag.empty()) return flag;
+  const std::string dir = loci::server::DefaultViewerDir();
+  if (loci::server::HasViewer(dir)) return dir;
+  spdlog::warn("no web viewer at {} (build the loci_viewer target or pass --viewer-dir); / is 404",
+               dir);
+  return "";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"loci-server: semantic map server for robot fleets"};
-  std::string config_path, listen, db, http, query_config, log_level = "info";
+  std::string config_path, listen, db, http, query_config, viewer_dir, log_level = "info";
   bool strict_config = false;
   std::string token_file;
   loci::server::TlsFiles tls;
@@ -46,6 +58,9 @@ int main(int argc, char** argv) {
   app.add_option("--listen", listen, "gRPC address HOST:PORT [127.0.0.1:50051]");
   app.add_option("--db", db, "SQLite database file [./loci.db]");
   app.add_option("--http", http, "HTTP/JSON API address HOST:PORT or off [off]");
+  app.add_option("--viewer-dir", viewer_dir,
+                 "web viewer files served at http://HOST:PORT/ (off = none) [$LOCI_HOME/viewer, "
+                 "else ../share/loci/viewer beside this binary]");
   app.add_option("--query-config", query_config,
                  "query engine YAML (see config/query.yaml) [built-in defaults]")
       ->check(CLI::ExistingFile);
@@ -130,9 +145,13 @@ int main(int argc, char** argv) {
     return 1;
   }
   std::unique_ptr<loci::server::HttpApi> http_api;
+  std::string viewer_served;
   if (options.http != "off") {
+    const loci::server::HttpOptions http_options{
+        .viewer_dir = ViewerDir(viewer_dir), .max_event_clients = options.max_event_clients};
+    viewer_served = http_options.viewer_dir;
     auto h = loci::server::HttpApi::Start(&(*grpc)->query_service(), options.http,
-                                          &(*grpc)->auth(), tls);
+                                          &(*grpc)->auth(), tls, http_options);
     if (!h.ok()) {
       std::cerr << "error: " << h.status().message() << "\n";
       return 1;
@@ -145,6 +164,10 @@ int main(int argc, char** argv) {
   if (http_api) {
     const std::string http_host = options.http.substr(0, options.http.rfind(':'));
     std::cout << "http on " << http_host << ":" << http_api->port() << std::endl;
+    if (!viewer_served.empty()) {
+      spdlog::info("web viewer: http://{}:{}/ (files from {})", http_host, http_api->port(),
+                   viewer_served);
+    }
   }
   spdlog::info("loci-server: db {}; loading the map", options.db_path);
 

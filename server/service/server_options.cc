@@ -16,9 +16,9 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
                                         {"listen", "db", "http", "max_message_mb", "queue_capacity",
                                          "max_detections", "max_image_px", "map_extent_m", "max_future_s",
                                          "stamp_backwards_ms", "decode_slots", "max_watchers",
-                                         "classes_file", "checkpoint_keyframes",
-                                         "checkpoint_interval_s", "raw_keep_days",
-                                         "raw_keep_last"}));
+                                         "classes_file", "max_event_clients",
+                                         "checkpoint_keyframes", "checkpoint_interval_s",
+                                         "raw_keep_days", "raw_keep_last"}));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "listen", &listen));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "db", &db_path));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "http", &http));
@@ -31,6 +31,7 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "stamp_backwards_ms", &stamp_backwards_ms));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "decode_slots", &decode_slots));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "max_watchers", &max_watchers));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "max_event_clients", &max_event_clients));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "classes_file", &classes_file));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "checkpoint_keyframes", &checkpoint_keyframes));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "checkpoint_interval_s", &checkpoint_interval_s));
@@ -87,6 +88,9 @@ Status ServerOptions::ValidateLimits() const {
   }
   if (max_watchers < 0 || max_watchers > 10'000) {
     return absl::InvalidArgumentError("server.max_watchers must be in [0, 10000]");
+  }
+  if (max_event_clients < 0 || max_event_clients > 16) {
+    return absl::InvalidArgumentError("server.max_event_clients must be in [0, 16]");
   }
   if (decode_slots < 1 || decode_slots > 256) {
     return absl::InvalidArgumentError("server.decode_slots must be in [1, 256]");

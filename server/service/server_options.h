@@ -27,9 +27,12 @@ struct ServerOptions {
   double stamp_backwards_ms = 1000.0;
   int max_watchers = 64;  // WatchObjects streams at once (each holds a thread); more: RESOURCE_EXHAUSTED
   int decode_slots = 4;  // keyframes validated (images decoded) at once; more wait (4)
+  // HTTP /api/events streams at once (each holds one of the HTTP API's 32 worker threads); more
+  // are answered 503. In [0, 16].
+  int max_event_clients = 8;
   // A checkpoint of the derived map is written after this many mapped keyframes or this many
-  // seconds with keyframes, whichever comes first, and at shutdown (500, 300 s).
-  int checkpoint_keyframes = 500;
+  // seconds with keyframes, whichever comes first, and at shutdown (100, 300 s).
+  int checkpoint_keyframes = 100;
   double checkpoint_interval_s = 300.0;
   // Retention of the raw keyframe images, applied after each checkpoint to keyframes whose
   // products are stored: images older than raw_keep_days are dropped (-1 = kept forever,

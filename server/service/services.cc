@@ -169,12 +169,17 @@ grpc::Status QueryService::GetObject(const loci::v1::GetObjectRequest& req,
 grpc::Status QueryService::GetCloud(grpc::ServerContext* ctx, const loci::v1::GetCloudRequest* req,
                                     loci::v1::GetCloudResponse* resp) {
   if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
+  return GetCloud(*req, resp);
+}
+
+grpc::Status QueryService::GetCloud(const loci::v1::GetCloudRequest& req,
+                                    loci::v1::GetCloudResponse* resp) {
   if (Status ready = server_->CheckReady(); !ready.ok()) return ToGrpc(ready);
-  if (!std::isfinite(req->voxel_m()) || req->voxel_m() < 0) {
+  if (!std::isfinite(req.voxel_m()) || req.voxel_m() < 0) {
     return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "voxel_m must be finite and >= 0");
   }
-  const std::vector<std::string> classes(req->classes().begin(), req->classes().end());
-  for (const SemanticPoint& p : server_->mapper().Cloud(req->voxel_m(), classes)) {
+  const std::vector<std::string> classes(req.classes().begin(), req.classes().end());
+  for (const SemanticPoint& p : server_->mapper().Cloud(req.voxel_m(), classes)) {
     ToProto(p, resp->add_points());
   }
   return grpc::Status::OK;
@@ -191,6 +196,34 @@ grpc::Status QueryService::GetOctomap(grpc::ServerContext* ctx,
   return grpc::Status::OK;
 }
 
+void ToProto(const ObjectEventOut& in, int64_t t_ns, loci::v1::ObjectEvent* out) {
+  switch (in.kind) {
+    case ObjectChange::Kind::kCreated:
+      out->set_kind(loci::v1::ObjectEvent::CREATED);
+      break;
+    case ObjectChange::Kind::kUpdated:
+      out->set_kind(loci::v1::ObjectEvent::UPDATED);
+      break;
+    case ObjectChange::Kind::kMerged:
+      out->set_kind(loci::v1::ObjectEvent::MERGED);
+      break;
+    case ObjectChange::Kind::kRemoved:
+      out->set_kind(loci::v1::ObjectEvent::REMOVED);
+      break;
+  }
+  ToProto(in.object, out->mutable_object());
+  out->set_merged_from_id(in.merged_from_id);
+  out->set_t_ns(t_ns);
+}
+
+Status QueryService::SubscribeObjects(std::shared_ptr<ObjectEventQueue> queue) {
+  return server_->Subscribe(std::move(queue));
+}
+
+void QueryService::UnsubscribeObjects(const std::shared_ptr<ObjectEventQueue>& queue) {
+  server_->Unsubscribe(queue);
+}
+
 grpc::Status QueryService::WatchObjects(grpc::ServerContext* ctx,
                                         const loci::v1::WatchObjectsRequest*,
                                         grpc::ServerWriter<loci::v1::ObjectEvent>* writer) {
@@ -204,23 +237,7 @@ grpc::Status QueryService::WatchObjects(grpc::ServerContext* ctx,
     std::optional<ObjectEventOut> e = queue->PopFor(std::chrono::milliseconds(200));
     if (!e) continue;
     loci::v1::ObjectEvent msg;
-    switch (e->kind) {
-      case ObjectChange::Kind::kCreated:
-        msg.set_kind(loci::v1::ObjectEvent::CREATED);
-        break;
-      case ObjectChange::Kind::kUpdated:
-        msg.set_kind(loci::v1::ObjectEvent::UPDATED);
-        break;
-      case ObjectChange::Kind::kMerged:
-        msg.set_kind(loci::v1::ObjectEvent::MERGED);
-        break;
-      case ObjectChange::Kind::kRemoved:
-        msg.set_kind(loci::v1::ObjectEvent::REMOVED);
-        break;
-    }
-    ToProto(e->object, msg.mutable_object());
-    msg.set_merged_from_id(e->merged_from_id);
-    msg.set_t_ns(NowNs());
+    ToProto(*e, NowNs(), &msg);
     if (!writer->Write(msg)) break;
   }
   server_->Unsubscribe(queue);
@@ -245,6 +262,7 @@ grpc::Status QueryService::GetStats(loci::v1::GetStatsResponse* resp) {
   resp->set_ingest_ms_mean(server_->ingest_ms_mean());
   resp->set_frame_up_source(server_->mapper().FrameSource());
   resp->set_frame_settled(server_->mapper().FrameSettled());
+  resp->set_mapped_keyframes(s.keyframes);
   auto bytes = server_->store().Bytes();
   if (!bytes.ok()) return ToGrpc(bytes.status());
   auto per = [](uint64_t total, uint64_t n) { return n == 0 ? 0.0 : double(total) / double(n); };
@@ -260,8 +278,13 @@ grpc::Status QueryService::GetTrajectories(grpc::ServerContext* ctx,
                                            const loci::v1::GetTrajectoriesRequest* req,
                                            loci::v1::GetTrajectoriesResponse* resp) {
   if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
+  return GetTrajectories(*req, resp);
+}
+
+grpc::Status QueryService::GetTrajectories(const loci::v1::GetTrajectoriesRequest& req,
+                                           loci::v1::GetTrajectoriesResponse* resp) {
   if (Status ready = server_->CheckReady(); !ready.ok()) return ToGrpc(ready);
-  const std::set<std::string> wanted(req->robots().begin(), req->robots().end());
+  const std::set<std::string> wanted(req.robots().begin(), req.robots().end());
   for (const auto& [robot, traj] : server_->mapper().Trajectories()) {
     if (!wanted.empty() && !wanted.count(robot)) continue;
     loci::v1::Trajectory* t = resp->add_trajectories();

@@ -45,6 +45,13 @@ class QueryService final : public loci::v1::Query::Service {
                            loci::v1::FindObjectsResponse* resp);
   grpc::Status GetObject(const loci::v1::GetObjectRequest& req, loci::v1::GetObjectResponse* resp);
   grpc::Status GetStats(loci::v1::GetStatsResponse* resp);
+  grpc::Status GetCloud(const loci::v1::GetCloudRequest& req, loci::v1::GetCloudResponse* resp);
+  grpc::Status GetTrajectories(const loci::v1::GetTrajectoriesRequest& req,
+                               loci::v1::GetTrajectoriesResponse* resp);
+  // The object events WatchObjects streams, for other transports (the HTTP event stream): the
+  // same fan-out, RESOURCE_EXHAUSTED beyond server.max_watchers subscribers.
+  Status SubscribeObjects(std::shared_ptr<ObjectEventQueue> queue);
+  void UnsubscribeObjects(const std::shared_ptr<ObjectEventQueue>& queue);
 
   grpc::Status Ask(grpc::ServerContext* ctx, const loci::v1::AskRequest* req,
                    loci::v1::AskResponse* resp) override;
@@ -71,6 +78,9 @@ class QueryService final : public loci::v1::Query::Service {
   const std::shared_ptr<QueryEngine> engine_;
   const Authorizer* const auth_;
 };
+
+// An object event as WatchObjects sends it, stamped t_ns (server wall time).
+void ToProto(const ObjectEventOut& in, int64_t t_ns, loci::v1::ObjectEvent* out);
 
 // absl status <-> grpc status (same code numbering).
 grpc::Status ToGrpc(const Status& s);

@@ -1,5 +1,6 @@
 // Persistent storage of the map server behind an interface (RTAB-Map's DBDriver pattern):
-// sessions and acknowledged keyframes. Map products are derived from keyframes by replay.
+// sessions and acknowledged keyframes (the source of truth), each keyframe's map products (in
+// the keyframe frame, server/map/product_codec.h) and checkpoints of the derived map.
 #pragma once
 
 #include <cstdint>

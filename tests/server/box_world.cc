@@ -39,6 +39,17 @@ SE3d LookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target) {
   return T;
 }
 
+std::vector<SE3d> ArcPoses(int n) {
+  std::vector<SE3d> poses;
+  const Eigen::Vector3d target(0.1, 0.05, 0.05);
+  for (int i = 0; i < n; ++i) {
+    const double az = (-120.0 + 12.0 * i) * M_PI / 180.0;
+    poses.push_back(
+        LookAt(target + Eigen::Vector3d(1.4 * std::cos(az), 1.4 * std::sin(az), 0.9), target));
+  }
+  return poses;
+}
+
 std::vector<WorldBox> DefaultBoxes(bool with_person) {
   std::vector<WorldBox> boxes = {
       {1, "book", {-0.45, 0.0, 0.0}, {-0.25, 0.15, 0.06}, {40, 200, 40}},

@@ -33,6 +33,10 @@ RenderedView Render(const std::vector<WorldBox>& boxes, const PinholeCamera& cam
 // A camera at `eye` looking at `target` with world z up.
 SE3d LookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target);
 
+// `n` cameras on an arc around the default boxes (1.4 m out, 0.9 m up, 12 deg apart from
+// -120 deg azimuth), each looking at them.
+std::vector<SE3d> ArcPoses(int n);
+
 // Three boxes on the floor, 0.4-0.6 m apart, plus optionally a person-sized box.
 std::vector<WorldBox> DefaultBoxes(bool with_person);
 

@@ -53,13 +53,8 @@ class ServiceTest : public ::testing::Test {
     for (const char* s : {"", "-wal", "-shm"}) std::filesystem::remove(db_ + s);
     Start();
     const auto boxes = testing::DefaultBoxes(false);
-    for (int i = 0; i < 6; ++i) {
-      const double az = (-120.0 + 12.0 * i) * M_PI / 180.0;
-      const Eigen::Vector3d target(0.1, 0.05, 0.05);
-      poses_.push_back(testing::LookAt(
-          target + Eigen::Vector3d(1.4 * std::cos(az), 1.4 * std::sin(az), 0.9), target));
-      views_.push_back(testing::Render(boxes, camera_, poses_.back(), true));
-    }
+    poses_ = testing::ArcPoses(6);
+    for (const SE3d& pose : poses_) views_.push_back(testing::Render(boxes, camera_, pose, true));
   }
   void TearDown() override { Stop(); }
 
