@@ -8,6 +8,7 @@
 
 #include "common/time.h"
 #include "server/map/keyframe_products.h"
+#include "server/map/product_codec.h"
 #include "server/service/keyframe_decoder.h"
 #include "server/service/proto_convert.h"
 #include "server/service/replay.h"
@@ -130,6 +131,24 @@ void MapServer::OnReady(std::function<void()> fn) {
     }
   }
   fn();
+}
+
+StatusOr<size_t> MapServer::UpdateKeyframePoses(
+    const std::vector<Mapper::KeyframePoseUpdate>& updates) {
+  LOCI_RETURN_IF_ERROR(CheckReady());
+  const std::string fingerprint = mapper_->options().ProductsFingerprint();
+  auto source = [&](int64_t id) -> StatusOr<KeyframeProducts> {
+    LOCI_ASSIGN_OR_RETURN(std::optional<std::string> bytes, store_->GetProducts(id, fingerprint));
+    if (!bytes) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("keyframe ", id, " has no stored products (run loci reprocess)"));
+    }
+    return DecodeProducts(*bytes, fingerprint);
+  };
+  std::lock_guard<std::mutex> lock(mapping_mu_);
+  auto moved = mapper_->UpdateKeyframePoses(updates, source);
+  if (moved.ok()) since_checkpoint_ += *moved;  // the next checkpoint keeps the new poses
+  return moved;
 }
 
 Status MapServer::Checkpoint() {
@@ -381,11 +400,15 @@ StatusOr<loci::v1::CloseSessionResponse> MapServer::CloseSession(
 void MapServer::WorkerLoop() {
   while (std::optional<MapperKeyframe> kf = queue_.Pop()) {
     const auto t0 = std::chrono::steady_clock::now();
-    MapAndStoreProducts(*mapper_, *kf, detector_.get(), store_.get());
-    mapping_ms_total_.fetch_add(
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-    ++mapping_count_;
-    MaybeCheckpoint();
+    {
+      std::lock_guard<std::mutex> mapping(mapping_mu_);
+      MapAndStoreProducts(*mapper_, *kf, detector_.get(), store_.get());
+      mapping_ms_total_.fetch_add(
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+              .count());
+      ++mapping_count_;
+      MaybeCheckpoint();
+    }
     std::lock_guard<std::mutex> lock(progress_mu_);
     ++mapped_;
     progress_cv_.notify_all();

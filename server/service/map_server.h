@@ -53,6 +53,11 @@ class MapServer {
   // `fn` runs once the map is loaded (at once when it already is), on the loading thread.
   void OnReady(std::function<void()> fn);
   const LoadReport& load_report() const { return load_report_; }
+  // Moves mapped keyframes to corrected poses (T_base_kf) and re-derives what they touch
+  // (Mapper::UpdateKeyframePoses) between two mapped keyframes, reading their products from the
+  // store; the object events go to the watchers. The corrected poses live in the next
+  // checkpoint. Returns how many keyframes moved.
+  StatusOr<size_t> UpdateKeyframePoses(const std::vector<Mapper::KeyframePoseUpdate>& updates);
   // Writes a checkpoint of the map now (on the caller's thread; call between keyframes, e.g.
   // after Flush). The checkpoint covers every keyframe mapped so far.
   Status Checkpoint();
@@ -122,10 +127,12 @@ class MapServer {
   Status load_status_;          // guarded by ready_mu_
   std::vector<std::function<void()>> ready_callbacks_;  // guarded by ready_mu_
   LoadReport load_report_;
-  // Worker thread only: keyframes mapped and time since the last checkpoint.
+  // Keyframes mapped (or moved) and time since the last checkpoint; guarded by mapping_mu_
+  // once the worker runs.
   uint64_t since_checkpoint_ = 0;
   std::chrono::steady_clock::time_point last_checkpoint_ = std::chrono::steady_clock::now();
   std::mutex checkpoint_mu_;  // one checkpoint at a time
+  std::mutex mapping_mu_;     // held by the worker per keyframe and by UpdateKeyframePoses
   // Held from storing a keyframe until it is queued, so the worker maps keyframes in id order
   // (the order a restart loads them in).
   std::mutex ingest_order_mu_;

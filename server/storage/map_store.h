@@ -119,6 +119,9 @@ class MapStore {
   // Stores (or replaces) a keyframe's products in their own transaction: idempotent.
   virtual Status PutProducts(int64_t keyframe_id, const std::string& fingerprint,
                              const std::string& data) = 0;
+  // A keyframe's stored products of `fingerprint`; nullopt when it has none of them.
+  virtual StatusOr<std::optional<std::string>> GetProducts(int64_t keyframe_id,
+                                                           const std::string& fingerprint) = 0;
   // Deletes every keyframe's products (`loci reprocess`).
   virtual Status DeleteAllProducts() = 0;
   // Stores a checkpoint and drops the older ones.

@@ -103,6 +103,18 @@ Status SqliteStore::PutProducts(int64_t keyframe_id, const std::string& fingerpr
       "store keyframe products");
 }
 
+StatusOr<std::optional<std::string>> SqliteStore::GetProducts(int64_t keyframe_id,
+                                                              const std::string& fingerprint) {
+  LOCI_ASSIGN_OR_RETURN(auto reader, readers_.Acquire());
+  Stmt q(reader.get(), "SELECT data FROM keyframe_products WHERE keyframe_id = ? AND fingerprint = ?");
+  LOCI_RETURN_IF_ERROR(q.status());
+  q.Bind(1, keyframe_id).BindText(2, fingerprint);
+  const int rc = q.Step();
+  if (rc == SQLITE_DONE) return std::optional<std::string>();
+  if (rc != SQLITE_ROW) return SqlError(reader.get(), "read products");
+  return std::optional<std::string>(q.Text(0));
+}
+
 Status SqliteStore::DeleteAllProducts() {
   return WriteOne("DELETE FROM keyframe_products", [](Stmt&) {}, "delete products");
 }

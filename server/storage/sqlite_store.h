@@ -54,6 +54,8 @@ class SqliteStore final : public MapStore {
                          const KeyframeScan& scan = {}) override;
   Status PutProducts(int64_t keyframe_id, const std::string& fingerprint,
                      const std::string& data) override;
+  StatusOr<std::optional<std::string>> GetProducts(int64_t keyframe_id,
+                                                   const std::string& fingerprint) override;
   Status DeleteAllProducts() override;
   Status PutCheckpoint(const CheckpointRecord& checkpoint) override;
   StatusOr<std::optional<CheckpointRecord>> LatestCheckpoint() override;

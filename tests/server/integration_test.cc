@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <random>
 #include <set>
 #include <thread>
 
@@ -77,6 +78,49 @@ class Integration : public ::testing::Test {
       for (const char* s : {"", "-wal", "-shm"}) fs::remove(db + s);
     }
     return o;
+  }
+
+  // Writes keyframes [begin, end) without waiting for acks and SIGKILLs the server after
+  // writing keyframe kill_at; acknowledged seqs go to *acked.
+  static void StreamAndKill(loci::v1::Mapping::Stub* stub, const std::string& session, int begin,
+                            int end, int kill_at, loci::testing::ServerProcess* server,
+                            std::set<int64_t>* acked) {
+    grpc::ClientContext ctx;
+    auto stream = stub->StreamKeyframes(&ctx);
+    std::thread reader([&] {
+      loci::v1::KeyframeAck ack;
+      while (stream->Read(&ack)) {
+        if (ack.status().code() == 0) acked->insert(ack.seq());
+      }
+    });
+    for (int i = begin; i < end; ++i) {
+      loci::v1::Keyframe kf = (*keyframes_)[i];
+      kf.set_session_id(session);
+      if (!stream->Write(kf)) break;
+      if (i == kill_at) server->Stop(SIGKILL);
+    }
+    stream->WritesDone();
+    reader.join();
+    stream->Finish();
+  }
+
+  // Checks the map a database loads to against `reference` (ids, classes, evidence, centroids
+  // within 1 mm), from a read-only copy.
+  static void ExpectLoadsTo(const std::string& db, const std::vector<MapObject>& reference) {
+    SqliteStoreOptions ro;
+    ro.read_only = true;
+    auto store = SqliteStore::Open(db, ro);
+    ASSERT_TRUE(store.ok()) << store.status();
+    auto loaded = MapServer::Open(Options(*dir_ + "/unused.db"),
+                                  std::shared_ptr<MapStore>(std::move(*store)));
+    ASSERT_TRUE(loaded.ok()) << loaded.status();
+    const auto objects = (*loaded)->mapper().Snapshot(true);
+    ASSERT_EQ(objects.size(), reference.size());
+    for (size_t i = 0; i < objects.size(); ++i) {
+      EXPECT_EQ(objects[i].class_name, reference[i].class_name);
+      EXPECT_LT((objects[i].centroid_m - reference[i].centroid_m).norm(), 1e-3);
+      EXPECT_EQ(objects[i].observation_count, reference[i].observation_count);
+    }
   }
 
   // Reopens `db` and checks the loaded map against `reference` (1 mm); returns the load report.
@@ -264,24 +308,7 @@ TEST_F(Integration, SigkillMidStreamThenRestartLosesNothing) {
     auto mapping = loci::v1::Mapping::NewStub(channel);
     const std::string session = OpenSession(mapping.get(), false, nullptr);
     for (const auto& a : Stream(mapping.get(), session, 0, n * 2 / 5)) acked.insert(a.seq());
-    // Keep writing without waiting for acks, and kill the server in the middle of it.
-    grpc::ClientContext ctx;
-    auto stream = mapping->StreamKeyframes(&ctx);
-    std::thread reader([&] {
-      loci::v1::KeyframeAck ack;
-      while (stream->Read(&ack)) {
-        if (ack.status().code() == 0) acked.insert(ack.seq());
-      }
-    });
-    for (int i = n * 2 / 5; i < n * 3 / 5; ++i) {
-      loci::v1::Keyframe kf = (*keyframes_)[i];
-      kf.set_session_id(session);
-      if (!stream->Write(kf)) break;
-      if (i == n / 2) server.Stop(SIGKILL);
-    }
-    stream->WritesDone();
-    reader.join();
-    stream->Finish();
+    StreamAndKill(mapping.get(), session, n * 2 / 5, n * 3 / 5, n / 2, &server, &acked);
   }
   ASSERT_GE(acked.size(), static_cast<size_t>(n * 2 / 5));
 
@@ -330,19 +357,7 @@ TEST_F(Integration, SigkillMidStreamThenRestartLosesNothing) {
     for (int i = 0; i < n; ++i) EXPECT_EQ(seqs[i], i);
   }
   // Rebuilt from that database: the same objects as the uninterrupted run.
-  auto rebuilt = MapServer::Open(Options(*dir_ + "/unused.db"), [&] {
-    SqliteStoreOptions ro;
-    ro.read_only = true;
-    return std::shared_ptr<MapStore>(std::move(*SqliteStore::Open(db, ro)));
-  }());
-  ASSERT_TRUE(rebuilt.ok()) << rebuilt.status();
-  const auto objects = (*rebuilt)->mapper().Snapshot(true);
-  ASSERT_EQ(objects.size(), reference.size());
-  for (size_t i = 0; i < objects.size(); ++i) {
-    EXPECT_EQ(objects[i].class_name, reference[i].class_name);
-    EXPECT_LT((objects[i].centroid_m - reference[i].centroid_m).norm(), 1e-6);
-    EXPECT_EQ(objects[i].observation_count, reference[i].observation_count);
-  }
+  ExpectLoadsTo(db, reference);
 }
 
 // A restart loads the checkpoint written at shutdown and maps nothing again; without it, every
@@ -379,6 +394,121 @@ TEST_F(Integration, RestartLoadsCheckpointThenProductsThenImagesToTheSameMap) {
   EXPECT_EQ(bytes->products, n);  // stored again while loading
   EXPECT_GT(bytes->product_bytes, 0u);
   EXPECT_EQ(bytes->keyframes_with_raw, n);
+}
+
+// SIGKILL at seeded random points while keyframes stream in and the map is checkpointed every 3
+// keyframes (so kills fall inside or right next to checkpoint writes), a restart and resume
+// after each: every acknowledged keyframe is stored once and the map equals the uninterrupted
+// run's.
+TEST_F(Integration, SigkillAtRandomPointsDuringIngestAndCheckpointsLosesNothing) {
+  const std::vector<MapObject> reference = UninterruptedRun(*dir_ + "/reference_ck.db");
+  ASSERT_FALSE(reference.empty());
+  const std::string config = *dir_ + "/checkpoint3.yaml";
+  std::ofstream(config) << "server:\n  checkpoint_keyframes: 3\n"
+                        << "map:\n  cloud:\n    max_depth_m: 6.0\n  octomap:\n"
+                        << "    max_range_m: 6.0\n";
+  const std::string db = *dir_ + "/killed_ck.db";
+  for (const char* s : {"", "-wal", "-shm"}) fs::remove(db + s);
+  const int n = static_cast<int>(keyframes_->size());
+  std::mt19937 rng(20261124);
+  std::vector<int> kills;
+  for (int i = 0; i < 3; ++i) kills.push_back(std::uniform_int_distribution<int>(6, n - 6)(rng));
+  std::sort(kills.begin(), kills.end());
+  std::set<int64_t> acked;
+  int64_t last = -1;
+  for (size_t round = 0; round <= kills.size(); ++round) {
+    ServerProcess server(ServerProcessOptions{.db = db, .config = config});
+    ASSERT_GT(server.port(), 0);
+    ASSERT_TRUE(server.serving().ok()) << server.serving();
+    auto channel = grpc::CreateChannel(server.address(), grpc::InsecureChannelCredentials());
+    auto mapping = loci::v1::Mapping::NewStub(channel);
+    const std::string session = OpenSession(mapping.get(), /*resume=*/round > 0, &last);
+    if (!acked.empty()) {
+      EXPECT_GE(last, *acked.rbegin()) << "an acknowledged keyframe was lost";
+    }
+    const int from = static_cast<int>(last + 1);
+    if (round < kills.size()) {
+      StreamAndKill(mapping.get(), session, from, n, std::max(from, kills[round]), &server,
+                    &acked);
+      continue;
+    }
+    for (const auto& a : Stream(mapping.get(), session, from, n)) {
+      EXPECT_EQ(a.status().code(), 0) << a.status().message();
+      acked.insert(a.seq());
+    }
+    const int status = server.Stop(SIGTERM);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "wait status " << status;
+  }
+  EXPECT_EQ(static_cast<int>(acked.size()), n);
+  SqliteStoreOptions ro;
+  ro.read_only = true;
+  auto store = SqliteStore::Open(db, ro);
+  ASSERT_TRUE(store.ok());
+  std::vector<int64_t> seqs;
+  ASSERT_TRUE((*store)
+                  ->ForEachKeyframe(0, [&](KeyframeRecord r) {
+                    seqs.push_back(r.seq);
+                    return absl::OkStatus();
+                  })
+                  .ok());
+  ASSERT_EQ(static_cast<int>(seqs.size()), n);  // each once: (session, seq) is unique
+  ExpectLoadsTo(db, reference);
+}
+
+// The server moves stored keyframes (MapServer::UpdateKeyframePoses, products read from the
+// database): moving every keyframe by one rigid transform moves every object with it, watchers
+// get UPDATED events, and the moved map is what the next start loads (from the checkpoint).
+TEST_F(Integration, MovingEveryKeyframeMovesTheMapAndTheMoveSurvivesARestart) {
+  const std::string db = *dir_ + "/moved.db";
+  std::vector<MapObject> moved;
+  {
+    std::unique_ptr<MapServer> server;
+    const std::vector<MapObject> before = UninterruptedRun(db, &server);
+    ASSERT_FALSE(before.empty());
+    auto events = std::make_shared<ObjectEventQueue>(4096);
+    ASSERT_TRUE(server->Subscribe(events).ok());
+    SE3d T_move = SE3d::Identity();
+    T_move.translation() = Vec3d(0.5, -0.3, 0.0);  // in the base frame
+    std::vector<Mapper::KeyframePoseUpdate> updates;
+    auto store = SqliteStore::Open(db);
+    ASSERT_TRUE(store.ok());
+    std::map<int64_t, SessionRecord> sessions;
+    auto listed = (*store)->ListSessions();
+    ASSERT_TRUE(listed.ok()) << listed.status();
+    for (const SessionRecord& s : *listed) sessions[s.row_id] = s;
+    ASSERT_TRUE((*store)
+                    ->ForEachKeyframe(0,
+                                      [&](KeyframeRecord r) {
+                                        const SE3d T_base_kf =
+                                            sessions.at(r.session_row).T_base_odom * r.T_odom_cam;
+                                        updates.push_back({r.id, T_move * T_base_kf});
+                                        return absl::OkStatus();
+                                      },
+                                      {.images = false, .products_fingerprint = {}})
+                    .ok());
+    auto n = server->UpdateKeyframePoses(updates);
+    ASSERT_TRUE(n.ok()) << n.status();
+    EXPECT_EQ(*n, updates.size());
+    const SE3d T_map_base = server->mapper().MapFromBaseFrame();
+    const Vec3d shift_map = T_map_base.linear() * T_move.translation();
+    std::map<int64_t, MapObject> after;
+    for (const MapObject& o : server->mapper().Snapshot(true)) after[o.id] = o;
+    ASSERT_EQ(after.size(), before.size());
+    for (const MapObject& o : before) {
+      ASSERT_TRUE(after.count(o.id)) << o.id;
+      EXPECT_LT((after.at(o.id).centroid_m - (o.centroid_m + shift_map)).norm(), 0.01)
+          << o.class_name;
+    }
+    int updated = 0;
+    while (auto e = events->PopFor(std::chrono::milliseconds(0))) {
+      updated += e->kind == ObjectChange::Kind::kUpdated;
+    }
+    EXPECT_GE(updated, static_cast<int>(before.size()));
+    server->Unsubscribe(events);
+    moved = server->mapper().Snapshot(true);
+  }  // shutdown: the checkpoint holds the moved map
+  const LoadReport r = ReopenAndCompare(db, moved);
+  EXPECT_GT(r.checkpoint_keyframe_id, 0);
 }
 
 }  // namespace

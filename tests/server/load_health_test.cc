@@ -53,6 +53,9 @@ class GatedStore final : public MapStore {
   Status PutProducts(int64_t id, const std::string& f, const std::string& d) override {
     return inner_->PutProducts(id, f, d);
   }
+  StatusOr<std::optional<std::string>> GetProducts(int64_t id, const std::string& f) override {
+    return inner_->GetProducts(id, f);
+  }
   Status DeleteAllProducts() override { return inner_->DeleteAllProducts(); }
   Status PutCheckpoint(const CheckpointRecord& c) override { return inner_->PutCheckpoint(c); }
   StatusOr<std::optional<CheckpointRecord>> LatestCheckpoint() override {
