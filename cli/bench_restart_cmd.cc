@@ -3,7 +3,8 @@
 // keyframe, its products, the map, a checkpoint after keyframe N - T, so T keyframes are left to
 // re-derive from products as after a crash), then starts the loci-server binary on it and prints
 // the time from process start to "listening on" and to health SERVING, the server's peak RSS,
-// and the database bytes per keyframe. --small renders 160x120 keyframes (say so when quoting).
+// and the database bytes per keyframe; --move N also times moving the last N keyframes
+// (Mapper::UpdateKeyframePoses) in the building process. --small renders 160x120 keyframes (say so when quoting).
 #include <grpcpp/create_channel.h>
 #include <signal.h>
 #include <spawn.h>
@@ -35,6 +36,7 @@ using Clock = std::chrono::steady_clock;
 struct BenchRestartArgs {
   int64_t keyframes = 1000;
   int64_t tail = 0;
+  int64_t move = 0;
   bool small = false;
   std::string keep_dir;
 };
@@ -63,6 +65,37 @@ StatusOr<std::vector<View>> PrepareViews(const std::vector<loci::v1::Keyframe>& 
     out.push_back(std::move(v));
   }
   return out;
+}
+
+// Moves the last `n` keyframes by a small rigid transform (as a loop closure would) and prints
+// the re-derivation time, products read from the database included.
+Status TimeMove(int64_t n, server::Mapper& mapper, server::MapStore& store,
+                const std::string& fingerprint) {
+  const int64_t last = mapper.last_keyframe_id();
+  SE3d T_fix = SE3d::Identity();
+  T_fix.linear() = Eigen::AngleAxisd(0.02, Vec3d::UnitZ()).toRotationMatrix();
+  T_fix.translation() = Vec3d(0.05, -0.03, 0.0);
+  std::vector<server::Mapper::KeyframePoseUpdate> updates;
+  for (const auto& [robot, traj] : mapper.Trajectories()) {
+    (void)robot;
+    const int64_t first_id = last - static_cast<int64_t>(traj.size()) + 1;  // one robot, ids dense
+    const SE3d T_base_map = mapper.MapFromBaseFrame().inverse();
+    for (size_t i = traj.size() - static_cast<size_t>(std::min<int64_t>(n, traj.size()));
+         i < traj.size(); ++i) {
+      updates.push_back({first_id + static_cast<int64_t>(i),
+                         T_fix * T_base_map * traj[i].T_world_cam});
+    }
+  }
+  auto source = [&](int64_t id) -> StatusOr<server::KeyframeProducts> {
+    LOCI_ASSIGN_OR_RETURN(std::optional<std::string> bytes, store.GetProducts(id, fingerprint));
+    if (!bytes) return absl::NotFoundError(absl::StrCat("no products for keyframe ", id));
+    return server::DecodeProducts(*bytes, fingerprint, /*with_visibility=*/false);
+  };
+  const auto t0 = Clock::now();
+  LOCI_ASSIGN_OR_RETURN(size_t moved, mapper.UpdateKeyframePoses(updates, source));
+  const double s = std::chrono::duration<double>(Clock::now() - t0).count();
+  std::printf("  moved %zu keyframes (products read from the database) in %.3f s\n", moved, s);
+  return absl::OkStatus();
 }
 
 // Writes N keyframes with products and a checkpoint after keyframe N - tail.
@@ -104,6 +137,7 @@ Status BuildDatabase(const BenchRestartArgs& a, const std::vector<loci::v1::Keyf
     }
   }
   std::fprintf(stderr, "\n");
+  if (a.move > 0) LOCI_RETURN_IF_ERROR(TimeMove(a.move, mapper, *store, fingerprint));
   return absl::OkStatus();
 }
 
@@ -234,6 +268,9 @@ void RegisterBenchRestartCommand(CLI::App& app) {
                 "keyframes after the last checkpoint (re-derived on start, as after a crash)")
       ->capture_default_str();
   c->add_flag("--small", args->small, "160x120 keyframes (for 100k-keyframe runs)");
+  c->add_option("--move", args->move,
+                "after building, move the last N keyframes and time the re-derivation")
+      ->capture_default_str();
   c->add_option("--keep", args->keep_dir, "keep the scene and database in this directory");
   c->callback([args] {
     if (args->keyframes < 1 || args->tail < 0 || args->tail >= args->keyframes) {

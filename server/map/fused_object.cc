@@ -54,7 +54,6 @@ void FusedObject::MovePoints(const std::vector<ColoredPoint>& old_m,
   // A moved observation counts once per cell, as in AddPoints (its tag stays below every
   // later AddPoints tag).
   for (VoxelKey key : new_cells) ++cells_[key].observations;
-  RecomputeGeometry();
 }
 
 void FusedObject::Absorb(const FusedObject& other) {

@@ -61,8 +61,10 @@ class FusedObject {
   // Adds one observation's points (map frame); each voxel keeps the mean of its points.
   void AddPoints(const std::vector<ColoredPoint>& points_m);
   // Moves one earlier observation: takes out its points as they were added (old_m, exactly the
-  // same values) and adds them at their new place (new_m); labels and bookkeeping stay.
+  // same values) and adds them at their new place (new_m); labels and bookkeeping stay. The
+  // geometry (centroid, boxes) is stale until RecomputeGeometry (once after many moves).
   void MovePoints(const std::vector<ColoredPoint>& old_m, const std::vector<ColoredPoint>& new_m);
+  void RecomputeGeometry();
   // Absorbs another object (duplicate merge): points, labels, bookkeeping.
   void Absorb(const FusedObject& other);
   // Records one keyframe's observation of this object.
@@ -117,7 +119,6 @@ class FusedObject {
     Eigen::Vector3d rgb_sum = Eigen::Vector3d::Zero();
     uint32_t count = 0;
   };
-  void RecomputeGeometry();
   // Whether a voxel (mean point p) lies in a cell with enough observations.
   bool Supported(const Eigen::Vector3d& p) const;
   uint32_t MinSupport() const;

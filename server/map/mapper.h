@@ -180,7 +180,7 @@ class Mapper {
   void PushOctomap(const std::vector<SemanticPoint>& static_points_m, const Vec3d& origin_m);
   // Moves keyframe_poses_[index] and its points (mu_ held).
   void MoveKeyframe(size_t index, const SE3d& T_base_kf, const KeyframeProducts& products,
-                    std::vector<ObjectChange>* changes, std::vector<int64_t>* moved_objects);
+                    std::vector<int64_t>* moved_objects);
   // Object events of fusion changes, with the objects' state now; call with mu_ held.
   void AppendEvents(const std::vector<ObjectChange>& changes,
                     std::vector<ObjectEventOut>* events) const;

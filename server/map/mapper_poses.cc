@@ -43,7 +43,7 @@ StatusOr<size_t> Mapper::UpdateKeyframePoses(const std::vector<KeyframePoseUpdat
       break;
     }
     std::lock_guard<std::mutex> lock(mu_);
-    MoveKeyframe(index[i], updates[i].T_base_kf, *products, &changes, &moved_objects);
+    MoveKeyframe(index[i], updates[i].T_base_kf, *products, &moved_objects);
     ++moved;
   }
   std::vector<ObjectEventOut> events;
@@ -58,7 +58,7 @@ StatusOr<size_t> Mapper::UpdateKeyframePoses(const std::vector<KeyframePoseUpdat
 }
 
 void Mapper::MoveKeyframe(size_t index, const SE3d& T_base_kf, const KeyframeProducts& products,
-                          std::vector<ObjectChange>* changes, std::vector<int64_t>* moved_objects) {
+                          std::vector<int64_t>* moved_objects) {
   KeyframePose& k = keyframe_poses_[index];
   const Eigen::Isometry3f T_old = (T_map_base_ * k.T_base_kf).cast<float>();
   const SE3d T_map_kf_new = T_map_base_ * T_base_kf;
@@ -67,7 +67,7 @@ void Mapper::MoveKeyframe(size_t index, const SE3d& T_base_kf, const KeyframePro
   for (size_t i = 0; i < n; ++i) {
     const ObjectObservation& o = products.observations[i];
     if (objects_.MoveObservation(k.observation_object_ids[i], ObservationPointsMap(o, T_old),
-                                 ObservationPointsMap(o, T_new), changes)) {
+                                 ObservationPointsMap(o, T_new))) {
       moved_objects->push_back(k.observation_object_ids[i]);
     }
   }

@@ -1,6 +1,7 @@
 #include "server/map/object_map.h"
 
 #include <algorithm>
+#include <set>
 
 namespace loci::server {
 
@@ -156,19 +157,25 @@ int64_t ObjectMap::MergeDuplicates(int64_t id, std::vector<ObjectChange>* change
 }
 
 bool ObjectMap::MoveObservation(int64_t object_id, const std::vector<ColoredPoint>& old_m,
-                                const std::vector<ColoredPoint>& new_m,
-                                std::vector<ObjectChange>* changes) {
+                                const std::vector<ColoredPoint>& new_m) {
   const int64_t id = Resolve(object_id);
   auto it = objects_.find(id);
   if (it == objects_.end()) return false;
   it->second.MovePoints(old_m, new_m);
-  changes->push_back({ObjectChange::Kind::kUpdated, id, 0, {}});
   return true;
 }
 
 void ObjectMap::MergeMoved(const std::vector<int64_t>& object_ids,
                            std::vector<ObjectChange>* changes) {
-  for (int64_t object_id : object_ids) {
+  std::set<int64_t> moved;
+  for (int64_t object_id : object_ids) moved.insert(Resolve(object_id));
+  for (int64_t id : moved) {
+    auto it = objects_.find(id);
+    if (it == objects_.end()) continue;
+    it->second.RecomputeGeometry();
+    changes->push_back({ObjectChange::Kind::kUpdated, id, 0, {}});
+  }
+  for (int64_t object_id : moved) {
     const int64_t id = Resolve(object_id);
     if (objects_.count(id)) MergeDuplicates(id, changes);
   }

@@ -73,11 +73,12 @@ class ObjectMap {
                    std::vector<ObjectChange>* changes);
 
   // A keyframe moved: its observation of `object_id` (merges followed) takes its points out
-  // (old_m, as added) and back in at new_m; appends a kUpdated change. False when the object
-  // is gone (removed for lack of evidence).
+  // (old_m, as added) and back in at new_m. False when the object is gone (removed for lack of
+  // evidence). Call MergeMoved after the last move.
   bool MoveObservation(int64_t object_id, const std::vector<ColoredPoint>& old_m,
-                       const std::vector<ColoredPoint>& new_m, std::vector<ObjectChange>* changes);
-  // After moves: merges moved objects that now coincide with others (kMerged + kRemoved).
+                       const std::vector<ColoredPoint>& new_m);
+  // After moves: recomputes the moved objects' geometry (one kUpdated each), then merges those
+  // that now coincide with others (kMerged + kRemoved).
   void MergeMoved(const std::vector<int64_t>& object_ids, std::vector<ObjectChange>* changes);
 
   // Forgets every object (the map is re-derived); ids keep counting up.

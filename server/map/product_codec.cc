@@ -114,7 +114,7 @@ std::string EncodeProducts(const KeyframeProducts& products, const std::string& 
 }
 
 StatusOr<KeyframeProducts> DecodeProducts(const std::string& bytes,
-                                          const std::string& fingerprint) {
+                                          const std::string& fingerprint, bool with_visibility) {
   loci::store::v1::KeyframeProducts in;
   if (!in.ParseFromString(bytes)) return absl::DataLossError("stored products do not parse");
   if (in.fingerprint() != fingerprint) {
@@ -128,7 +128,7 @@ StatusOr<KeyframeProducts> DecodeProducts(const std::string& bytes,
   }
   LOCI_RETURN_IF_ERROR(DecodeStaticCloud(in, &out));
   out.excluded_pixels = in.excluded_pixels();
-  LOCI_RETURN_IF_ERROR(DecodeVisibility(in, &out));
+  if (with_visibility) LOCI_RETURN_IF_ERROR(DecodeVisibility(in, &out));
   return out;
 }
 

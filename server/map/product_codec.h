@@ -14,6 +14,9 @@ std::string EncodeProducts(const KeyframeProducts& products, const std::string& 
 
 // DataLoss for bytes that do not parse; FailedPrecondition when the stored fingerprint is not
 // `fingerprint` (products made with other options: recompute them).
-StatusOr<KeyframeProducts> DecodeProducts(const std::string& bytes, const std::string& fingerprint);
+// with_visibility false skips the visibility depth and detection boxes (a pose update needs only
+// the points).
+StatusOr<KeyframeProducts> DecodeProducts(const std::string& bytes, const std::string& fingerprint,
+                                          bool with_visibility = true);
 
 }  // namespace loci::server

@@ -143,7 +143,7 @@ StatusOr<size_t> MapServer::UpdateKeyframePoses(
       return absl::FailedPreconditionError(
           absl::StrCat("keyframe ", id, " has no stored products (run loci reprocess)"));
     }
-    return DecodeProducts(*bytes, fingerprint);
+    return DecodeProducts(*bytes, fingerprint, /*with_visibility=*/false);
   };
   std::lock_guard<std::mutex> lock(mapping_mu_);
   auto moved = mapper_->UpdateKeyframePoses(updates, source);
