@@ -5,9 +5,13 @@
 # first), starts loci-server the way the systemd unit does (its ExecStart, as user loci, in
 # /var/lib/loci) and runs `loci stats` against it, then installs systemd in that container and
 # runs `systemd-analyze verify` on the unit, and checks what remove and purge leave.
-# systemd itself does not run in the container, so enabling and starting the unit is not tested.
+# With podman, a second container boots systemd (podman run --systemd=always /sbin/init) and
+# installs the .deb there: the postinst enables and starts loci-server.service (a drop-in made
+# before the install moves its gRPC port to a free one, the container shares the host network);
+# then loci stats, the shipped sample streamed by loci-track, a restart of the unit (the map
+# comes back from its checkpoint), loci ask and `systemd-analyze security`.
 # Engine and base image as scripts/container-check.sh (docker/engine.sh).
-# usage: scripts/deb-check.sh
+# usage: scripts/deb-check.sh   (root with podman, or docker; needs python3 on the host)
 set -euo pipefail
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -27,9 +31,11 @@ if ! eng build "${BUILD_ARGS[@]}" --target build -f "$ROOT/docker/Dockerfile.ser
 fi
 WORK="$(mktemp -d "${TMPDIR:-/tmp}/loci-deb.XXXXXX")"
 CONTAINER=""
+SYSTEMD_CONTAINER=loci-deb-check-systemd
 cleanup() {
   local rc=$?
   [ -z "$CONTAINER" ] || eng rm -f "$CONTAINER" >/dev/null 2>&1 || true
+  eng rm -f "$SYSTEMD_CONTAINER" >/dev/null 2>&1 || true
   rm -rf "$WORK"
   log "total $(since "$START_S") s, exit $rc"
 }
@@ -93,4 +99,65 @@ INSIDE
 log "clean container from $BASE: apt-get install the .deb, start loci-server, loci stats"
 eng run --rm "${RUN_ARGS[@]}" -v "$WORK:/deb:ro" -e "GRPC_PORT=$GRPC_PORT" "$BASE" \
   bash /deb/inside.sh || die "the install test"
+
+if [ "$ENGINE" != podman ]; then
+  log "PASSED (the systemd stage needs podman --systemd=always; skipped with $ENGINE)"
+  exit 0
+fi
+printf '%s\n' "FROM $BASE" \
+  'RUN apt-get update && apt-get install -y --no-install-recommends systemd systemd-sysv && rm -rf /var/lib/apt/lists/*' \
+  >"$WORK/Containerfile.systemd"
+log "systemd container: $BASE + systemd, booted with /sbin/init"
+eng build "${BUILD_ARGS[@]}" -t loci-systemd-base -f "$WORK/Containerfile.systemd" "$WORK" \
+  >"${TMPDIR:-/tmp}/loci-deb-systemd-build.log" 2>&1 || die "building the systemd image"
+eng rm -f "$SYSTEMD_CONTAINER" >/dev/null 2>&1 || true
+eng run -d --name "$SYSTEMD_CONTAINER" "${RUN_ARGS[@]}" --systemd=always -v "$WORK:/deb:ro" \
+  -v "$ROOT/tests/data/tum_fr1_rpy_sample:/sample:ro" loci-systemd-base /sbin/init >/dev/null
+state=""
+for _ in $(seq 1 100); do
+  state="$(eng exec "$SYSTEMD_CONTAINER" systemctl is-system-running 2>/dev/null || true)"
+  case "$state" in running|degraded) break ;; esac
+  sleep 0.3
+done
+log "systemd in the container: $state"
+cat >"$WORK/inside-systemd.sh" <<'INSIDE'
+set -eu
+step() { printf '\n### %s\n' "$*"; }
+step "systemd $(systemctl --version | head -1 | cut -d' ' -f2) is PID 1; a drop-in for a free port, then apt-get install"
+mkdir -p /etc/systemd/system/loci-server.service.d
+printf '[Service]\nExecStart=\nExecStart=/usr/bin/loci-server --config /etc/loci/server.yaml --listen 127.0.0.1:%s\n' \
+  "$GRPC_PORT" >/etc/systemd/system/loci-server.service.d/port.conf
+apt-get update -qq
+apt-get install -y --no-install-recommends /deb/loci.deb >/root/apt.log 2>&1 || { tail -30 /root/apt.log; exit 1; }
+grep -E '^(Setting up loci|Created symlink)' /root/apt.log
+for _ in $(seq 1 100); do
+  journalctl -u loci-server -o cat | grep -q '^listening on' && break
+  sleep 0.1
+done
+echo "is-enabled: $(systemctl is-enabled loci-server), is-active: $(systemctl is-active loci-server)"
+systemctl status loci-server --no-pager | sed -n '1,4p'
+journalctl -u loci-server -o cat | grep '^listening on'
+loci stats --server "127.0.0.1:$GRPC_PORT" | head -2
+step "the shipped sample from loci-track, then systemctl restart loci-server"
+loci-track --tum /sample --server "127.0.0.1:$GRPC_PORT" --robot robot-a --no-progress 2>&1 | tail -1
+for _ in $(seq 1 300); do
+  loci stats --server "127.0.0.1:$GRPC_PORT" | grep -q '^queue depth *0$' && break
+  sleep 0.2
+done
+systemctl restart loci-server
+for _ in $(seq 1 100); do
+  [ "$(journalctl -u loci-server -o cat | grep -c '^listening on')" -ge 2 ] && break
+  sleep 0.1
+done
+journalctl -u loci-server -o cat | grep -E 'signal 15|checkpoint at|loaded the map' | tail -3
+loci stats --server "127.0.0.1:$GRPC_PORT" | head -3
+loci ask "where is the keyboard" --server "127.0.0.1:$GRPC_PORT"
+ls -l /var/lib/loci
+step "systemd-analyze security loci-server"
+systemd-analyze security loci-server --no-pager | tail -1
+systemctl stop loci-server
+echo "after stop: $(systemctl is-active loci-server || true)"
+INSIDE
+eng exec -e "GRPC_PORT=$GRPC_PORT" "$SYSTEMD_CONTAINER" bash /deb/inside-systemd.sh ||
+  die "the systemd test"
 log "PASSED"
