@@ -6,6 +6,8 @@
 #include <atomic>
 #include <cstdlib>
 #include <filesystem>
+#include <string>
+#include <system_error>
 
 #include "absl/strings/str_join.h"
 
@@ -83,10 +85,24 @@ StatusOr<PinholeCamera> CameraFromYaml(const YAML::Node& node) {
   return cam;
 }
 
+std::string ResolveResourceDir(const char* home, const std::string& exe,
+                               const std::string& source_dir) {
+  if (home != nullptr && *home != '\0') return home;
+  if (!exe.empty()) {
+    // bin/X -> share/loci; the build tree's share/loci holds only the viewer, so it falls through.
+    const std::filesystem::path installed =
+        (std::filesystem::path(exe).parent_path().parent_path() / "share/loci").lexically_normal();
+    std::error_code ec;
+    if (std::filesystem::is_directory(installed / "config", ec)) return installed.string();
+  }
+  return source_dir;
+}
+
 std::string SourceDir() {
-  // An installed copy (docker/, a package) points LOCI_HOME at its config/ and models/.
-  const char* home = std::getenv("LOCI_HOME");
-  return home && *home ? home : LOCI_SOURCE_DIR;
+  std::error_code ec;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  return ResolveResourceDir(std::getenv("LOCI_HOME"), ec ? std::string() : exe.string(),
+                            LOCI_SOURCE_DIR);
 }
 
 std::string DataDirFromEnv() {

@@ -58,9 +58,15 @@ class ConfigFileScope {
 StatusOr<PinholeCamera> CameraFromYaml(const YAML::Node& node);
 StatusOr<PinholeCamera> CameraPreset(const std::string& name);
 
-// Where the shipped config/, models/ and tests/data live: $LOCI_HOME when set, else the source
-// directory baked in at build time.
+// Where the shipped config/ and models/ (and, in the source tree, tests/data) live, first of:
+// $LOCI_HOME when set; <dir of this executable>/../share/loci when it holds config/ (an
+// installed copy: `cmake --install`, the .deb, the container images); the source directory
+// baked in at build time.
 std::string SourceDir();
+// SourceDir()'s order with its inputs given: `home` ($LOCI_HOME, may be null or empty), `exe`
+// (path of the running executable, may be empty) and `source_dir` (the baked-in tree).
+std::string ResolveResourceDir(const char* home, const std::string& exe,
+                               const std::string& source_dir);
 // $LOCI_DATA if set, else "".
 std::string DataDirFromEnv();
 

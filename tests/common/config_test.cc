@@ -4,8 +4,11 @@
 #include <spdlog/sinks/ostream_sink.h>
 #include <spdlog/spdlog.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <sstream>
+
+#include "tests/support/temp_dir.h"
 
 namespace loci {
 namespace {
@@ -105,6 +108,39 @@ TEST(ConfigKeys, CameraKeysAreChecked) {
   SetStrictConfig(false);
   ASSERT_FALSE(cam.ok());
   EXPECT_NE(cam.status().message().find("'fxx'"), std::string::npos) << cam.status();
+}
+
+// Resource lookup order: $LOCI_HOME, then <exe dir>/../share/loci when it holds config/ (an
+// install), then the source tree baked in at build time.
+class ResourceDir : public testing::TempDirTest {};
+
+TEST_F(ResourceDir, HomeThenInstalledShareThenSourceTree) {
+  namespace fs = std::filesystem;
+  const std::string exe = Path("prefix/bin/loci-server");
+  const std::string share = Path("prefix/share/loci");
+  fs::create_directories(Path("prefix/bin"));
+  // No share/loci/config beside the binary (a build tree has only share/loci/viewer there).
+  fs::create_directories(share + "/viewer");
+  EXPECT_EQ(ResolveResourceDir(nullptr, exe, "/src/loci"), "/src/loci");
+  EXPECT_EQ(ResolveResourceDir("", exe, "/src/loci"), "/src/loci");
+  EXPECT_EQ(ResolveResourceDir(nullptr, "", "/src/loci"), "/src/loci");
+  // An installed tree: share/loci/config beside bin/.
+  fs::create_directories(share + "/config");
+  EXPECT_EQ(ResolveResourceDir(nullptr, exe, "/src/loci"), share);
+  EXPECT_EQ(ResolveResourceDir("", exe, "/src/loci"), share);
+  // $LOCI_HOME wins over both.
+  EXPECT_EQ(ResolveResourceDir("/opt/loci", exe, "/src/loci"), "/opt/loci");
+}
+
+TEST(ResourceDirEnv, SourceDirFollowsLociHome) {
+  const char* saved = std::getenv("LOCI_HOME");
+  const std::string previous = saved != nullptr ? saved : "";
+  setenv("LOCI_HOME", "/somewhere/loci", 1);
+  EXPECT_EQ(SourceDir(), "/somewhere/loci");
+  unsetenv("LOCI_HOME");
+  // The test binary lives in <build>/tests, whose ../share/loci has no config/: the source tree.
+  EXPECT_EQ(SourceDir(), LOCI_SOURCE_DIR);
+  if (saved != nullptr) setenv("LOCI_HOME", previous.c_str(), 1);
 }
 
 }  // namespace
