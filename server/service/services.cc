@@ -6,6 +6,9 @@
 #include <chrono>
 #include <cmath>
 
+#include <absl/strings/str_cat.h>
+#include <grpcpp/support/method_handler.h>
+
 #include "common/time.h"
 #include "server/service/proto_convert.h"
 
@@ -49,9 +52,22 @@ grpc::Status MappingService::OpenSession(grpc::ServerContext* ctx,
   return grpc::Status::OK;
 }
 
-grpc::Status MappingService::StreamKeyframes(
+MappingService::MappingService(MapServer* server, const Authorizer* auth)
+    : server_(server), auth_(auth) {
+  constexpr int kStreamKeyframesIndex = 1;  // the method's place in mapping.proto
+  using Handler = grpc::internal::BidiStreamingHandler<MappingService, grpc::ByteBuffer,
+                                                       loci::v1::KeyframeAck>;
+  MarkMethodStreamed(kStreamKeyframesIndex,
+                     new Handler(
+                         [](MappingService* service, grpc::ServerContext* ctx,
+                            grpc::ServerReaderWriter<loci::v1::KeyframeAck, grpc::ByteBuffer>*
+                                stream) { return service->StreamKeyframeBytes(ctx, stream); },
+                         this));
+}
+
+grpc::Status MappingService::StreamKeyframeBytes(
     grpc::ServerContext* ctx,
-    grpc::ServerReaderWriter<loci::v1::KeyframeAck, loci::v1::Keyframe>* stream) {
+    grpc::ServerReaderWriter<loci::v1::KeyframeAck, grpc::ByteBuffer>* stream) {
   const StatusOr<Principal> who = Caller(*auth_, *ctx);
   if (!who.ok()) return ToGrpc(who.status());
   if (who->role == Principal::Role::kQuery) {
@@ -59,8 +75,16 @@ grpc::Status MappingService::StreamKeyframes(
   }
   const std::string* only_robot = who->role == Principal::Role::kRobot ? &who->robot : nullptr;
   if (Status ready = server_->CheckReady(); !ready.ok()) return ToGrpc(ready);
-  loci::v1::Keyframe kf;
-  while (!ctx->IsCancelled() && stream->Read(&kf)) {
+  grpc::ByteBuffer bytes;
+  for (int64_t n = 1; !ctx->IsCancelled() && stream->Read(&bytes); ++n) {
+    const size_t size = bytes.Length();
+    loci::v1::Keyframe kf;
+    if (!grpc::SerializationTraits<loci::v1::Keyframe>::Deserialize(&bytes, &kf).ok()) {
+      return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                          absl::StrCat("message ", n, " of this stream (", size,
+                                       " bytes) is not a loci.v1.Keyframe; the stream ends here "
+                                       "and the keyframes acknowledged before it are stored"));
+    }
     const loci::v1::KeyframeAck ack = server_->Ingest(kf, only_robot);
     if (!stream->Write(ack)) break;
   }

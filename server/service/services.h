@@ -4,6 +4,8 @@
 
 #include <memory>
 
+#include <grpcpp/support/byte_buffer.h>
+
 #include "loci/v1/mapping.grpc.pb.h"
 #include "loci/v1/query.grpc.pb.h"
 #include "server/service/auth.h"
@@ -18,12 +20,15 @@ StatusOr<Principal> Caller(const Authorizer& auth, const grpc::ServerContext& ct
 class MappingService final : public loci::v1::Mapping::Service {
  public:
   // `auth` outlives the service; every call is checked against it (auth.h).
-  MappingService(MapServer* server, const Authorizer* auth) : server_(server), auth_(auth) {}
+  MappingService(MapServer* server, const Authorizer* auth);
   grpc::Status OpenSession(grpc::ServerContext* ctx, const loci::v1::OpenSessionRequest* req,
                            loci::v1::OpenSessionResponse* resp) override;
-  grpc::Status StreamKeyframes(
+  // StreamKeyframes reads raw message bytes and parses them itself, so that a message that is
+  // not a Keyframe ends the stream with INVALID_ARGUMENT; the typed handler cannot tell such a
+  // message from the client's half-close.
+  grpc::Status StreamKeyframeBytes(
       grpc::ServerContext* ctx,
-      grpc::ServerReaderWriter<loci::v1::KeyframeAck, loci::v1::Keyframe>* stream) override;
+      grpc::ServerReaderWriter<loci::v1::KeyframeAck, grpc::ByteBuffer>* stream);
   grpc::Status CloseSession(grpc::ServerContext* ctx, const loci::v1::CloseSessionRequest* req,
                             loci::v1::CloseSessionResponse* resp) override;
 

@@ -1,6 +1,7 @@
 // The gRPC services in process on 127.0.0.1 (port 0): ingest, acknowledgements, duplicates,
 // malformed keyframes, the message size limit, resume, queries and object events.
 #include <grpcpp/create_channel.h>
+#include <grpcpp/support/byte_buffer.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -72,10 +73,10 @@ class ServiceTest : public ::testing::Test {
     grpc::ChannelArguments args;
     args.SetMaxReceiveMessageSize(-1);
     args.SetMaxSendMessageSize(-1);
-    auto channel = grpc::CreateCustomChannel(absl::StrCat("127.0.0.1:", grpc_->port()),
-                                             grpc::InsecureChannelCredentials(), args);
-    mapping_ = loci::v1::Mapping::NewStub(channel);
-    query_ = loci::v1::Query::NewStub(channel);
+    channel_ = grpc::CreateCustomChannel(absl::StrCat("127.0.0.1:", grpc_->port()),
+                                         grpc::InsecureChannelCredentials(), args);
+    mapping_ = loci::v1::Mapping::NewStub(channel_);
+    query_ = loci::v1::Query::NewStub(channel_);
   }
   void Stop() {
     grpc_.reset();
@@ -123,6 +124,7 @@ class ServiceTest : public ::testing::Test {
   std::vector<testing::RenderedView> views_;
   std::unique_ptr<MapServer> server_;
   std::unique_ptr<GrpcServer> grpc_;
+  std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<loci::v1::Mapping::Stub> mapping_;
   std::unique_ptr<loci::v1::Query::Stub> query_;
 };
@@ -275,6 +277,43 @@ TEST_F(ServiceTest, MalformedKeyframesAreRejectedAndChangeNothing) {
   ASSERT_EQ(after.size(), 1u);
   EXPECT_EQ(after[0].status().code(), 0);
   EXPECT_EQ(StoredKeyframes(), 3u);
+}
+
+// A message that is not a Keyframe at all (bytes that do not parse) ends the stream with
+// INVALID_ARGUMENT instead of an OK that looks like a clean end; what came before is stored.
+TEST_F(ServiceTest, UnparseableMessageEndsTheStreamWithInvalidArgument) {
+  const std::string session = Open();
+  grpc::ClientContext ctx;
+  const grpc::internal::RpcMethod method("/loci.v1.Mapping/StreamKeyframes",
+                                         grpc::internal::RpcMethod::BIDI_STREAMING, channel_);
+  std::unique_ptr<grpc::ClientReaderWriter<grpc::ByteBuffer, grpc::ByteBuffer>> stream(
+      grpc::internal::ClientReaderWriterFactory<grpc::ByteBuffer, grpc::ByteBuffer>::Create(
+          channel_.get(), method, &ctx));
+  grpc::ByteBuffer good;
+  bool own = false;
+  ASSERT_TRUE(grpc::SerializationTraits<Keyframe>::Serialize(Frame(session, 0), &good, &own).ok());
+  ASSERT_TRUE(stream->Write(good));
+  grpc::ByteBuffer ack_bytes;
+  ASSERT_TRUE(stream->Read(&ack_bytes));
+  KeyframeAck ack;
+  ASSERT_TRUE(grpc::SerializationTraits<KeyframeAck>::Deserialize(&ack_bytes, &ack).ok());
+  EXPECT_EQ(ack.status().code(), 0);
+
+  const std::string garbage = "\x0a\xff\xff\xff\xff\xff\xff\xff\xff\xff\xff";  // bad varint
+  grpc::Slice slice(garbage);
+  grpc::ByteBuffer bad(&slice, 1);
+  stream->Write(bad);
+  EXPECT_FALSE(stream->Read(&ack_bytes));  // no ack for a message that is not a keyframe
+  const grpc::Status st = stream->Finish();
+  EXPECT_EQ(st.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << st.error_message();
+  EXPECT_NE(st.error_message().find("message 2"), std::string::npos) << st.error_message();
+  EXPECT_EQ(StoredKeyframes(), 1u);
+
+  grpc::Status after;
+  const auto acks = Send({Frame(session, 1)}, &after);  // the server serves on
+  ASSERT_EQ(acks.size(), 1u);
+  EXPECT_EQ(acks[0].status().code(), 0);
+  EXPECT_TRUE(after.ok());
 }
 
 // Keyframes that pass a finiteness check but would poison the map, or cost seconds and
