@@ -86,7 +86,7 @@ Status TimeMove(int64_t n, server::Mapper& mapper, server::MapStore& store,
                          T_fix * T_base_map * traj[i].T_world_cam});
     }
   }
-  auto source = [&](int64_t id) -> StatusOr<server::KeyframeProducts> {
+  auto source = [&store, fingerprint](int64_t id) -> StatusOr<server::KeyframeProducts> {
     LOCI_ASSIGN_OR_RETURN(std::optional<std::string> bytes, store.GetProducts(id, fingerprint));
     if (!bytes) return absl::NotFoundError(absl::StrCat("no products for keyframe ", id));
     return server::DecodeProducts(*bytes, fingerprint, /*with_visibility=*/false);
@@ -95,6 +95,10 @@ Status TimeMove(int64_t n, server::Mapper& mapper, server::MapStore& store,
   LOCI_ASSIGN_OR_RETURN(size_t moved, mapper.UpdateKeyframePoses(updates, source));
   const double s = std::chrono::duration<double>(Clock::now() - t0).count();
   std::printf("  moved %zu keyframes (products read from the database) in %.3f s\n", moved, s);
+  mapper.FlushOctomap();
+  std::printf("  OctoMap rebuilt from all %zu keyframes' products %.3f s after the move\n",
+              mapper.Trajectories().begin()->second.size(),
+              std::chrono::duration<double>(Clock::now() - t0).count() - s);
   return absl::OkStatus();
 }
 

@@ -28,10 +28,17 @@ void FusedObject::AddPoints(const std::vector<ColoredPoint>& points_m) {
 
 void FusedObject::MovePoints(const std::vector<ColoredPoint>& old_m,
                              const std::vector<ColoredPoint>& new_m) {
-  std::unordered_set<VoxelKey> old_cells, new_cells;
+  // Cells of an observation counted once each: sorted keys, unique.
+  auto cells_of = [this](const std::vector<ColoredPoint>& points) {
+    std::vector<VoxelKey> keys;
+    keys.reserve(points.size());
+    for (const ColoredPoint& cp : points) keys.push_back(KeyOf(cp.p_m.cast<double>(), support_.cell_m));
+    std::sort(keys.begin(), keys.end());
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+    return keys;
+  };
   for (const ColoredPoint& cp : old_m) {
     const Eigen::Vector3d p = cp.p_m.cast<double>();
-    old_cells.insert(KeyOf(p, support_.cell_m));
     auto it = voxels_.find(KeyOf(p, voxel_m_));
     if (it == voxels_.end()) continue;  // not this object's (it never held the observation)
     Voxel& v = it->second;
@@ -39,13 +46,12 @@ void FusedObject::MovePoints(const std::vector<ColoredPoint>& old_m,
     v.rgb_sum -= Eigen::Vector3d((cp.rgb >> 16) & 0xff, (cp.rgb >> 8) & 0xff, cp.rgb & 0xff);
     if (--v.count == 0) voxels_.erase(it);
   }
-  for (VoxelKey key : old_cells) {
+  for (VoxelKey key : cells_of(old_m)) {
     auto it = cells_.find(key);
     if (it != cells_.end() && --it->second.observations == 0) cells_.erase(it);
   }
   for (const ColoredPoint& cp : new_m) {
     const Eigen::Vector3d p = cp.p_m.cast<double>();
-    new_cells.insert(KeyOf(p, support_.cell_m));
     Voxel& v = voxels_[KeyOf(p, voxel_m_)];
     v.sum_m += p;
     v.rgb_sum += Eigen::Vector3d((cp.rgb >> 16) & 0xff, (cp.rgb >> 8) & 0xff, cp.rgb & 0xff);
@@ -53,7 +59,7 @@ void FusedObject::MovePoints(const std::vector<ColoredPoint>& old_m,
   }
   // A moved observation counts once per cell, as in AddPoints (its tag stays below every
   // later AddPoints tag).
-  for (VoxelKey key : new_cells) ++cells_[key].observations;
+  for (VoxelKey key : cells_of(new_m)) ++cells_[key].observations;
 }
 
 void FusedObject::Absorb(const FusedObject& other) {
@@ -109,8 +115,8 @@ void FusedObject::UpdateConfirmed(int confirm_observations, const ExistenceModel
                ExistenceLlr(m) >= min_llr;
 }
 
-std::unordered_set<VoxelKey> FusedObject::KeysAt(double voxel_m) const {
-  std::unordered_set<VoxelKey> keys;
+VoxelSet FusedObject::KeysAt(double voxel_m) const {
+  VoxelSet keys;
   keys.reserve(voxels_.size());
   for (const auto& [key, v] : voxels_) keys.insert(KeyOf(v.sum_m / v.count, voxel_m));
   return keys;

@@ -92,7 +92,7 @@ class FusedObject {
   double half_size_m() const { return obb_half_m_.maxCoeff(); }
 
   // Voxel keys of the fused points at `voxel_m` (overlap measure).
-  std::unordered_set<VoxelKey> KeysAt(double voxel_m) const;
+  VoxelSet KeysAt(double voxel_m) const;
   bool HasTrack(int64_t session_row, int64_t track_id) const {
     return track_id != 0 && tracks_.count({session_row, track_id}) > 0;
   }
@@ -132,8 +132,8 @@ class FusedObject {
   bool centroid_from_box_;
   SupportOptions support_;
   LabelDistribution labels_;
-  std::unordered_map<VoxelKey, Voxel> voxels_;
-  std::unordered_map<VoxelKey, Cell> cells_;
+  VoxelMap<Voxel> voxels_;
+  VoxelMap<Cell> cells_;
   uint32_t point_observations_ = 0;  // AddPoints calls (absorbed objects' included)
   size_t supported_voxels_ = 0;      // voxels the geometry used at the last recompute
   Eigen::Vector3d centroid_m_ = Eigen::Vector3d::Zero();

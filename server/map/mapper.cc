@@ -24,6 +24,7 @@ Mapper::Mapper(const MapOptions& options)
 }
 
 Mapper::~Mapper() {
+  ++octomap_generation_;  // a queued or running rebuild stops (its product source may be gone)
   octomap_queue_.Close();
   if (octomap_thread_.joinable()) octomap_thread_.join();
 }
@@ -31,9 +32,11 @@ Mapper::~Mapper() {
 void Mapper::OctomapLoop() {
   while (std::optional<OctomapJob> job = octomap_queue_.Pop()) {
     const double t0 = ThreadCpuMs();
-    {
+    if (job->scan) {
       std::lock_guard<std::mutex> lock(octo_mu_);
-      octomap_->Insert(job->points_m, job->origin_m);
+      octomap_->Insert(job->scan->points_m, job->scan->origin_m);
+    } else if (job->rebuild && job->rebuild->generation == octomap_generation_.load()) {
+      RebuildOctomap(*job->rebuild);
     }
     const double ms = ThreadCpuMs() - t0;
     {
@@ -265,25 +268,33 @@ std::vector<int64_t> Mapper::IntegrateProducts(const MapperKeyframe& kf,
     if (kf.t_ns >= pose.t_ns) pose = {kf.t_ns, T_map_kf};
     ++stats_.keyframes;
   }
-  if (octomap_) PushOctomap(points, T_map_kf.translation());
+  if (octomap_) {
+    OctomapJob job;
+    job.scan = ThinScan(points, T_map_kf.translation(), options_.octomap.resolution_m);
+    PushOctomap(std::move(job));
+  }
   AddTimes(*times);
   return ids;
 }
 
-void Mapper::PushOctomap(const std::vector<SemanticPoint>& static_points_m,
-                         const Vec3d& origin_m) {
+Mapper::OctomapScan Mapper::ThinScan(const std::vector<SemanticPoint>& static_points_m,
+                                     const Vec3d& origin_m, double resolution_m) {
   // One ray per OctoMap leaf is enough: thin the cloud to the OctoMap resolution first.
-  OctomapJob job;
-  job.origin_m = origin_m;
-  std::unordered_map<VoxelKey, std::pair<Eigen::Vector3f, int>> leaves;
+  OctomapScan scan;
+  scan.origin_m = origin_m;
+  VoxelMap<std::pair<Eigen::Vector3f, int>> leaves;
   for (const SemanticPoint& sp : static_points_m) {
-    auto& [sum, n] = leaves[KeyOf(sp.p_m.cast<double>(), options_.octomap.resolution_m)];
+    auto& [sum, n] = leaves[KeyOf(sp.p_m.cast<double>(), resolution_m)];
     if (n == 0) sum.setZero();
     sum += sp.p_m;
     ++n;
   }
-  job.points_m.reserve(leaves.size());
-  for (const auto& [key, sn] : leaves) job.points_m.push_back(sn.first / sn.second);
+  scan.points_m.reserve(leaves.size());
+  for (const auto& [key, sn] : leaves) scan.points_m.push_back(sn.first / sn.second);
+  return scan;
+}
+
+void Mapper::PushOctomap(OctomapJob job) {
   {
     std::lock_guard<std::mutex> lock(octomap_progress_mu_);
     ++octomap_pushed_;

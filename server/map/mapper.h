@@ -7,6 +7,7 @@
 // until every integrated keyframe is in.
 #pragma once
 
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
@@ -113,7 +114,9 @@ class Mapper {
   // the old place and enter the new one, and moved objects that now coincide with others merge.
   // Emits UPDATED / MERGED / REMOVED events. Products come from `source` (the store). Call on
   // the mapping thread, between Integrate calls. NotFound for an unmapped keyframe (nothing
-  // moves); the OctoMap does not follow yet (it keeps the old poses until a reprocess).
+  // moves). The OctoMap follows on its own thread: it is rebuilt from every keyframe's products
+  // at the current poses (log-odds clamping makes taking scans back out inexact), while the old
+  // one keeps answering; FlushOctomap waits for it. `source` must stay valid until then.
   using ProductSource = std::function<StatusOr<KeyframeProducts>(int64_t keyframe_id)>;
   struct KeyframePoseUpdate {
     int64_t keyframe_id = 0;
@@ -151,10 +154,23 @@ class Mapper {
   void FlushOctomap() const;
 
  private:
-  struct OctomapJob {
+  struct OctomapScan {
     std::vector<Eigen::Vector3f> points_m;  // static points at the OctoMap resolution
     Vec3d origin_m = Vec3d::Zero();         // camera centre
   };
+  // A new tree from every keyframe's products at these poses (after a pose update).
+  struct OctomapRebuild {
+    std::vector<std::pair<int64_t, SE3d>> T_map_kf;  // keyframe id, pose; in id order
+    ProductSource source;
+    uint64_t generation = 0;  // a later rebuild makes this one moot
+  };
+  struct OctomapJob {
+    std::optional<OctomapScan> scan;  // a new keyframe
+    std::optional<OctomapRebuild> rebuild;
+  };
+  static OctomapScan ThinScan(const std::vector<SemanticPoint>& static_points_m,
+                              const Vec3d& origin_m, double resolution_m);
+  void RebuildOctomap(const OctomapRebuild& rebuild);
   void OctomapLoop();
   // A keyframe kept until the map frame is settled, to re-derive the map from.
   struct Settling {
@@ -177,7 +193,8 @@ class Mapper {
   void FixFirstFrame(const MapperKeyframe& kf, const std::optional<Vec3d>& gravity_cam);
   void CollectFrameEvidence(const MapperKeyframe& kf, const std::optional<Vec3d>& gravity_cam,
                             const KeyframeProducts& products);
-  void PushOctomap(const std::vector<SemanticPoint>& static_points_m, const Vec3d& origin_m);
+  // Queues OctoMap work (call without mu_: the queue is bounded and its thread takes mu_).
+  void PushOctomap(OctomapJob job);
   // Moves keyframe_poses_[index] and its points (mu_ held).
   void MoveKeyframe(size_t index, const SE3d& T_base_kf, const KeyframeProducts& products,
                     std::vector<int64_t>* moved_objects);
@@ -212,6 +229,7 @@ class Mapper {
   mutable std::condition_variable octomap_progress_cv_;
   uint64_t octomap_pushed_ = 0;  // guarded by octomap_progress_mu_
   uint64_t octomap_done_ = 0;    // guarded by octomap_progress_mu_
+  std::atomic<uint64_t> octomap_generation_{0};  // of the latest queued rebuild
   std::thread octomap_thread_;
 };
 

@@ -2,6 +2,8 @@
 // move their contribution to the objects and the cloud: what they added at the old pose comes
 // out, the same products go back in at the new pose, and moved objects that now coincide with
 // others merge. Only the moved keyframes' products are read.
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 
 #include "server/map/map_points.h"
@@ -47,11 +49,21 @@ StatusOr<size_t> Mapper::UpdateKeyframePoses(const std::vector<KeyframePoseUpdat
     ++moved;
   }
   std::vector<ObjectEventOut> events;
+  OctomapJob octo;
   {
     std::lock_guard<std::mutex> lock(mu_);
     objects_.MergeMoved(moved_objects, &changes);
     AppendEvents(changes, &events);
+    if (octomap_ && moved > 0) {
+      OctomapRebuild rebuild{{}, source, ++octomap_generation_};
+      rebuild.T_map_kf.reserve(keyframe_poses_.size());
+      for (const KeyframePose& k : keyframe_poses_) {
+        rebuild.T_map_kf.emplace_back(k.keyframe_id, T_map_base_ * k.T_base_kf);
+      }
+      octo.rebuild = std::move(rebuild);
+    }
   }
+  if (octo.rebuild) PushOctomap(std::move(octo));
   if (listener_ && !events.empty()) listener_(events);
   if (!status.ok()) return status;
   return moved;
@@ -76,6 +88,32 @@ void Mapper::MoveKeyframe(size_t index, const SE3d& T_base_kf, const KeyframePro
   k.T_base_kf = T_base_kf;
   RobotPose& latest = latest_poses_[k.robot];
   if (latest.t_ns == k.t_ns) latest.T_map_cam = T_map_kf_new;
+}
+
+}  // namespace loci::server
+
+namespace loci::server {
+
+void Mapper::RebuildOctomap(const OctomapRebuild& rebuild) {
+  auto tree = std::make_unique<OccupancyMap>(options_.octomap);
+  size_t skipped = 0;
+  for (const auto& [id, T_map_kf] : rebuild.T_map_kf) {
+    if (rebuild.generation != octomap_generation_.load()) return;  // a newer rebuild is queued
+    StatusOr<KeyframeProducts> products = rebuild.source(id);
+    if (!products.ok()) {
+      ++skipped;
+      continue;
+    }
+    const OctomapScan scan = ThinScan(StaticPointsMap(*products, T_map_kf.cast<float>(), {}),
+                                      T_map_kf.translation(), options_.octomap.resolution_m);
+    tree->Insert(scan.points_m, scan.origin_m);
+  }
+  if (skipped > 0) {
+    spdlog::warn("OctoMap rebuilt without {} of {} keyframes (their products are missing)",
+                 skipped, rebuild.T_map_kf.size());
+  }
+  std::lock_guard<std::mutex> lock(octo_mu_);
+  octomap_ = std::move(tree);
 }
 
 }  // namespace loci::server

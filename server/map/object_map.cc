@@ -5,7 +5,7 @@
 
 namespace loci::server {
 
-double VoxelOverlap(const std::unordered_set<VoxelKey>& a, const std::unordered_set<VoxelKey>& b) {
+double VoxelOverlap(const VoxelSet& a, const VoxelSet& b) {
   if (a.empty() && b.empty()) return 0.0;
   const auto& small = a.size() < b.size() ? a : b;
   const auto& large = a.size() < b.size() ? b : a;
@@ -14,8 +14,8 @@ double VoxelOverlap(const std::unordered_set<VoxelKey>& a, const std::unordered_
   return static_cast<double>(inter) / static_cast<double>(a.size() + b.size() - inter);
 }
 
-double VoxelContainment(const std::unordered_set<VoxelKey>& a,
-                        const std::unordered_set<VoxelKey>& b) {
+double VoxelContainment(const VoxelSet& a,
+                        const VoxelSet& b) {
   if (a.empty() || b.empty()) return 0.0;
   const auto& small = a.size() < b.size() ? a : b;
   const auto& large = a.size() < b.size() ? b : a;
@@ -37,7 +37,7 @@ FusedObject ObjectMap::NewObject(int64_t id) const {
 namespace {
 
 // |A∩B| / |A|: the share of A inside B.
-double Within(const std::unordered_set<VoxelKey>& a, const std::unordered_set<VoxelKey>& b) {
+double Within(const VoxelSet& a, const VoxelSet& b) {
   if (a.empty()) return 0.0;
   size_t inter = 0;
   for (VoxelKey k : a) inter += b.count(k);
@@ -47,7 +47,7 @@ double Within(const std::unordered_set<VoxelKey>& a, const std::unordered_set<Vo
 }  // namespace
 
 double ObjectMap::AssociationScore(const FusedObject& object, const MapObservation& obs,
-                                   const std::unordered_set<VoxelKey>& obs_keys) const {
+                                   const VoxelSet& obs_keys) const {
   const double d = (object.centroid_m() - obs.centroid_m).norm();
   double score = 0;
   if (d < options_.track_gate_m && object.HasTrack(obs.session_row, obs.track_id)) {
@@ -61,7 +61,7 @@ double ObjectMap::AssociationScore(const FusedObject& object, const MapObservati
   // the image border, half hidden) lies inside the object without overlapping most of it: it
   // counts when it is contained and of a compatible size.
   if (options_.weight_overlap > 0 && d < options_.track_gate_m) {
-    const std::unordered_set<VoxelKey> keys = object.KeysAt(options_.overlap_voxel_m);
+    const VoxelSet keys = object.KeysAt(options_.overlap_voxel_m);
     const bool overlap = VoxelOverlap(keys, obs_keys) > options_.min_overlap;
     const bool contained = options_.assoc_containment < 1 &&
                            SizeCompatible(object.half_size_m(), obs.half_size_m) &&
@@ -81,7 +81,7 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
   std::vector<int64_t> ids;
   ids.reserve(observations.size());
   for (const MapObservation& obs : observations) {
-    std::unordered_set<VoxelKey> keys;
+    VoxelSet keys;
     for (const ColoredPoint& p : obs.points_m) {
       keys.insert(KeyOf(p.p_m.cast<double>(), options_.overlap_voxel_m));
     }
@@ -120,7 +120,7 @@ int64_t ObjectMap::MergeDuplicates(int64_t id, std::vector<ObjectChange>* change
     merged = false;
     const FusedObject& self = objects_.at(id);
     const std::string cls = self.labels().Argmax();
-    std::unordered_set<VoxelKey> self_keys;
+    VoxelSet self_keys;
     for (const auto& [other_id, other] : objects_) {
       if (other_id == id) continue;
       // Other classes merge only with an object of a compatible size (a monitor labelled

@@ -47,10 +47,10 @@ struct ObjectChange {
 };
 
 // M = |A∩B| / (|A| + |B| - |A∩B|) of two voxel sets (0 when both are empty).
-double VoxelOverlap(const std::unordered_set<VoxelKey>& a, const std::unordered_set<VoxelKey>& b);
+double VoxelOverlap(const VoxelSet& a, const VoxelSet& b);
 // |A∩B| / min(|A|, |B|).
-double VoxelContainment(const std::unordered_set<VoxelKey>& a,
-                        const std::unordered_set<VoxelKey>& b);
+double VoxelContainment(const VoxelSet& a,
+                        const VoxelSet& b);
 
 class ObjectMap {
  public:
@@ -59,7 +59,7 @@ class ObjectMap {
 
   // Weighted association score of an observation with an object (see FusionOptions).
   double AssociationScore(const FusedObject& object, const MapObservation& obs,
-                          const std::unordered_set<VoxelKey>& obs_keys) const;
+                          const VoxelSet& obs_keys) const;
 
   // Integrates one keyframe's observations; returns the object id of each (after merges) and
   // appends the changes.

@@ -4,7 +4,6 @@
 
 #include <limits>
 #include <sstream>
-#include <unordered_set>
 
 #include "server/map/voxel_key.h"
 
@@ -15,30 +14,47 @@ OccupancyMap::OccupancyMap(const OctomapOptions& options)
 
 OccupancyMap::~OccupancyMap() = default;
 
+void OccupancyMap::SplitRays(const std::vector<Eigen::Vector3f>& points_m,
+                             std::vector<Eigen::Vector3f>* rays,
+                             std::vector<Eigen::Vector3f>* rest) const {
+  // One ray per ray voxel (free space + its end point), the remaining end points occupied only.
+  const bool thin = options_.ray_voxel_m > options_.resolution_m;
+  VoxelSet ray_voxels;
+  for (const auto& p : points_m) {
+    if (!thin || ray_voxels.insert(KeyOf(p.cast<double>(), options_.ray_voxel_m)).second) {
+      rays->push_back(p);
+    } else {
+      rest->push_back(p);
+    }
+  }
+}
+
+bool OccupancyMap::InRange(const Eigen::Vector3f& p, const Eigen::Vector3d& origin_m) const {
+  return options_.max_range_m <= 0 ||
+         (p.cast<double>() - origin_m).squaredNorm() <= options_.max_range_m * options_.max_range_m;
+}
+
+namespace {
+
+octomap::Pointcloud ToOctomap(const std::vector<Eigen::Vector3f>& points_m) {
+  octomap::Pointcloud cloud;
+  cloud.reserve(points_m.size());
+  for (const auto& p : points_m) cloud.push_back(p.x(), p.y(), p.z());
+  return cloud;
+}
+
+}  // namespace
+
 void OccupancyMap::Insert(const std::vector<Eigen::Vector3f>& points_m,
                           const Eigen::Vector3d& origin_m) {
   if (points_m.empty()) return;
-  const octomap::point3d origin(origin_m.x(), origin_m.y(), origin_m.z());
-  // One ray per ray voxel (free space + its end point), the remaining end points occupied only.
-  const bool thin = options_.ray_voxel_m > options_.resolution_m;
-  std::unordered_set<VoxelKey> ray_voxels;
-  octomap::Pointcloud rays;
-  std::vector<Eigen::Vector3f> rest;
-  for (const auto& p : points_m) {
-    if (!thin || ray_voxels.insert(KeyOf(p.cast<double>(), options_.ray_voxel_m)).second) {
-      rays.push_back(p.x(), p.y(), p.z());
-    } else {
-      rest.push_back(p);
-    }
-  }
+  std::vector<Eigen::Vector3f> rays, rest;
+  SplitRays(points_m, &rays, &rest);
   // discretize = true: one ray per end leaf, the same map for a fraction of the cost.
-  tree_->insertPointCloud(rays, origin, options_.max_range_m, /*lazy_eval=*/false,
-                          /*discretize=*/true);
-  const double max_range2 = options_.max_range_m > 0 ? options_.max_range_m * options_.max_range_m
-                                                     : std::numeric_limits<double>::infinity();
+  tree_->insertPointCloud(ToOctomap(rays), octomap::point3d(origin_m.x(), origin_m.y(), origin_m.z()),
+                          options_.max_range_m, /*lazy_eval=*/false, /*discretize=*/true);
   for (const auto& p : rest) {
-    if ((p.cast<double>() - origin_m).squaredNorm() > max_range2) continue;
-    tree_->updateNode(p.x(), p.y(), p.z(), /*occupied=*/true, /*lazy_eval=*/false);
+    if (InRange(p, origin_m)) tree_->updateNode(p.x(), p.y(), p.z(), /*occupied=*/true, false);
   }
 }
 

@@ -36,6 +36,11 @@ class OccupancyMap {
   double resolution_m() const { return options_.resolution_m; }
 
  private:
+  // Splits points into one ray per ray voxel and the remaining end points (occupied only).
+  void SplitRays(const std::vector<Eigen::Vector3f>& points_m, std::vector<Eigen::Vector3f>* rays,
+                 std::vector<Eigen::Vector3f>* rest) const;
+  bool InRange(const Eigen::Vector3f& p, const Eigen::Vector3d& origin_m) const;
+
   OctomapOptions options_;
   std::unique_ptr<octomap::OcTree> tree_;
 };

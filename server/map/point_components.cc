@@ -15,7 +15,7 @@ struct CellPart {
   int points = 0;
 };
 
-using CellTable = std::unordered_map<VoxelKey, CellPart>;
+using CellTable = VoxelMap<CellPart>;
 
 Eigen::Vector3i CellOf(const Eigen::Vector3d& p_m, double cell_m) {
   return (p_m / cell_m).array().floor().cast<int>();

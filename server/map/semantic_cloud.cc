@@ -54,7 +54,7 @@ std::vector<SemanticPoint> SemanticCloud::Points(double voxel_m,
     return out;
   }
   // Coarser: average the kept voxels of each coarse voxel; the id of its first labelled voxel.
-  std::unordered_map<VoxelKey, Voxel> coarse;
+  VoxelMap<Voxel> coarse;
   for (const auto& [key, v] : voxels_) {
     SemanticPoint p = to_point(v);
     if (!keep(p.object_id)) continue;

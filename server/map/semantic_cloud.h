@@ -53,7 +53,7 @@ class SemanticCloud {
     int32_t votes = 0;
   };
   double voxel_m_;
-  std::unordered_map<VoxelKey, Voxel> voxels_;
+  VoxelMap<Voxel> voxels_;
 };
 
 }  // namespace loci::server

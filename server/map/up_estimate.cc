@@ -21,7 +21,7 @@ std::optional<Vec3d> EstimateUpFromPlanes(const std::vector<Eigen::Vector3f>& po
   const Vec3d prior = prior_up.normalized();
   auto cloud = std::make_shared<pcl::PointCloud<pcl::PointXYZ>>();
   cloud->reserve(points.size());
-  std::unordered_set<VoxelKey> seen;  // one point per voxel_m cell
+  VoxelSet seen;  // one point per voxel_m cell
   for (const auto& p : points) {
     if (!p.allFinite() || !seen.insert(KeyOf(p.cast<double>(), options.voxel_m)).second) continue;
     cloud->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));

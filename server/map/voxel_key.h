@@ -6,6 +6,8 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <unordered_map>
+#include <unordered_set>
 
 namespace loci::server {
 
@@ -32,6 +34,13 @@ inline size_t HashVoxelKey(VoxelKey k) {
   k ^= k >> 33;
   return static_cast<size_t>(k);
 }
+
+// Voxel tables. std::unordered_map on purpose: absl's Swiss tables salt each table's probe
+// sequence with its address, so their iteration order (the order of rays into the OctoMap, of
+// sums in a centroid) would change from run to run, and the map with it.
+template <class V>
+using VoxelMap = std::unordered_map<VoxelKey, V>;
+using VoxelSet = std::unordered_set<VoxelKey>;
 
 // Centre of a voxel in metres.
 inline Eigen::Vector3d CenterOf(VoxelKey key, double voxel_m) {

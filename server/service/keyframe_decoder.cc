@@ -151,7 +151,7 @@ StatusOr<MapperKeyframe> DecodeKeyframe(const KeyframeRecord& rec, const Session
   kf.session_row = session.row_id;
   kf.robot = session.robot_name;
   kf.t_ns = rec.t_ns;
-  kf.T_base_kf = session.T_base_odom * rec.T_odom_cam;
+  kf.T_base_kf = BaseFromKeyframe(rec, session);
   kf.camera = rec.camera;
   LOCI_ASSIGN_OR_RETURN(kf.bgr,
                         DecodeJpeg(rec.rgb_jpeg, rec.camera.width_px, rec.camera.height_px));

@@ -136,9 +136,11 @@ void MapServer::OnReady(std::function<void()> fn) {
 StatusOr<size_t> MapServer::UpdateKeyframePoses(
     const std::vector<Mapper::KeyframePoseUpdate>& updates) {
   LOCI_RETURN_IF_ERROR(CheckReady());
-  const std::string fingerprint = mapper_->options().ProductsFingerprint();
-  auto source = [&](int64_t id) -> StatusOr<KeyframeProducts> {
-    LOCI_ASSIGN_OR_RETURN(std::optional<std::string> bytes, store_->GetProducts(id, fingerprint));
+  // By value: the OctoMap rebuild reads products on its own thread after this call returns
+  // (the store is shared with it).
+  auto source = [store = store_, fingerprint = mapper_->options().ProductsFingerprint()](
+                    int64_t id) -> StatusOr<KeyframeProducts> {
+    LOCI_ASSIGN_OR_RETURN(std::optional<std::string> bytes, store->GetProducts(id, fingerprint));
     if (!bytes) {
       return absl::FailedPreconditionError(
           absl::StrCat("keyframe ", id, " has no stored products (run loci reprocess)"));
@@ -147,7 +149,14 @@ StatusOr<size_t> MapServer::UpdateKeyframePoses(
   };
   std::lock_guard<std::mutex> lock(mapping_mu_);
   auto moved = mapper_->UpdateKeyframePoses(updates, source);
-  if (moved.ok()) since_checkpoint_ += *moved;  // the next checkpoint keeps the new poses
+  if (!moved.ok()) return moved;
+  since_checkpoint_ += *moved;  // the next checkpoint keeps the moved map
+  // The poses themselves, so that a restart from an older checkpoint, a replay and a reprocess
+  // all map these keyframes where they are now.
+  std::vector<KeyframePoseRecord> poses;
+  poses.reserve(updates.size());
+  for (const Mapper::KeyframePoseUpdate& u : updates) poses.push_back({u.keyframe_id, u.T_base_kf});
+  LOCI_RETURN_IF_ERROR(store_->PutKeyframePoses(poses));
   return moved;
 }
 

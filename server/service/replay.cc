@@ -17,7 +17,7 @@ MapperKeyframe MetaOf(const KeyframeRecord& rec, const SessionRecord& session) {
   kf.session_row = rec.session_row;
   kf.robot = session.robot_name;
   kf.t_ns = rec.t_ns;
-  kf.T_base_kf = session.T_base_odom * rec.T_odom_cam;
+  kf.T_base_kf = BaseFromKeyframe(rec, session);
   kf.camera = rec.camera;
   kf.has_gravity = rec.has_gravity;
   kf.gravity_cam = rec.gravity_cam;

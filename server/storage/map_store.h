@@ -47,6 +47,21 @@ struct KeyframeRecord {
   std::vector<Detection2D> detections;
   // Stored map products (loci.store.v1.KeyframeProducts), when read with them; empty = none.
   std::string products;
+  // A corrected pose (MapStore::PutKeyframePoses), when one was stored.
+  std::optional<SE3d> T_base_kf_corrected;
+};
+
+// The keyframe's pose in the base frame: the corrected one when stored, else the session's
+// odometry placement times the pose the robot sent.
+inline SE3d BaseFromKeyframe(const KeyframeRecord& rec, const SessionRecord& session) {
+  return rec.T_base_kf_corrected ? *rec.T_base_kf_corrected
+                                 : session.T_base_odom * rec.T_odom_cam;
+}
+
+// A keyframe's corrected pose.
+struct KeyframePoseRecord {
+  int64_t keyframe_id = 0;
+  SE3d T_base_kf = SE3d::Identity();
 };
 
 // What ForEachKeyframe reads besides the pose and metadata.
@@ -124,6 +139,8 @@ class MapStore {
                                                            const std::string& fingerprint) = 0;
   // Deletes every keyframe's products (`loci reprocess`).
   virtual Status DeleteAllProducts() = 0;
+  // Corrected poses, all in one transaction (a later one for the same keyframe replaces it).
+  virtual Status PutKeyframePoses(const std::vector<KeyframePoseRecord>& poses) = 0;
   // Stores a checkpoint and drops the older ones.
   virtual Status PutCheckpoint(const CheckpointRecord& checkpoint) = 0;
   virtual StatusOr<std::optional<CheckpointRecord>> LatestCheckpoint() = 0;

@@ -1,5 +1,5 @@
 // SqliteStore: the keyframe scan, per-keyframe products, checkpoints, retention and sizes
-// (schema/002_products_checkpoints.sql).
+// (schema/002_products_checkpoints.sql) and corrected poses (003_keyframe_poses.sql).
 #include <sqlite3.h>
 
 #include "common/detections_io.h"
@@ -9,6 +9,7 @@
 
 namespace loci::server {
 
+using sqlite::BindPose;
 using sqlite::CameraFrom;
 using sqlite::PoseFrom;
 using sqlite::SqlError;
@@ -28,7 +29,9 @@ std::string ScanSql(const KeyframeScan& scan) {
       "SELECT k.id, k.session, k.seq, k.t_ns, k.tx, k.ty, k.tz, k.qw, k.qx, k.qy, k.qz, k.fx,"
       " k.fy, k.cx, k.cy, k.width_px, k.height_px, k.depth_scale, k.has_gravity, k.gx, k.gy,"
       " k.gz, k.segment, ",
-      images, ", ", products ? "p.data" : "NULL", " FROM keyframes k",
+      images, ", ", products ? "p.data" : "NULL",
+      ", c.tx, c.ty, c.tz, c.qw, c.qx, c.qy, c.qz FROM keyframes k",
+      " LEFT JOIN keyframe_poses c ON c.keyframe_id = k.id",
       products ? " LEFT JOIN keyframe_products p ON p.keyframe_id = k.id AND p.fingerprint = ?2"
                : "",
       " WHERE k.id > ?1 ORDER BY k.id");
@@ -53,6 +56,7 @@ StatusOr<KeyframeRecord> RecordFrom(const Stmt& q) {
     kf.detections = std::move(dets.detections);
   }
   if (!q.IsNull(26)) kf.products = q.Text(26);
+  if (!q.IsNull(27)) kf.T_base_kf_corrected = PoseFrom(q, 27);
   return kf;
 }
 
@@ -101,6 +105,30 @@ Status SqliteStore::PutProducts(int64_t keyframe_id, const std::string& fingerpr
         s.Bind(1, keyframe_id).BindText(2, fingerprint).BindBlob(3, data).Bind(4, NowNs());
       },
       "store keyframe products");
+}
+
+Status SqliteStore::PutKeyframePoses(const std::vector<KeyframePoseRecord>& poses) {
+  std::lock_guard<std::mutex> lock(write_mu_);
+  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Writer());
+  Transaction tx(db);
+  LOCI_RETURN_IF_ERROR(tx.status());
+  {
+    Stmt s(db,
+           "INSERT OR REPLACE INTO keyframe_poses(keyframe_id, tx, ty, tz, qw, qx, qy, qz,"
+           " updated_ns) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?)");
+    if (!s.status().ok()) return SqlError(db, "prepare store keyframe poses");
+    const int64_t now_ns = NowNs();
+    for (const KeyframePoseRecord& p : poses) {
+      s.Reset();
+      s.Bind(1, p.keyframe_id);
+      BindPose(s, 2, p.T_base_kf);
+      s.Bind(9, now_ns);
+      if (s.Step() != SQLITE_DONE) {
+        return SqlError(db, absl::StrCat("store the pose of keyframe ", p.keyframe_id));
+      }
+    }
+  }
+  return tx.Commit();
 }
 
 StatusOr<std::optional<std::string>> SqliteStore::GetProducts(int64_t keyframe_id,

@@ -33,14 +33,10 @@ using sqlite::SqlError;
 using sqlite::Stmt;
 using sqlite::Transaction;
 using sqlite::CameraFrom;
+using sqlite::BindPose;
 using sqlite::PoseFrom;
 
 
-void BindPose(Stmt& s, int i, const SE3d& T) {
-  const Quatd q = QuatOf(T);
-  s.Bind(i, T.translation().x()).Bind(i + 1, T.translation().y()).Bind(i + 2, T.translation().z());
-  s.Bind(i + 3, q.w()).Bind(i + 4, q.x()).Bind(i + 5, q.y()).Bind(i + 6, q.z());
-}
 
 
 void BindCamera(Stmt& s, int i, const PinholeCamera& c) {

@@ -57,6 +57,7 @@ class SqliteStore final : public MapStore {
   StatusOr<std::optional<std::string>> GetProducts(int64_t keyframe_id,
                                                    const std::string& fingerprint) override;
   Status DeleteAllProducts() override;
+  Status PutKeyframePoses(const std::vector<KeyframePoseRecord>& poses) override;
   Status PutCheckpoint(const CheckpointRecord& checkpoint) override;
   StatusOr<std::optional<CheckpointRecord>> LatestCheckpoint() override;
   Status DeleteCheckpoints() override;

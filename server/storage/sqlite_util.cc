@@ -47,6 +47,8 @@ Stmt& Stmt::BindBlob(int i, const std::string& v) {
 }
 
 int Stmt::Step() { return sqlite3_step(stmt_); }
+
+void Stmt::Reset() { sqlite3_reset(stmt_); }
 int64_t Stmt::Int(int c) const { return sqlite3_column_int64(stmt_, c); }
 double Stmt::Real(int c) const { return sqlite3_column_double(stmt_, c); }
 bool Stmt::IsNull(int c) const { return sqlite3_column_type(stmt_, c) == SQLITE_NULL; }
@@ -76,6 +78,12 @@ Status Transaction::Commit() {
 SE3d PoseFrom(const Stmt& s, int c) {
   return MakeSE3(Vec3d(s.Real(c), s.Real(c + 1), s.Real(c + 2)),
                  Quatd(s.Real(c + 3), s.Real(c + 4), s.Real(c + 5), s.Real(c + 6)));
+}
+
+void BindPose(Stmt& s, int i, const SE3d& T) {
+  const Quatd q = QuatOf(T);
+  s.Bind(i, T.translation().x()).Bind(i + 1, T.translation().y()).Bind(i + 2, T.translation().z());
+  s.Bind(i + 3, q.w()).Bind(i + 4, q.x()).Bind(i + 5, q.y()).Bind(i + 6, q.z());
 }
 
 PinholeCamera CameraFrom(const Stmt& s, int c) {

@@ -32,6 +32,8 @@ class Stmt {
   // The blob must outlive the statement's execution (SQLITE_STATIC).
   Stmt& BindBlob(int i, const std::string& v);
   int Step();
+  // Ready to run again with new bindings (the old ones stay until rebound).
+  void Reset();
   int64_t Int(int c) const;
   double Real(int c) const;
   bool IsNull(int c) const;
@@ -64,6 +66,8 @@ class Transaction {
 // Row readers of the store's columns: a pose (tx ty tz qw qx qy qz) and a camera
 // (fx fy cx cy width_px height_px) starting at column c.
 SE3d PoseFrom(const Stmt& s, int c);
+// Binds a pose to parameters i .. i + 6 in the same order.
+void BindPose(Stmt& s, int i, const SE3d& T);
 PinholeCamera CameraFrom(const Stmt& s, int c);
 
 }  // namespace loci::server::sqlite

@@ -457,7 +457,8 @@ TEST_F(Integration, SigkillAtRandomPointsDuringIngestAndCheckpointsLosesNothing)
 
 // The server moves stored keyframes (MapServer::UpdateKeyframePoses, products read from the
 // database): moving every keyframe by one rigid transform moves every object with it, watchers
-// get UPDATED events, and the moved map is what the next start loads (from the checkpoint).
+// get UPDATED events, the moved map is what the next start loads (from the checkpoint), and
+// the corrected poses are stored per keyframe.
 TEST_F(Integration, MovingEveryKeyframeMovesTheMapAndTheMoveSurvivesARestart) {
   const std::string db = *dir_ + "/moved.db";
   std::vector<MapObject> moved;
@@ -509,6 +510,28 @@ TEST_F(Integration, MovingEveryKeyframeMovesTheMapAndTheMoveSurvivesARestart) {
   }  // shutdown: the checkpoint holds the moved map
   const LoadReport r = ReopenAndCompare(db, moved);
   EXPECT_GT(r.checkpoint_keyframe_id, 0);
+  // The corrected poses are stored per keyframe too (a load from products or images, and a
+  // reprocess, place each keyframe there); the odometry poses stay as acknowledged.
+  SqliteStoreOptions ro;
+  ro.read_only = true;
+  auto store = SqliteStore::Open(db, ro);
+  ASSERT_TRUE(store.ok());
+  auto listed = (*store)->ListSessions();
+  ASSERT_TRUE(listed.ok());
+  int corrected = 0;
+  ASSERT_TRUE((*store)
+                  ->ForEachKeyframe(0, [&](KeyframeRecord rec) {
+                    EXPECT_TRUE(rec.T_base_kf_corrected.has_value()) << rec.id;
+                    const SessionRecord& s = listed->front();
+                    const SE3d T_odom = s.T_base_odom * rec.T_odom_cam;
+                    const SE3d T_now = BaseFromKeyframe(rec, s);
+                    EXPECT_LT((T_now.translation() - T_odom.translation() -
+                               Vec3d(0.5, -0.3, 0.0)).norm(), 1e-9) << rec.id;
+                    corrected += rec.T_base_kf_corrected.has_value();
+                    return absl::OkStatus();
+                  })
+                  .ok());
+  EXPECT_GT(corrected, 0);
 }
 
 }  // namespace

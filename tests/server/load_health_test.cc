@@ -57,6 +57,9 @@ class GatedStore final : public MapStore {
     return inner_->GetProducts(id, f);
   }
   Status DeleteAllProducts() override { return inner_->DeleteAllProducts(); }
+  Status PutKeyframePoses(const std::vector<KeyframePoseRecord>& p) override {
+    return inner_->PutKeyframePoses(p);
+  }
   Status PutCheckpoint(const CheckpointRecord& c) override { return inner_->PutCheckpoint(c); }
   StatusOr<std::optional<CheckpointRecord>> LatestCheckpoint() override {
     return inner_->LatestCheckpoint();

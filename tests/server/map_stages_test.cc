@@ -242,7 +242,7 @@ TEST(Filters, VoxelAverageEqualsPclVoxelGrid) {
   auto key = [](const pcl::PointXYZRGB& p) {
     return KeyOf(p.getVector3fMap().cast<double>(), 0.03);
   };
-  std::unordered_map<VoxelKey, pcl::PointXYZRGB> by_voxel;
+  VoxelMap<pcl::PointXYZRGB> by_voxel;
   for (const auto& p : expected) by_voxel[key(p)] = p;
   for (const auto& p : got) {
     ASSERT_EQ(by_voxel.count(key(p)), 1u);
@@ -254,8 +254,8 @@ TEST(Filters, VoxelAverageEqualsPclVoxelGrid) {
   }
 }
 
-std::unordered_set<VoxelKey> CubeKeys(double x0, int n) {
-  std::unordered_set<VoxelKey> keys;
+VoxelSet CubeKeys(double x0, int n) {
+  VoxelSet keys;
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j)
       keys.insert(KeyOf(Eigen::Vector3d(x0 + 0.01 * i + 0.005, 0.01 * j + 0.005, 0), 0.01));

@@ -1,6 +1,7 @@
 // Keyframes whose poses change move what they contributed: a moved block of keyframes leaves
 // the map exactly as if it had had the new poses from the start, objects only the other block
-// saw stay put, and a block moved onto objects the map already holds merges into them.
+// saw stay put, the OctoMap follows, and a block moved onto objects the map already holds merges
+// into them.
 #include <gtest/gtest.h>
 
 #include <map>
@@ -33,9 +34,11 @@ std::vector<WorldBox> TwoRooms() {
 
 // Integrates keyframes, keeping their products for later moves.
 struct MappedRun {
-  Mapper mapper{BoxWorldOptions()};
+  // Before the mapper: an OctoMap rebuild reads products on the mapper's thread until the mapper
+  // is destroyed.
   std::map<int64_t, KeyframeProducts> products;
   std::vector<ObjectEventOut> events;
+  Mapper mapper{BoxWorldOptions()};
   MappedRun() {
     mapper.SetEventListener([this](const auto& e) { events.insert(events.end(), e.begin(), e.end()); });
   }
@@ -107,6 +110,16 @@ TEST(MapperPoses, AMovedBlockEndsAsIfItHadItsNewPosesFromTheStart) {
   }
   EXPECT_EQ(moved_objects, 3);
   EXPECT_EQ(moved.mapper.Cloud(0, {}).size(), fresh.mapper.Cloud(0, {}).size());
+  // The OctoMap is rebuilt at the new poses: the same tree as the fresh run's, and not the one
+  // from before the move.
+  moved.mapper.FlushOctomap();
+  fresh.mapper.FlushOctomap();
+  EXPECT_EQ(moved.mapper.OctomapBt(), fresh.mapper.OctomapBt());
+  MappedRun unmoved;
+  unmoved.Add(room_a);
+  unmoved.Add(room_b);
+  unmoved.mapper.FlushOctomap();
+  EXPECT_NE(moved.mapper.OctomapBt(), unmoved.mapper.OctomapBt());
   int updated = 0;
   for (size_t i = events_before; i < moved.events.size(); ++i) {
     updated += moved.events[i].kind == ObjectChange::Kind::kUpdated;
