@@ -145,7 +145,7 @@ StatusOr<KeyframeRecord> ValidateKeyframe(const loci::v1::Keyframe& kf,
   return rec;
 }
 
-StatusOr<MapperKeyframe> DecodeKeyframe(const KeyframeRecord& rec, const SessionRecord& session) {
+MapperKeyframe KeyframeMeta(const KeyframeRecord& rec, const SessionRecord& session) {
   MapperKeyframe kf;
   kf.keyframe_id = rec.id;
   kf.session_row = session.row_id;
@@ -153,14 +153,19 @@ StatusOr<MapperKeyframe> DecodeKeyframe(const KeyframeRecord& rec, const Session
   kf.t_ns = rec.t_ns;
   kf.T_base_kf = BaseFromKeyframe(rec, session);
   kf.camera = rec.camera;
+  kf.has_gravity = rec.has_gravity;
+  kf.gravity_cam = rec.gravity_cam;
+  return kf;
+}
+
+StatusOr<MapperKeyframe> DecodeKeyframe(const KeyframeRecord& rec, const SessionRecord& session) {
+  MapperKeyframe kf = KeyframeMeta(rec, session);
   LOCI_ASSIGN_OR_RETURN(kf.bgr,
                         DecodeJpeg(rec.rgb_jpeg, rec.camera.width_px, rec.camera.height_px));
   LOCI_ASSIGN_OR_RETURN(cv::Mat depth,
                         DecodeDepthPng(rec.depth_png, rec.camera.width_px, rec.camera.height_px));
   kf.depth_m = DepthToMetres(depth, rec.depth_scale);
   kf.detections = rec.detections;
-  kf.has_gravity = rec.has_gravity;
-  kf.gravity_cam = rec.gravity_cam;
   return kf;
 }
 

@@ -29,7 +29,11 @@ StatusOr<KeyframeRecord> ValidateKeyframe(const loci::v1::Keyframe& kf,
                                           const SessionRecord& session,
                                           const ValidationLimits& limits, MapperKeyframe* decoded);
 
-// Decodes a stored keyframe for the mapper; T_base_kf = session.T_base_odom * T_odom_cam.
+// The mapper input of a stored keyframe without its images (pose, camera, gravity), for one
+// mapped from its products; T_base_kf is BaseFromKeyframe (the corrected pose when stored).
+MapperKeyframe KeyframeMeta(const KeyframeRecord& record, const SessionRecord& session);
+
+// Decodes a stored keyframe for the mapper: KeyframeMeta plus the images and detections.
 StatusOr<MapperKeyframe> DecodeKeyframe(const KeyframeRecord& record, const SessionRecord& session);
 
 }  // namespace loci::server

@@ -10,20 +10,6 @@
 namespace loci::server {
 namespace {
 
-// The mapper input of a keyframe mapped from products: pose, camera and gravity only.
-MapperKeyframe MetaOf(const KeyframeRecord& rec, const SessionRecord& session) {
-  MapperKeyframe kf;
-  kf.keyframe_id = rec.id;
-  kf.session_row = rec.session_row;
-  kf.robot = session.robot_name;
-  kf.t_ns = rec.t_ns;
-  kf.T_base_kf = BaseFromKeyframe(rec, session);
-  kf.camera = rec.camera;
-  kf.has_gravity = rec.has_gravity;
-  kf.gravity_cam = rec.gravity_cam;
-  return kf;
-}
-
 // Maps one stored keyframe; false when it had to be skipped.
 bool LoadKeyframe(const KeyframeRecord& rec, const SessionRecord& session, Mapper& mapper,
                   detection::Detector* detector, MapStore* store, LoadReport* report) {
@@ -31,7 +17,7 @@ bool LoadKeyframe(const KeyframeRecord& rec, const SessionRecord& session, Mappe
   if (!rec.products.empty()) {
     auto products = DecodeProducts(rec.products, fingerprint);
     if (products.ok()) {
-      mapper.Integrate(MetaOf(rec, session), *products);
+      mapper.Integrate(KeyframeMeta(rec, session), *products);
       ++report->from_products;
       return true;
     }
