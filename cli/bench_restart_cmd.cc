@@ -20,6 +20,7 @@
 
 #include "cli/bench_views.h"
 #include "cli/commands.h"
+#include "common/time.h"
 #include "grpc/health/v1/health.grpc.pb.h"
 #include "server/map/product_codec.h"
 #include "server/service/keyframe_decoder.h"
@@ -92,9 +93,11 @@ Status TimeMove(int64_t n, server::Mapper& mapper, server::MapStore& store,
     return server::DecodeProducts(*bytes, fingerprint, /*with_visibility=*/false);
   };
   const auto t0 = Clock::now();
+  const double cpu0_ms = ThreadCpuMs();
   LOCI_ASSIGN_OR_RETURN(size_t moved, mapper.UpdateKeyframePoses(updates, source));
   const double s = std::chrono::duration<double>(Clock::now() - t0).count();
-  std::printf("  moved %zu keyframes (products read from the database) in %.3f s\n", moved, s);
+  std::printf("  moved %zu keyframes (products read from the database) in %.3f s (%.3f s CPU)\n",
+              moved, s, (ThreadCpuMs() - cpu0_ms) / 1000.0);
   mapper.FlushOctomap();
   std::printf("  OctoMap rebuilt from all %zu keyframes' products %.3f s after the move\n",
               mapper.Trajectories().begin()->second.size(),

@@ -28,17 +28,16 @@ void FusedObject::AddPoints(const std::vector<ColoredPoint>& points_m) {
 
 void FusedObject::MovePoints(const std::vector<ColoredPoint>& old_m,
                              const std::vector<ColoredPoint>& new_m) {
-  // Cells of an observation counted once each: sorted keys, unique.
-  auto cells_of = [this](const std::vector<ColoredPoint>& points) {
-    std::vector<VoxelKey> keys;
-    keys.reserve(points.size());
-    for (const ColoredPoint& cp : points) keys.push_back(KeyOf(cp.p_m.cast<double>(), support_.cell_m));
-    std::sort(keys.begin(), keys.end());
-    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-    return keys;
-  };
+  // Each cell counts an observation once: a stamp per pass marks the cells already counted
+  // (as AddPoints does with `last`, which a move leaves alone).
+  const uint32_t out_stamp = ++move_stamp_, in_stamp = ++move_stamp_;
   for (const ColoredPoint& cp : old_m) {
     const Eigen::Vector3d p = cp.p_m.cast<double>();
+    auto cell = cells_.find(KeyOf(p, support_.cell_m));
+    if (cell != cells_.end() && cell->second.moved != out_stamp) {
+      cell->second.moved = out_stamp;
+      if (--cell->second.observations == 0) cells_.erase(cell);
+    }
     auto it = voxels_.find(KeyOf(p, voxel_m_));
     if (it == voxels_.end()) continue;  // not this object's (it never held the observation)
     Voxel& v = it->second;
@@ -46,20 +45,18 @@ void FusedObject::MovePoints(const std::vector<ColoredPoint>& old_m,
     v.rgb_sum -= Eigen::Vector3d((cp.rgb >> 16) & 0xff, (cp.rgb >> 8) & 0xff, cp.rgb & 0xff);
     if (--v.count == 0) voxels_.erase(it);
   }
-  for (VoxelKey key : cells_of(old_m)) {
-    auto it = cells_.find(key);
-    if (it != cells_.end() && --it->second.observations == 0) cells_.erase(it);
-  }
   for (const ColoredPoint& cp : new_m) {
     const Eigen::Vector3d p = cp.p_m.cast<double>();
+    Cell& cell = cells_[KeyOf(p, support_.cell_m)];
+    if (cell.moved != in_stamp) {
+      cell.moved = in_stamp;
+      ++cell.observations;
+    }
     Voxel& v = voxels_[KeyOf(p, voxel_m_)];
     v.sum_m += p;
     v.rgb_sum += Eigen::Vector3d((cp.rgb >> 16) & 0xff, (cp.rgb >> 8) & 0xff, cp.rgb & 0xff);
     ++v.count;
   }
-  // A moved observation counts once per cell, as in AddPoints (its tag stays below every
-  // later AddPoints tag).
-  for (VoxelKey key : cells_of(new_m)) ++cells_[key].observations;
 }
 
 void FusedObject::Absorb(const FusedObject& other) {

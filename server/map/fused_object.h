@@ -125,6 +125,7 @@ class FusedObject {
   struct Cell {
     uint32_t observations = 0;  // observations with points in the cell
     uint32_t last = 0;          // index of the last observation counted
+    uint32_t moved = 0;         // stamp of the last MovePoints pass that counted it (not saved)
   };
 
   int64_t id_;
@@ -135,6 +136,7 @@ class FusedObject {
   VoxelMap<Voxel> voxels_;
   VoxelMap<Cell> cells_;
   uint32_t point_observations_ = 0;  // AddPoints calls (absorbed objects' included)
+  uint32_t move_stamp_ = 0;          // MovePoints passes (two per call)
   size_t supported_voxels_ = 0;      // voxels the geometry used at the last recompute
   Eigen::Vector3d centroid_m_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d aabb_min_m_ = Eigen::Vector3d::Zero();
