@@ -113,17 +113,9 @@ StatusOr<std::unique_ptr<HttpApi>> HttpApi::Start(QueryService* service,
       port > 65535) {
     return absl::InvalidArgumentError("--http wants HOST:PORT or off, got '" + listen + "'");
   }
-  if (!options.viewer_dir.empty() && !HasViewer(options.viewer_dir)) {
-    return absl::InvalidArgumentError("no web viewer in '" + options.viewer_dir +
-                                      "' (index.html missing; build the loci_viewer target)");
-  }
-  const std::string host = listen.substr(0, colon);
-  std::unique_ptr<HttpApi> api(new HttpApi());
-  api->service_ = service;
-  api->auth_ = auth;
-  api->events_ = std::make_unique<EventStreams>(service, options.max_event_clients);
+  std::unique_ptr<httplib::Server> http;
   if (tls.cert_file.empty()) {
-    api->http_ = std::make_unique<httplib::Server>();
+    http = std::make_unique<httplib::Server>();
   } else {
     auto https = std::make_unique<httplib::SSLServer>(
         tls.cert_file.c_str(), tls.key_file.c_str(),
@@ -132,13 +124,11 @@ StatusOr<std::unique_ptr<HttpApi>> HttpApi::Start(QueryService* service,
       return absl::InvalidArgumentError("HTTPS: cannot load the TLS certificate or key (" +
                                         tls.cert_file + ", " + tls.key_file + ")");
     }
-    api->http_ = std::move(https);
+    http = std::move(https);
   }
-  api->Harden();
-  api->Route();
-  if (!options.viewer_dir.empty() && !MountViewer(*api->http_, options.viewer_dir)) {
-    return absl::InvalidArgumentError("cannot serve the web viewer from " + options.viewer_dir);
-  }
+  LOCI_ASSIGN_OR_RETURN(std::unique_ptr<HttpApi> api,
+                        Attach(std::move(http), service, auth, options));
+  const std::string host = listen.substr(0, colon);
   if (port == 0) {
     api->port_ = api->http_->bind_to_any_port(host);
   } else {
@@ -148,6 +138,27 @@ StatusOr<std::unique_ptr<HttpApi>> HttpApi::Start(QueryService* service,
     return absl::UnavailableError("HTTP API cannot listen on " + listen);
   }
   api->thread_ = std::thread([raw = api.get()] { raw->http_->listen_after_bind(); });
+  return api;
+}
+
+StatusOr<std::unique_ptr<HttpApi>> HttpApi::Attach(std::unique_ptr<httplib::Server> http,
+                                                   QueryService* service,
+                                                   const Authorizer* auth,
+                                                   const HttpOptions& options) {
+  if (!options.viewer_dir.empty() && !HasViewer(options.viewer_dir)) {
+    return absl::InvalidArgumentError("no web viewer in '" + options.viewer_dir +
+                                      "' (index.html missing; build the loci_viewer target)");
+  }
+  std::unique_ptr<HttpApi> api(new HttpApi());
+  api->service_ = service;
+  api->auth_ = auth;
+  api->events_ = std::make_unique<EventStreams>(service, options.max_event_clients);
+  api->http_ = std::move(http);
+  api->Harden();
+  api->Route();
+  if (!options.viewer_dir.empty() && !MountViewer(*api->http_, options.viewer_dir)) {
+    return absl::InvalidArgumentError("cannot serve the web viewer from " + options.viewer_dir);
+  }
   return api;
 }
 

@@ -57,6 +57,13 @@ class HttpApi {
                                                   const Authorizer* auth = nullptr,
                                                   const TlsFiles& tls = {},
                                                   const HttpOptions& options = {});
+  // The same API (routes, limits, auth, viewer) on a server the caller drives itself: nothing
+  // is bound and no thread runs. For in-process drivers that hand request bytes to httplib's
+  // request processing (tests/fuzz/fuzz_http.cc); Start() is Attach plus a listening socket.
+  static StatusOr<std::unique_ptr<HttpApi>> Attach(std::unique_ptr<httplib::Server> http,
+                                                   QueryService* service,
+                                                   const Authorizer* auth = nullptr,
+                                                   const HttpOptions& options = {});
   ~HttpApi();  // stops serving
   HttpApi(const HttpApi&) = delete;
   HttpApi& operator=(const HttpApi&) = delete;
