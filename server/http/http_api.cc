@@ -21,6 +21,15 @@ constexpr double kDefaultCloudVoxelM = 0.05;
 
 bool IsApiPath(const std::string& path) { return path == "/api" || path.rfind("/api/", 0) == 0; }
 
+// cpp-httplib 0.11 (Debian bookworm) cuts every response body to a request's Range header, JSON
+// answers and error replies included, and keeps their status (200 or 4xx with a Content-Range):
+// `Range: bytes=0-5` turned /api/stats into `{"sess`. Only the viewer's static files honour
+// Range (206); the API and every error reply ignore it, as RFC 9110 allows. Found by
+// tests/fuzz/fuzz_http.cc. httplib passes its own, non-const Request to the handlers as const&.
+void IgnoreRange(const httplib::Request& req) {
+  const_cast<httplib::Request&>(req).ranges.clear();
+}
+
 // Optional boolean parameter `name` into *out; false (and a 400 reply) when malformed.
 bool ReadBoolParam(const httplib::Request& req, httplib::Response& res, const char* name,
                    bool* out) {
@@ -178,9 +187,9 @@ void HttpApi::Harden() {
   http_->set_keep_alive_timeout(kKeepAliveS);
   http_->new_task_queue = [] { return new httplib::ThreadPool(kWorkerThreads); };
   http_->set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
-    if (auth_ == nullptr || !auth_->enabled() || !IsApiPath(req.path)) {
-      return httplib::Server::HandlerResponse::Unhandled;
-    }
+    if (!IsApiPath(req.path)) return httplib::Server::HandlerResponse::Unhandled;
+    IgnoreRange(req);
+    if (auth_ == nullptr || !auth_->enabled()) return httplib::Server::HandlerResponse::Unhandled;
     const std::string value = req.get_header_value("Authorization");  // owns the bytes
     std::optional<std::string_view> header;
     if (req.has_header("Authorization")) header = value;
@@ -199,6 +208,7 @@ void HttpApi::Route() {
   });
   // Every error reply without a body (unknown paths, httplib's 400/413/414): a JSON body.
   http_->set_error_handler([](const httplib::Request& req, httplib::Response& res) {
+    IgnoreRange(req);
     if (res.body.empty()) res.set_content(ErrorJson(StatusOfHttpError(res.status, req)), kJsonType);
   });
   http_->set_exception_handler(
