@@ -3,7 +3,8 @@
 // the fuzz input as the bytes of one connection, through httplib's own request processing
 // (parser, pre-routing auth check, routing, error handler, response writer); no socket, no
 // thread. The QueryService behind it reads a MapServer holding a small mapped box world
-// (6 keyframes, 160 x 120 px, three objects) and answers Ask with the real query adapter.
+// (6 keyframes, 320 x 240 px, two confirmed objects, coarse clouds) and answers Ask with the
+// real query adapter.
 //
 // Input: byte 0 picks the server (even: no tokens, odd: a token file with a `query` token
 // "fuzz-query-token" and a robot token "fuzz-robot-token"); the rest is the raw request.
