@@ -21,6 +21,15 @@ constexpr double kDefaultCloudVoxelM = 0.05;
 
 bool IsApiPath(const std::string& path) { return path == "/api" || path.rfind("/api/", 0) == 0; }
 
+// cpp-httplib 0.11 (Debian bookworm) cuts every response body to a request's Range header, JSON
+// answers and error replies included, and keeps their status (200 or 4xx with a Content-Range):
+// `Range: bytes=0-5` turned /api/stats into `{"sess`. Only the viewer's static files honour
+// Range (206); the API and every error reply ignore it, as RFC 9110 allows. Found by
+// tests/fuzz/fuzz_http.cc. httplib passes its own, non-const Request to the handlers as const&.
+void IgnoreRange(const httplib::Request& req) {
+  const_cast<httplib::Request&>(req).ranges.clear();
+}
+
 // Optional boolean parameter `name` into *out; false (and a 400 reply) when malformed.
 bool ReadBoolParam(const httplib::Request& req, httplib::Response& res, const char* name,
                    bool* out) {
@@ -113,17 +122,9 @@ StatusOr<std::unique_ptr<HttpApi>> HttpApi::Start(QueryService* service,
       port > 65535) {
     return absl::InvalidArgumentError("--http wants HOST:PORT or off, got '" + listen + "'");
   }
-  if (!options.viewer_dir.empty() && !HasViewer(options.viewer_dir)) {
-    return absl::InvalidArgumentError("no web viewer in '" + options.viewer_dir +
-                                      "' (index.html missing; build the loci_viewer target)");
-  }
-  const std::string host = listen.substr(0, colon);
-  std::unique_ptr<HttpApi> api(new HttpApi());
-  api->service_ = service;
-  api->auth_ = auth;
-  api->events_ = std::make_unique<EventStreams>(service, options.max_event_clients);
+  std::unique_ptr<httplib::Server> http;
   if (tls.cert_file.empty()) {
-    api->http_ = std::make_unique<httplib::Server>();
+    http = std::make_unique<httplib::Server>();
   } else {
     auto https = std::make_unique<httplib::SSLServer>(
         tls.cert_file.c_str(), tls.key_file.c_str(),
@@ -132,13 +133,11 @@ StatusOr<std::unique_ptr<HttpApi>> HttpApi::Start(QueryService* service,
       return absl::InvalidArgumentError("HTTPS: cannot load the TLS certificate or key (" +
                                         tls.cert_file + ", " + tls.key_file + ")");
     }
-    api->http_ = std::move(https);
+    http = std::move(https);
   }
-  api->Harden();
-  api->Route();
-  if (!options.viewer_dir.empty() && !MountViewer(*api->http_, options.viewer_dir)) {
-    return absl::InvalidArgumentError("cannot serve the web viewer from " + options.viewer_dir);
-  }
+  LOCI_ASSIGN_OR_RETURN(std::unique_ptr<HttpApi> api,
+                        Attach(std::move(http), service, auth, options));
+  const std::string host = listen.substr(0, colon);
   if (port == 0) {
     api->port_ = api->http_->bind_to_any_port(host);
   } else {
@@ -148,6 +147,27 @@ StatusOr<std::unique_ptr<HttpApi>> HttpApi::Start(QueryService* service,
     return absl::UnavailableError("HTTP API cannot listen on " + listen);
   }
   api->thread_ = std::thread([raw = api.get()] { raw->http_->listen_after_bind(); });
+  return api;
+}
+
+StatusOr<std::unique_ptr<HttpApi>> HttpApi::Attach(std::unique_ptr<httplib::Server> http,
+                                                   QueryService* service,
+                                                   const Authorizer* auth,
+                                                   const HttpOptions& options) {
+  if (!options.viewer_dir.empty() && !HasViewer(options.viewer_dir)) {
+    return absl::InvalidArgumentError("no web viewer in '" + options.viewer_dir +
+                                      "' (index.html missing; build the loci_viewer target)");
+  }
+  std::unique_ptr<HttpApi> api(new HttpApi());
+  api->service_ = service;
+  api->auth_ = auth;
+  api->events_ = std::make_unique<EventStreams>(service, options.max_event_clients);
+  api->http_ = std::move(http);
+  api->Harden();
+  api->Route();
+  if (!options.viewer_dir.empty() && !MountViewer(*api->http_, options.viewer_dir)) {
+    return absl::InvalidArgumentError("cannot serve the web viewer from " + options.viewer_dir);
+  }
   return api;
 }
 
@@ -167,9 +187,9 @@ void HttpApi::Harden() {
   http_->set_keep_alive_timeout(kKeepAliveS);
   http_->new_task_queue = [] { return new httplib::ThreadPool(kWorkerThreads); };
   http_->set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
-    if (auth_ == nullptr || !auth_->enabled() || !IsApiPath(req.path)) {
-      return httplib::Server::HandlerResponse::Unhandled;
-    }
+    if (!IsApiPath(req.path)) return httplib::Server::HandlerResponse::Unhandled;
+    IgnoreRange(req);
+    if (auth_ == nullptr || !auth_->enabled()) return httplib::Server::HandlerResponse::Unhandled;
     const std::string value = req.get_header_value("Authorization");  // owns the bytes
     std::optional<std::string_view> header;
     if (req.has_header("Authorization")) header = value;
@@ -188,6 +208,7 @@ void HttpApi::Route() {
   });
   // Every error reply without a body (unknown paths, httplib's 400/413/414): a JSON body.
   http_->set_error_handler([](const httplib::Request& req, httplib::Response& res) {
+    IgnoreRange(req);
     if (res.body.empty()) res.set_content(ErrorJson(StatusOfHttpError(res.status, req)), kJsonType);
   });
   http_->set_exception_handler(

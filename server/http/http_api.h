@@ -23,9 +23,10 @@
 // other error reply (404 unknown path, 413 payload too large, 414 URI too long ...) carries the
 // same JSON body. With tokens (auth.h), /api requests need `Authorization: Bearer TOKEN` of a
 // role that may read; the viewer's static files hold no map data and are served without.
-// Limits: bodies over 64 KiB are refused, reads and writes time out after 5 s, idle keep-alive
-// connections close after 2 s, and 32 worker threads serve connections (event streams hold one
-// each while open).
+// A Range header is honoured by the viewer's files only (206); JSON answers and error replies
+// are always whole. Limits: bodies over 64 KiB are refused, reads and writes time out after 5 s,
+// idle keep-alive connections close after 2 s, and 32 worker threads serve connections (event
+// streams hold one each while open).
 #pragma once
 
 #include <memory>
@@ -57,6 +58,13 @@ class HttpApi {
                                                   const Authorizer* auth = nullptr,
                                                   const TlsFiles& tls = {},
                                                   const HttpOptions& options = {});
+  // The same API (routes, limits, auth, viewer) on a server the caller drives itself: nothing
+  // is bound and no thread runs. For in-process drivers that hand request bytes to httplib's
+  // request processing (tests/fuzz/fuzz_http.cc); Start() is Attach plus a listening socket.
+  static StatusOr<std::unique_ptr<HttpApi>> Attach(std::unique_ptr<httplib::Server> http,
+                                                   QueryService* service,
+                                                   const Authorizer* auth = nullptr,
+                                                   const HttpOptions& options = {});
   ~HttpApi();  // stops serving
   HttpApi(const HttpApi&) = delete;
   HttpApi& operator=(const HttpApi&) = delete;

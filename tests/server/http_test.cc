@@ -2,7 +2,7 @@
 // types, nothing outside the viewer folder, 404 JSON), /api/cloud and /api/trajectories equal to
 // the QueryService calls, the /api/events stream (an event per object change, the client cap
 // answered 503, a client that leaves frees its slot, shutdown with a stream open), and tokens
-// (static files free, /api needs one).
+// (static files free, /api needs one); Range only for the viewer's files.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <thread>
 
 #include "proto/json.h"
@@ -306,6 +307,40 @@ TEST_F(HttpViewerTest, ShutdownEndsOpenEventStreams) {
   EXPECT_TRUE(events.WaitDone(std::chrono::seconds(10)));
 }
 
+// An error reply as the API sends it: {"error": {"code": "...", "message": "..."}}.
+bool IsErrorJson(const std::string& body) {
+  const auto j = nlohmann::json::parse(body, nullptr, /*allow_exceptions=*/false);
+  return j.is_object() && j.contains("error") && j["error"].is_object() &&
+         j["error"].contains("code") && j["error"]["code"].is_string() &&
+         j["error"].contains("message") && j["error"]["message"].is_string();
+}
+
+// Regression (fuzz_http): cpp-httplib 0.11 cut every reply to the request's Range header and
+// kept its status, so `Range: bytes=0-5` turned /api/stats into 200 `{"sess` and error replies
+// into cut JSON. Only the viewer's files honour Range now.
+TEST_F(HttpViewerTest, RangeIsHonouredForViewerFilesOnly) {
+  Start();
+  auto file = client_->Get("/app/main.js", {{"Range", "bytes=0-5"}});
+  ASSERT_TRUE(file);
+  EXPECT_EQ(file->status, 206);
+  EXPECT_EQ(file->body, "export");
+  for (const char* range : {"bytes=0-5", "bytes=0-5,8-9", "bytes=-3"}) {
+    auto stats = client_->Get("/api/stats", {{"Range", range}});
+    ASSERT_TRUE(stats) << range;
+    EXPECT_EQ(stats->status, 200) << range;
+    EXPECT_FALSE(stats->has_header("Content-Range")) << range;
+    loci::v1::GetStatsResponse parsed;
+    EXPECT_TRUE(JsonToProto(stats->body, &parsed).ok()) << range << ": " << stats->body;
+    for (const char* path : {"/nothing.html", "/api/nothing", "/api/objects/abc",
+                             "/api/cloud?voxel_m=-1"}) {
+      auto error = client_->Get(path, {{"Range", range}});
+      ASSERT_TRUE(error) << path;
+      EXPECT_GE(error->status, 400) << path;
+      EXPECT_TRUE(IsErrorJson(error->body)) << path << " " << range << ": " << error->body;
+    }
+  }
+}
+
 TEST_F(HttpViewerTest, WithTokensStaticFilesAreFreeAndTheApiIsNot) {
   WriteFile(dir_ / "tokens.txt", "viewer-query-token-0123 query\n");
   auto auth = Authorizer::FromFile((dir_ / "tokens.txt").string());
@@ -316,6 +351,10 @@ TEST_F(HttpViewerTest, WithTokensStaticFilesAreFreeAndTheApiIsNot) {
   EXPECT_EQ(Get("/api/events").first, 401);
   EXPECT_EQ(Get("/api/cloud").first, 401);
   EXPECT_EQ(Get("/api/trajectories").first, 401);
+  auto ranged = client_->Get("/api/cloud", {{"Range", "bytes=0-5"}});  // the refusal is whole
+  ASSERT_TRUE(ranged);
+  EXPECT_EQ(ranged->status, 401);
+  EXPECT_TRUE(IsErrorJson(ranged->body)) << ranged->body;
   httplib::Headers bearer = {{"Authorization", "Bearer viewer-query-token-0123"}};
   auto res = client_->Get("/api/trajectories", bearer);
   ASSERT_TRUE(res);
