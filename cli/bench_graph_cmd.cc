@@ -1,10 +1,12 @@
-// `loci bench graph [--keyframes 1000,10000] [--wrong-loops 5] [--landmarks] [--seed 1]
+// `loci bench graph [--keyframes 1000,10000] [--wrong-loops 5] [--yaw-drift 0.02]
+// [--scale-drift 0.01] [--dof auto|4dof|6dof] [--landmarks] [--no-loops] [--seed 1]
 // [--config FILE]`: the keyframe pose graph (server/graph/) on SYNTHETIC trajectories (laps of
 // a square with drifting odometry, loop edges from the true poses plus noise, hand-made wrong
 // loops): prints the consistency-check and solve times, the loops kept and rejected, and the
 // keyframe ATE before and after optimisation. Graph options: the `graph:` section of
 // config/server.yaml (or --config).
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -31,7 +33,10 @@ struct BenchGraphArgs {
   int per_lap = 250;
   double side_m = 10;
   int wrong_loops = 5;
+  double yaw_drift_deg = 0.02;  // per keyframe
+  double scale_drift = 0.01;
   bool landmarks = false;
+  bool no_loops = false;
   int objects = 60;
   unsigned seed = 1;
   std::string dof;
@@ -72,10 +77,13 @@ Scene MakeScene(const BenchGraphArgs& a, int keyframes, bool gravity) {
   path.side_m = a.side_m;
   Scene s;
   const auto truth = server::SquarePath(path);
-  s.robot = server::MakeSyntheticRobot("robot1", 1, truth, server::OdometryNoiseOptions{},
-                                       truth.front(), gravity, &rng);
+  server::OdometryNoiseOptions noise;
+  noise.yaw_bias_rad = a.yaw_drift_deg * M_PI / 180;
+  noise.scale_bias = a.scale_drift;
+  s.robot = server::MakeSyntheticRobot("robot1", 1, truth, noise, truth.front(), gravity, &rng);
   s.loops = server::ProximityEdges(s.robot, s.robot, EdgeKind::kLoop,
                                    server::ProximityEdgeOptions{}, &rng);
+  if (a.no_loops) s.loops.clear();
   if (!s.loops.empty()) s.wrong = WrongLoops(s, a.wrong_loops, a.per_lap, &rng);
   if (a.landmarks) {
     const auto objects = server::ObjectsAroundSquare(path, a.objects, &rng);
@@ -128,10 +136,10 @@ Status RunOne(const BenchGraphArgs& a, const GraphOptions& options, int keyframe
   const size_t wrong_rejected = WrongRejected(s, r);
   const auto& st = r.stats;
   const size_t true_kept = s.loops.size() - (st.loops_rejected - wrong_rejected);
-  std::printf("| %d | %zu | %zu / %zu | %zu / %zu | %zu | %.0f | %.0f | %d | %.3g -> %.3g | %.4f "
-              "| %.4f | %.4f |\n",
+  std::printf("| %d | %zu | %zu / %zu | %zu / %zu | %zu | %zu | %.0f | %.0f | %d | %.3g -> %.3g "
+              "| %.4f | %.4f | %.4f |\n",
               keyframes, st.odometry_edges, true_kept, s.loops.size(), wrong_rejected,
-              s.wrong.size(), st.landmarks, st.pcm_ms, st.solve_ms, st.iterations,
+              s.wrong.size(), st.rejected_after_solve, st.landmarks, st.pcm_ms, st.solve_ms, st.iterations,
               st.initial_cost, st.final_cost, before, after, MaxShiftM(clean, graph));
   std::fflush(stdout);
   return absl::OkStatus();
@@ -156,13 +164,14 @@ int RunBenchGraph(const BenchGraphArgs& a) {
     return 1;
   }
   std::printf("SYNTHETIC pose graphs: laps of a %.0f m square, %d keyframes per lap, odometry "
-              "noise 3 mm + 0.11 deg per keyframe, drift 0.11 deg/keyframe of yaw and 1 %% of "
+              "noise 3 mm + 0.11 deg per keyframe, drift %.3g deg/keyframe of yaw and %.3g %% of "
               "scale; loop edges (1 cm, 0.3 deg noise) from every 5th keyframe that revisits a "
               "place; %d wrong loops per graph; dof %s; landmarks %s; seed %u\n\n",
-              a.side_m, a.per_lap, a.wrong_loops, options->dof.c_str(),
-              options->landmarks.enabled ? "on" : "off", a.seed);
-  std::printf("| keyframes | odometry edges | true loops kept | wrong loops rejected | landmarks | PCM ms | solve ms | iterations | cost | ATE before m | ATE "
-              "after m | max shift by wrong loops m |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+              a.side_m, a.per_lap, a.yaw_drift_deg, 100 * a.scale_drift, a.wrong_loops,
+              options->dof.c_str(), options->landmarks.enabled ? "on" : "off", a.seed);
+  std::printf("| keyframes | odometry edges | true loops kept | wrong loops rejected | rejected after "
+              "solve | landmarks | PCM ms | solve ms | iterations | cost | ATE before m | ATE "
+              "after m | max shift by wrong loops m |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const int n : a.keyframes) {
     if (const Status s = RunOne(a, *options, n); !s.ok()) {
       std::cerr << "error: " << n << " keyframes: " << s.message() << "\n";
@@ -186,7 +195,12 @@ void RegisterBenchGraphCommand(CLI::App& app) {
   c->add_option("--side", args->side_m, "side of the square, m")->capture_default_str();
   c->add_option("--wrong-loops", args->wrong_loops, "hand-made wrong loops per graph")
       ->capture_default_str();
+  c->add_option("--yaw-drift", args->yaw_drift_deg, "odometry yaw drift, deg per keyframe")
+      ->capture_default_str();
+  c->add_option("--scale-drift", args->scale_drift, "odometry scale error (0.01 = 1 %)")
+      ->capture_default_str();
   c->add_flag("--landmarks", args->landmarks, "add object-centroid landmarks (graph.landmarks)");
+  c->add_flag("--no-loops", args->no_loops, "no loop edges (odometry, and landmarks if on)");
   c->add_option("--objects", args->objects, "objects around the square (--landmarks)")
       ->capture_default_str();
   c->add_option("--dof", args->dof, "auto|4dof|6dof (default: the config's graph.dof)");

@@ -16,7 +16,7 @@ Status CheckGraphKeys(const YAML::Node& node) {
                                        "sigma_rot_per_rad", "full_quality_inliers",
                                        "min_quality"}));
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["pcm"], "graph.pcm",
-                                      {"enabled", "chi2_threshold", "min_set_size"}));
+                                      {"enabled", "chi2_threshold", "min_set_size", "residual_chi2"}));
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["loss"], "graph.loss", {"type", "scale"}));
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["landmarks"], "graph.landmarks",
                                       {"enabled", "sigma_m", "huber_m", "min_observations"}));
@@ -39,6 +39,7 @@ Status ReadSections(const YAML::Node& node, GraphOptions* g) {
   LOCI_RETURN_IF_ERROR(ReadOptional(pcm, "enabled", &g->pcm.enabled));
   LOCI_RETURN_IF_ERROR(ReadOptional(pcm, "chi2_threshold", &g->pcm.chi2_threshold));
   LOCI_RETURN_IF_ERROR(ReadOptional(pcm, "min_set_size", &g->pcm.min_set_size));
+  LOCI_RETURN_IF_ERROR(ReadOptional(pcm, "residual_chi2", &g->pcm.residual_chi2));
   LOCI_RETURN_IF_ERROR(ReadOptional(node["loss"], "type", &g->loss.type));
   LOCI_RETURN_IF_ERROR(ReadOptional(node["loss"], "scale", &g->loss.scale));
   const YAML::Node lm = node["landmarks"];
@@ -87,6 +88,7 @@ Status GraphOptions::Validate() const {
   LOCI_RETURN_IF_ERROR(ValidateOdometry(odometry));
   if (!(pcm.chi2_threshold > 0)) return Bad("pcm.chi2_threshold > 0");
   if (pcm.min_set_size < 1) return Bad("pcm.min_set_size >= 1");
+  if (!(pcm.residual_chi2 >= 0)) return Bad("pcm.residual_chi2 >= 0 (0 = off)");
   if (loss.type != "huber" && loss.type != "cauchy" && loss.type != "none") {
     return Bad("loss.type is huber, cauchy or none");
   }

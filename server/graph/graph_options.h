@@ -37,10 +37,15 @@ struct OdometryInformationOptions {
 // propagated covariance (squared Mahalanobis distance <= chi2_threshold). The largest set of
 // pairwise consistent edges of each chain pair is kept (greedy clique, max_clique.h); a set
 // smaller than min_set_size is rejected whole.
+// A second check after the solve: a kept edge whose squared whitened residual at the solution
+// exceeds residual_chi2 is dropped and the graph solved again from that solution (once).
+// Pairwise tests between edges far apart along the odometry are weak (the segments' covariance
+// is large); at the solution, held by all the other edges, a wrong edge stands out.
 struct PcmOptions {
   bool enabled = true;
   double chi2_threshold = 16.81;  // 6 DoF, 99 % (16.81)
   int min_set_size = 2;           // a lone loop waits for a second consistent one (2)
+  double residual_chi2 = 100;     // the check after the solve; 0 = off (100)
 };
 
 // Robust loss on loop and merge edges (odometry edges have none). Residuals are whitened by the

@@ -74,6 +74,7 @@ struct GraphStats {
   size_t merge_edges = 0;  // given
   size_t loops_accepted = 0, loops_rejected = 0;
   size_t merges_accepted = 0, merges_rejected = 0;
+  size_t rejected_after_solve = 0;     // of the rejected: by their residual after the solve
   size_t landmarks = 0;                // used (seen by enough keyframes)
   size_t centroid_observations = 0;    // used
   size_t islands = 0;       // connected components after the accepted edges; one is anchored each

@@ -7,6 +7,12 @@
 // C's frame; i and j are consistent when PoseError6(C)' cov^-1 PoseError6(C) <= chi2_threshold.
 // Correlation between overlapping odometry segments is ignored. Per chain pair the largest
 // pairwise consistent set (max_clique.h) is kept, if it has at least min_set_size edges.
+//
+// The selection evaluates the same test in an equivalent, cheaper form (first order): each edge
+// implies the offset of chain B in chain A, X_i = T_A_ai * Z_i * T_B_bi^-1, with a covariance
+// (left perturbation in A's frame) computed once per edge; a pair is consistent when
+// X_j * X_i^-1 is the identity within the two edges' covariances plus the odometry segments
+// ai..aj and bi..bj. PairwiseCycleChi2 is the cycle form, kept as the reference.
 #pragma once
 
 #include <vector>
@@ -27,6 +33,9 @@ struct PcmEdge {
 // Squared Mahalanobis distance of the cycle of two edges; both must run from chain A to chain
 // B in the same direction (SelectConsistentEdges orients them).
 double PairwiseCycleChi2(const OdometryChains& chains, const PcmEdge& ei, const PcmEdge& ej);
+
+// The offset form of PairwiseCycleChi2 (same orientation requirement).
+double PairwiseOffsetChi2(const OdometryChains& chains, const PcmEdge& ei, const PcmEdge& ej);
 
 // Per edge, whether it is kept. PCM disabled: every edge is kept.
 std::vector<bool> SelectConsistentEdges(const OdometryChains& chains,

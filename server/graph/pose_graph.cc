@@ -5,6 +5,7 @@
 #include <chrono>
 
 #include "server/graph/graph_islands.h"
+#include "server/graph/graph_math.h"
 #include "server/graph/graph_problem.h"
 #include "server/graph/odometry_information.h"
 #include "server/graph/pcm.h"
@@ -181,10 +182,10 @@ bool PoseGraph::FourDof() const {
 
 SolverInput PoseGraph::BuildSolverInput(const OdometryChains& chains,
                                         const std::vector<bool>& keep, bool four_dof,
-                                        size_t* islands) const {
+                                        const std::vector<SE3d>& start, size_t* islands) const {
   SolverInput in;
   in.four_dof = four_dof;
-  for (const KeyframeNode& n : nodes_) in.T_map_kf.push_back(n.T_map_kf);
+  in.T_map_kf = start;
   std::vector<ChainJoin> joins;
   size_t k = 0;
   for (const GraphEdge& e : edges_) {
@@ -201,6 +202,24 @@ SolverInput PoseGraph::BuildSolverInput(const OdometryChains& chains,
   *islands = found.root_chain.size();
   if (options_.landmarks.enabled) AddLandmarks(observations_, index_, options_.landmarks, &in);
   return in;
+}
+
+size_t PoseGraph::RejectByResidual(const std::vector<SE3d>& T_map_kf,
+                                   std::vector<bool>* keep) const {
+  if (!(options_.pcm.residual_chi2 > 0)) return 0;
+  size_t k = 0, dropped = 0;
+  for (const GraphEdge& e : edges_) {
+    if (!IsConstraint(e)) continue;
+    const size_t i = k++;
+    if (!(*keep)[i]) continue;
+    const SE3d T_a_b = T_map_kf[index_.at(e.from_id)].inverse() * T_map_kf[index_.at(e.to_id)];
+    const Vec6d r = PoseError6(e.T_a_b.inverse() * T_a_b);
+    if (r.dot(e.information * r) > options_.pcm.residual_chi2) {
+      (*keep)[i] = false;
+      ++dropped;
+    }
+  }
+  return dropped;
 }
 
 void PoseGraph::ApplySolution(const SolverOutput& out, GraphResult* result) {
@@ -236,15 +255,30 @@ StatusOr<GraphResult> PoseGraph::Optimize() {
   }
   const auto pcm_start = std::chrono::steady_clock::now();
   const OdometryChains chains = Chains();
-  const std::vector<bool> keep = GuardConstraints(chains);
+  std::vector<bool> keep = GuardConstraints(chains);
   result.stats.pcm_ms = MsSince(pcm_start);
-  CountConstraints(edges_, keep, &result);
 
-  const SolverInput in = BuildSolverInput(chains, keep, four_dof, &result.stats.islands);
-  result.stats.four_dof = four_dof;
-  result.stats.landmarks = in.landmarks_map.size();
-  result.stats.centroid_observations = in.observations.size();
-  LOCI_ASSIGN_OR_RETURN(const SolverOutput out, SolvePoseGraph(in, options_));
+  std::vector<SE3d> start;
+  for (const KeyframeNode& n : nodes_) start.push_back(n.T_map_kf);
+  size_t islands = 0;
+  SolverInput in = BuildSolverInput(chains, keep, four_dof, start, &islands);
+  LOCI_ASSIGN_OR_RETURN(SolverOutput out, SolvePoseGraph(in, options_));
+  const size_t dropped = RejectByResidual(out.T_map_kf, &keep);
+  if (dropped > 0) {  // solve again without them, from the solution
+    const SolverOutput first = out;
+    in = BuildSolverInput(chains, keep, four_dof, first.T_map_kf, &islands);
+    LOCI_ASSIGN_OR_RETURN(out, SolvePoseGraph(in, options_));
+    out.solve_ms += first.solve_ms;
+    out.iterations += first.iterations;
+    out.initial_cost = first.initial_cost;
+  }
+  CountConstraints(edges_, keep, &result);
+  GraphStats& s = result.stats;
+  s.rejected_after_solve = dropped;
+  s.islands = islands;
+  s.four_dof = four_dof;
+  s.landmarks = in.landmarks_map.size();
+  s.centroid_observations = in.observations.size();
   ApplySolution(out, &result);
   return result;
 }

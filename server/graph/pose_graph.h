@@ -8,9 +8,11 @@
 //   auto result = graph.Optimize();  // result->updates: {keyframe_id, T_map_kf} that moved
 //
 // Optimize: odometry chains -> pairwise consistency of loop and merge edges (pcm.h) ->
-// islands joined by the kept edges, each newly joined chain placed once by one of its edges ->
+// islands joined by the kept edges, a chain its join puts far away moved there rigidly ->
 // Ceres (graph_problem.h) with the first keyframe of the reference robot (and of every other
-// island) held constant -> the graph's estimates become the solution. Not thread-safe.
+// island) held constant -> kept edges with a residual above pcm.residual_chi2 dropped and the
+// graph solved again from that solution -> the graph's estimates become the solution.
+// Not thread-safe.
 #pragma once
 
 #include <unordered_map>
@@ -59,7 +61,11 @@ class PoseGraph {
   bool FourDof() const;
   // Edges (odometry + kept constraints), anchors and landmarks; newly joined chains placed.
   SolverInput BuildSolverInput(const OdometryChains& chains, const std::vector<bool>& keep,
-                               bool four_dof, size_t* islands) const;
+                               bool four_dof, const std::vector<SE3d>& start,
+                               size_t* islands) const;
+  // Drops kept loop/merge edges whose squared whitened residual at the solution exceeds
+  // pcm.residual_chi2; returns how many.
+  size_t RejectByResidual(const std::vector<SE3d>& T_map_kf, std::vector<bool>* keep) const;
   // Takes the solution as the new estimates and lists the keyframes that moved.
   void ApplySolution(const SolverOutput& out, GraphResult* result);
 

@@ -31,6 +31,7 @@ TEST(GraphOptions, ShippedSectionParsesStrictlyAndStatesTheDefaults) {
   EXPECT_EQ(parsed.odometry.full_quality_inliers, d.odometry.full_quality_inliers);
   EXPECT_EQ(parsed.pcm.chi2_threshold, d.pcm.chi2_threshold);
   EXPECT_EQ(parsed.pcm.min_set_size, d.pcm.min_set_size);
+  EXPECT_EQ(parsed.pcm.residual_chi2, d.pcm.residual_chi2);
   EXPECT_EQ(parsed.loss.type, d.loss.type);
   EXPECT_EQ(parsed.loss.scale, d.loss.scale);
   EXPECT_EQ(parsed.landmarks.enabled, d.landmarks.enabled);
@@ -118,6 +119,12 @@ TEST(Pcm, TwoTrueLoopsAreConsistentAndAWrongOneIsNot) {
   std::printf("chi2: true pair %.2f, with the wrong loop %.1f\n", good, bad);
   EXPECT_LT(good, PcmOptions{}.chi2_threshold);
   EXPECT_GT(bad, PcmOptions{}.chi2_threshold);
+  // The offset form the selection uses agrees with the cycle form (first order).
+  const double good_offset = PairwiseOffsetChi2(chains, l1, l2);
+  const double bad_offset = PairwiseOffsetChi2(chains, l1, wrong);
+  std::printf("offset form: %.2f, %.1f\n", good_offset, bad_offset);
+  EXPECT_NEAR(good_offset, good, 0.1 * good + 0.05);
+  EXPECT_NEAR(bad_offset, bad, 0.1 * bad);
   const std::vector<bool> keep = SelectConsistentEdges(chains, {l1, wrong, l2}, PcmOptions{});
   EXPECT_EQ(keep, (std::vector<bool>{true, false, true}));
   // A lone loop is a set of one, below min_set_size 2.

@@ -113,9 +113,27 @@ TEST(PoseGraph, WrongLoopIsRejectedAndDoesNotBendTheMap) {
   std::printf("guarded: the wrong loop moves the map by %.4f m at most\n", shift);
   EXPECT_LE(shift, 0.02);
 
-  // Without the guard and the robust loss, the same edge bends the map.
+  EXPECT_EQ(r->stats.rejected_after_solve, 0u);  // PCM caught it
+
+  // Without PCM, the check after the solve catches it (the robust loss keeps its pull small).
+  GraphOptions residual_only;
+  residual_only.pcm.enabled = false;
+  PoseGraph second_line = GraphOf(s, residual_only);
+  ASSERT_TRUE(AddConstraints({wrong}, &second_line).ok());
+  const auto r2 = second_line.Optimize();
+  ASSERT_TRUE(r2.ok()) << r2.status();
+  EXPECT_EQ(r2->stats.loops_rejected, 1u);
+  EXPECT_EQ(r2->stats.rejected_after_solve, 1u);
+  ASSERT_EQ(r2->rejected.size(), 1u);
+  EXPECT_EQ(r2->rejected[0].from_id, wrong.from_id);
+  const double shift2 = MaxShiftM(clean, second_line);
+  std::printf("residual check only: the wrong loop moves the map by %.4f m at most\n", shift2);
+  EXPECT_LE(shift2, 0.02);
+
+  // Without the guard, the check and the robust loss, the same edge bends the map.
   GraphOptions unguarded_options;
   unguarded_options.pcm.enabled = false;
+  unguarded_options.pcm.residual_chi2 = 0;
   unguarded_options.loss.type = "none";
   PoseGraph unguarded = GraphOf(s, unguarded_options);
   ASSERT_TRUE(AddConstraints({wrong}, &unguarded).ok());
@@ -145,6 +163,7 @@ TEST(PoseGraph, FourDofLoopWithTiltedMeasurementDoesNotTiltTheMap) {
   for (GraphEdge& e : s.loops) e.T_a_b = e.T_a_b * roll;
   GraphOptions options;
   options.pcm.enabled = false;  // this test is about the parameterisation, not the guard
+  options.pcm.residual_chi2 = 0;
   PoseGraph four = GraphOf(s, options);
   const double before = Ate(s.robot, four);
   const auto r = four.Optimize();
@@ -254,10 +273,11 @@ TEST(PoseGraph, TwoRobotsJoinedByMergeEdgesEndInOneFrame) {
   const SE3d error = t.T_map_odom_b_true.inverse() * joint.T_gt_est * T_map_odom_b;
   std::printf("joint ATE %.4f m; robot b offset error %.4f m, %.3f deg\n", joint.trans_m.rmse,
               error.translation().norm(), RotationAngleRad(error) * 180 / M_PI);
-  // The offset to recover is 2.8 m and 100 deg; what remains is the map's drift near b's start.
+  // The offset to recover is 2.8 m and 100 deg; what remains is the map's own drift near b's
+  // start (seeds 100-129: at most 4.3 cm and 2.1 deg; this seed 5.2 cm, 0.85 deg).
   EXPECT_LT(joint.trans_m.rmse, 0.06);
   EXPECT_LT(error.translation().norm(), 0.10);
-  EXPECT_LT(RotationAngleRad(error), 2.0 * M_PI / 180);
+  EXPECT_LT(RotationAngleRad(error), 3.0 * M_PI / 180);
   EXPECT_GT(t.T_map_odom_b_true.translation().norm(), 2.5);
   // Where the robots met, b sits where it truly is relative to a: the cross-robot relative
   // poses of the merge pairs agree with the truth to the merge edges' noise (1 cm).
@@ -271,6 +291,35 @@ TEST(PoseGraph, TwoRobotsJoinedByMergeEdgesEndInOneFrame) {
   ASSERT_TRUE(ra.ok());
   EXPECT_EQ(ra->stats.islands, 2u);
   EXPECT_GT(JointAte(t, apart).trans_m.rmse, 0.5);
+}
+
+// Paper 000 eqs. 19-20: object centroids as landmarks. Association is given (true object ids),
+// which the server's object map does not guarantee after drift.
+TEST(PoseGraph, CentroidLandmarksCorrectDriftWithoutLoopEdges) {
+  const LoopScene s = MakeLoopScene(false);
+  std::mt19937 rng(5);
+  const auto objects = ObjectsAroundSquare(SquarePathOptions{}, 30, &rng);
+  const auto seen = ObserveCentroids(s.robot, objects, 3.0, 0.03, &rng);
+  GraphOptions options;
+  options.landmarks.enabled = true;
+  PoseGraph graph = GraphOf(s, options, /*with_loops=*/false);
+  for (const CentroidObservation& c : seen) ASSERT_TRUE(graph.AddCentroidObservation(c).ok());
+  const double before = Ate(s.robot, graph);
+  const auto r = graph.Optimize();
+  ASSERT_TRUE(r.ok()) << r.status();
+  const double after = Ate(s.robot, graph);
+  std::printf("landmarks %zu (%zu observations): ATE %.4f -> %.4f m\n", r->stats.landmarks,
+              r->stats.centroid_observations, before, after);
+  EXPECT_GE(r->stats.landmarks, 20u);
+  EXPECT_LE(after, before / 3);
+
+  // Off (the default), the same observations are ignored.
+  PoseGraph off = GraphOf(s, GraphOptions{}, /*with_loops=*/false);
+  for (const CentroidObservation& c : seen) ASSERT_TRUE(off.AddCentroidObservation(c).ok());
+  const auto ro = off.Optimize();
+  ASSERT_TRUE(ro.ok());
+  EXPECT_EQ(ro->stats.landmarks, 0u);
+  EXPECT_GT(Ate(s.robot, off), before * 0.9);
 }
 
 }  // namespace
