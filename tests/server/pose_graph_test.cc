@@ -147,10 +147,11 @@ TEST(PoseGraph, WrongLoopIsRejectedAndDoesNotBendTheMap) {
 
 // Largest change of any keyframe's gravity direction (map z seen from the keyframe), rad.
 double MaxTiltChangeRad(const SyntheticRobot& robot, const PoseGraph& graph) {
+  const Trajectory estimate = EstimatedTrajectory(robot, graph);  // by keyframe id
   double worst = 0;
   for (size_t i = 0; i < robot.nodes.size(); ++i) {
     const Vec3d before = robot.nodes[i].T_map_kf.rotation().transpose() * Vec3d::UnitZ();
-    const Vec3d after = graph.nodes()[i].T_map_kf.rotation().transpose() * Vec3d::UnitZ();
+    const Vec3d after = estimate[i].T_world_cam.rotation().transpose() * Vec3d::UnitZ();
     worst = std::max(worst, std::acos(std::clamp(before.dot(after), -1.0, 1.0)));
   }
   return worst;
@@ -201,16 +202,17 @@ struct TwoRobots {
 
 // Robot a drives two laps from the map origin; robot b one lap starting a quarter lap further,
 // its odometry starting at the identity (unaligned).
-TwoRobots MakeTwoRobots(uint32_t seed = 11) {
+TwoRobots MakeTwoRobots(uint32_t seed = 11, bool gravity_aligned = false) {
   std::mt19937 rng(seed);
   SquarePathOptions path_a, path_b;
   path_b.keyframes = 100;
   path_b.lap_phase = 0.25;
   const std::vector<SE3d> truth_a = SquarePath(path_a), truth_b = SquarePath(path_b);
   TwoRobots t;
-  t.a = MakeSyntheticRobot("a", 1, truth_a, OdometryNoiseOptions{}, truth_a.front(), false, &rng);
-  t.b = MakeSyntheticRobot("b", 1001, truth_b, OdometryNoiseOptions{}, SE3d::Identity(), false,
-                           &rng);
+  t.a = MakeSyntheticRobot("a", 1, truth_a, OdometryNoiseOptions{}, truth_a.front(),
+                           gravity_aligned, &rng);
+  t.b = MakeSyntheticRobot("b", 1001, truth_b, OdometryNoiseOptions{}, SE3d::Identity(),
+                           gravity_aligned, &rng);
   t.loops_a = ProximityEdges(t.a, t.a, EdgeKind::kLoop, ProximityEdgeOptions{}, &rng);
   t.merges = ProximityEdges(t.a, t.b, EdgeKind::kMerge, ProximityEdgeOptions{}, &rng);
   t.T_map_odom_b_true = truth_b.front();
@@ -290,6 +292,25 @@ TEST(PoseGraph, TwoRobotsJoinedByMergeEdgesEndInOneFrame) {
   const auto ra = apart.Optimize();
   ASSERT_TRUE(ra.ok());
   EXPECT_EQ(ra->stats.islands, 2u);
+  EXPECT_GT(JointAte(t, apart).trans_m.rmse, 0.5);
+}
+
+// Both robots send gravity: b is placed and solved with yaw and translation only, and no
+// keyframe of either robot tilts.
+TEST(PoseGraph, TwoRobotsMergeInFourDofWithoutTilting) {
+  const TwoRobots t = MakeTwoRobots(11, /*gravity_aligned=*/true);
+  PoseGraph graph = GraphOf(t, /*with_merges=*/true);
+  const auto r = graph.Optimize();
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_TRUE(r->stats.four_dof);
+  EXPECT_EQ(r->stats.islands, 1u);
+  const AteResult joint = JointAte(t, graph);
+  const double tilt = std::max(MaxTiltChangeRad(t.a, graph), MaxTiltChangeRad(t.b, graph));
+  std::printf("4-DoF merge: joint ATE %.4f m, tilt change %.1e rad\n", joint.trans_m.rmse, tilt);
+  EXPECT_LT(joint.trans_m.rmse, 0.06);
+  EXPECT_LT(tilt, 1e-6);
+  PoseGraph apart = GraphOf(t, /*with_merges=*/false);
+  ASSERT_TRUE(apart.Optimize().ok());
   EXPECT_GT(JointAte(t, apart).trans_m.rmse, 0.5);
 }
 
