@@ -33,6 +33,8 @@ void RegisterBenchLoadCommand(CLI::App& app);
 // `loci reprocess` and `loci bench restart` (server/: products, checkpoints, restart).
 void RegisterReprocessCommand(CLI::App& app);
 void RegisterBenchRestartCommand(CLI::App& app);
+// `loci bench graph` (server/graph/): pose-graph solve time and ATE on synthetic loops.
+void RegisterBenchGraphCommand(CLI::App& app);
 
 // `loci bench report` (cli/report/): evaluation report on a TUM folder.
 void RegisterBenchReportCommand(CLI::App& app);

@@ -35,6 +35,7 @@ int main(int argc, char** argv) {
   loci::cli::RegisterBenchLoadCommand(app);
   loci::cli::RegisterReprocessCommand(app);
   loci::cli::RegisterBenchRestartCommand(app);
+  loci::cli::RegisterBenchGraphCommand(app);
   loci::cli::RegisterDetectCommand(app);
   loci::cli::RegisterBenchDetectCommand(app);
   loci::cli::RegisterBenchTrackCommand(app);

@@ -10,7 +10,9 @@ namespace loci::server {
 Status ServerOptions::FromYamlFile(const std::string& path) {
   LOCI_ASSIGN_OR_RETURN(YAML::Node root, LoadYamlFile(path));
   const ConfigFileScope scope(path);
-  LOCI_RETURN_IF_ERROR(CheckKnownKeys(root, "", {"server", "detector", "map", "sessions"}));
+  // `graph` is the pose graph's section (server/graph/GraphOptions), not read here yet.
+  LOCI_RETURN_IF_ERROR(
+      CheckKnownKeys(root, "", {"server", "detector", "map", "sessions", "graph"}));
   if (const YAML::Node s = root["server"]) {
     LOCI_RETURN_IF_ERROR(CheckKnownKeys(s, "server",
                                         {"listen", "db", "http", "max_message_mb", "queue_capacity",
