@@ -34,6 +34,10 @@ void RegisterBenchLoadCommand(CLI::App& app);
 void RegisterReprocessCommand(CLI::App& app);
 void RegisterBenchRestartCommand(CLI::App& app);
 
+// `loci bench place` (server/place/): feature extraction, feature bytes, place-recognition query
+// time against 1k and 10k keyframes.
+void RegisterBenchPlaceCommand(CLI::App& app);
+
 // `loci bench report` (cli/report/): evaluation report on a TUM folder.
 void RegisterBenchReportCommand(CLI::App& app);
 

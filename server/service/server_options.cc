@@ -10,7 +10,7 @@ namespace loci::server {
 Status ServerOptions::FromYamlFile(const std::string& path) {
   LOCI_ASSIGN_OR_RETURN(YAML::Node root, LoadYamlFile(path));
   const ConfigFileScope scope(path);
-  LOCI_RETURN_IF_ERROR(CheckKnownKeys(root, "", {"server", "detector", "map", "sessions"}));
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(root, "", {"server", "detector", "map", "place", "sessions"}));
   if (const YAML::Node s = root["server"]) {
     LOCI_RETURN_IF_ERROR(CheckKnownKeys(s, "server",
                                         {"listen", "db", "http", "max_message_mb", "queue_capacity",
@@ -52,6 +52,7 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
   }
   LOCI_RETURN_IF_ERROR(LoadClasses());
   LOCI_RETURN_IF_ERROR(map.FromYaml(root["map"]));
+  LOCI_RETURN_IF_ERROR(place.FromYaml(root["place"]));
   if (const YAML::Node sessions = root["sessions"]) {
     for (const auto& kv : sessions) {
       const std::string robot = kv.first.as<std::string>();
