@@ -16,6 +16,8 @@
 #include <random>
 #include <sstream>
 
+#include <sys/resource.h>
+
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
@@ -25,6 +27,7 @@
 #include "common/time.h"
 #include "common/tum_io.h"
 #include "server/place/feature_codec.h"
+#include "server/place/geometric_verification.h"
 #include "server/place/place_database.h"
 
 namespace loci::cli {
@@ -53,6 +56,13 @@ Stats Summarise(std::vector<double> v) {
   s.p95 = v[std::min(v.size() - 1, static_cast<size_t>(0.95 * (v.size() - 1) + 0.5))];
   for (const double x : v) s.mean += x / static_cast<double>(v.size());
   return s;
+}
+
+// Peak resident memory of the process, MiB.
+double PeakRssMib() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_maxrss) / 1024.0;
 }
 
 double MsSince(std::chrono::steady_clock::time_point t0) {
@@ -101,6 +111,22 @@ StatusOr<std::vector<KeyframeFeatures>> ExtractAll(const TumSequence& seq, int m
   return out;
 }
 
+// Verification of frame i against frame i - 10 (a third of a second earlier), every 5th frame.
+void BenchVerification(const std::vector<KeyframeFeatures>& kfs,
+                       const place::VerifyOptions& options) {
+  std::vector<double> ms;
+  int accepted = 0;
+  for (size_t i = 10; i < kfs.size(); i += 5) {
+    const auto t0 = std::chrono::steady_clock::now();
+    accepted += place::VerifyPair(kfs[i], kfs[i - 10], options).accepted ? 1 : 0;
+    ms.push_back(MsSince(t0));
+  }
+  const Stats s = Summarise(ms);
+  std::printf("verification of a pair (frames 10 apart): %.1f ms median, %.1f p95 (%d of %zu "
+              "accepted)\n",
+              s.median, s.p95, accepted, ms.size());
+}
+
 cv::Mat MaskedDescriptors(const cv::Mat& descriptors, const cv::Mat& mask_row) {
   cv::Mat out(descriptors.size(), descriptors.type());
   for (int r = 0; r < descriptors.rows; ++r) cv::bitwise_xor(descriptors.row(r), mask_row, out.row(r));
@@ -135,17 +161,22 @@ void BenchSize(const std::vector<KeyframeFeatures>& kfs, int size, const BenchPl
   const double fill_ms = FillDatabase(kfs, size, rng, &db);
   const cv::Mat mask = RandomMask(rng);
   std::vector<double> quantise_ms, query_ms, insert_ms, total_ms;
-  size_t candidates = 0;
+  size_t candidates = 0, own_room_top1 = 0, descriptors = 0, new_words = 0;
   const int stride = std::max(1, static_cast<int>(kfs.size()) / std::max(1, a.queries));
   for (int q = 0; q < a.queries; ++q) {
     const KeyframeFeatures& kf = kfs[(static_cast<size_t>(q) * stride) % kfs.size()];
     const cv::Mat desc = MaskedDescriptors(kf.descriptors, mask);
+    const size_t words_before = db.words();
     const auto t0 = std::chrono::steady_clock::now();
     const place::BowVector bow = db.Quantise(desc, true);
     const double t_quantise = MsSince(t0);
+    new_words += db.words() - words_before;
+    descriptors += static_cast<size_t>(desc.rows);
     const auto t1 = std::chrono::steady_clock::now();
-    candidates += db.Query(bow, "query-room").size();
+    const std::vector<place::PlaceCandidate> found = db.Query(bow, "query-room");
     const double t_query = MsSince(t1);
+    candidates += found.size();
+    own_room_top1 += !found.empty() && found[0].robot == "query-room" ? 1 : 0;
     const auto t2 = std::chrono::steady_clock::now();
     (void)db.Insert(size + q, "query-room", bow);
     const double t_insert = MsSince(t2);
@@ -156,12 +187,16 @@ void BenchSize(const std::vector<KeyframeFeatures>& kfs, int size, const BenchPl
   }
   const Stats qz = Summarise(quantise_ms), qr = Summarise(query_ms), in = Summarise(insert_ms),
               tt = Summarise(total_ms);
-  std::printf("database %6d keyframes (%zu words, tree depth %d; filled at %.2f ms/keyframe):\n",
-              size, db.words(), db.vocabulary().depth(), fill_ms);
+  std::printf("database %6d keyframes (%zu words, tree depth %d; filled at %.2f ms/keyframe; "
+              "peak RSS %.0f MiB):\n",
+              size, db.words(), db.vocabulary().depth(), fill_ms, PeakRssMib());
   std::printf("  per keyframe: quantise %.2f ms, query %.2f ms, insert %.2f ms (medians); "
-              "total %.2f ms median, %.2f p95, %.2f mean; %.1f candidates/query\n",
-              qz.median, qr.median, in.median, tt.median, tt.p95, tt.mean,
-              static_cast<double>(candidates) / a.queries);
+              "total %.2f ms median, %.2f p95, %.2f mean\n",
+              qz.median, qr.median, in.median, tt.median, tt.p95, tt.mean);
+  std::printf("  %.1f candidates/query, best candidate from the query's own room for %zu of %d; "
+              "%.0f%% of the query descriptors founded new words\n",
+              static_cast<double>(candidates) / a.queries, own_room_top1, a.queries,
+              100.0 * static_cast<double>(new_words) / static_cast<double>(descriptors));
 }
 
 int RunBenchPlace(const BenchPlaceArgs& a) {
@@ -189,6 +224,7 @@ int RunBenchPlace(const BenchPlaceArgs& a) {
     std::cerr << "error: " << kfs.status().message() << "\n";
     return 1;
   }
+  BenchVerification(*kfs, options.verify);
   for (const int size : a.sizes) BenchSize(*kfs, size, a, options);
   return 0;
 }
@@ -203,7 +239,9 @@ void RegisterBenchPlaceCommand(CLI::App& app) {
   c->add_option("--tum", args->tum_dir,
                 "TUM RGB-D folder (default: $LOCI_DATA/tum_fr1_rpy, ../shared/data/tum_fr1_rpy, "
                 "else the shipped sample)");
-  c->add_option("--sizes", args->sizes, "database sizes, keyframes")->capture_default_str();
+  c->add_option("--sizes", args->sizes, "database sizes, keyframes")
+      ->delimiter(',')
+      ->capture_default_str();
   c->add_option("--queries", args->queries, "keyframes timed per size")->capture_default_str();
   c->add_option("--max-frames", args->max_frames, "use the first N frames (0 = all)");
   c->add_option("--config", args->config, "server YAML whose `place` section is used "

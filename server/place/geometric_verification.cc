@@ -1,7 +1,5 @@
 #include "server/place/geometric_verification.h"
 
-#include "server/place/point_alignment.h"
-
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -10,6 +8,8 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/features2d.hpp>
+
+#include "server/place/point_alignment.h"
 
 namespace loci::place {
 namespace {
@@ -120,41 +120,48 @@ double InlierArea(std::vector<Eigen::Vector2f> uv, const PinholeCamera& camera) 
          (static_cast<double>(camera.width_px) * camera.height_px);
 }
 
-// The 3D-3D stage: the PnP inliers with depth in both keyframes.
-void Check3d(const KeyframeFeatures& a, const KeyframeFeatures& b, const std::vector<Match>& m,
-             const std::vector<int>& pnp_inliers, const VerifyOptions& options, Verification* v) {
-  std::vector<int> both;
-  for (const int i : pnp_inliers) {
-    if (a.HasDepth(m[i].a)) both.push_back(i);
-  }
-  Eigen::Matrix3Xd p_a(3, both.size()), p_b(3, both.size());
-  for (size_t k = 0; k < both.size(); ++k) {
-    p_a.col(k) = a.p_kf_m[m[both[k]].a].cast<double>();
-    p_b.col(k) = b.p_kf_m[m[both[k]].b].cast<double>();
-  }
-  v->inliers = AlignPoints(p_a, p_b, options, &v->T_a_b, &v->rms_m);
-  v->T_a_b_3d = v->T_a_b;
-  if (v->inliers < options.min_inliers) return;
-  // Final estimate: the kept pairs weighted by depth-camera noise (point_alignment.h).
-  PointNoise noise;
-  noise.pixel_sigma_px = options.pixel_sigma_px;
-  noise.depth_sigma_m_per_m2 = options.depth_sigma_m_per_m2;
+// The final estimate: Gauss-Newton on the pairs within max_point_error_m under v->T_a_b,
+// weighted by depth-camera noise (point_alignment.h); also sets v->inlier_area.
+void RefineWeighted(const KeyframeFeatures& a, const KeyframeFeatures& b,
+                    const std::vector<Match>& pairs, const Eigen::Matrix3Xd& p_a,
+                    const Eigen::Matrix3Xd& p_b, const VerifyOptions& options, Verification* v) {
+  PointNoise noise_a, noise_b;
+  noise_a.depth_sigma_m_per_m2 = noise_b.depth_sigma_m_per_m2 = options.depth_sigma_m_per_m2;
+  noise_a.focal_px = a.camera.fx;
+  noise_b.focal_px = b.camera.fx;
   std::vector<Eigen::Vector3d> in_a, in_b;
   std::vector<Eigen::Matrix3d> cov_a, cov_b;
   std::vector<Eigen::Vector2f> uv_a;
-  for (size_t k = 0; k < both.size(); ++k) {
+  for (size_t k = 0; k < pairs.size(); ++k) {
     if ((p_a.col(k) - v->T_a_b * p_b.col(k)).norm() > options.max_point_error_m) continue;
-    const Match& mk = m[both[k]];
     in_a.push_back(p_a.col(k));
     in_b.push_back(p_b.col(k));
-    uv_a.push_back(a.uv_px[mk.a]);
-    noise.focal_px = a.camera.fx;
-    cov_a.push_back(PointCovariance(p_a.col(k), a.PixelSigma(mk.a, options.pixel_sigma_px), noise));
-    noise.focal_px = b.camera.fx;
-    cov_b.push_back(PointCovariance(p_b.col(k), b.PixelSigma(mk.b, options.pixel_sigma_px), noise));
+    uv_a.push_back(a.uv_px[pairs[k].a]);
+    const double sigma_a_px = a.PixelSigma(pairs[k].a, options.pixel_sigma_px);
+    const double sigma_b_px = b.PixelSigma(pairs[k].b, options.pixel_sigma_px);
+    cov_a.push_back(PointCovariance(in_a.back(), sigma_a_px, noise_a));
+    cov_b.push_back(PointCovariance(in_b.back(), sigma_b_px, noise_b));
   }
   v->inlier_area = InlierArea(uv_a, a.camera);
   RefineAlignment(in_a, in_b, cov_a, cov_b, kRefineIterations, &v->T_a_b);
+}
+
+// The 3D-3D stage on the PnP inliers with depth in both keyframes: the Umeyama check (inlier
+// count, RMS), then the weighted refinement.
+void Check3d(const KeyframeFeatures& a, const KeyframeFeatures& b, const std::vector<Match>& m,
+             const std::vector<int>& pnp_inliers, const VerifyOptions& options, Verification* v) {
+  std::vector<Match> pairs;
+  for (const int i : pnp_inliers) {
+    if (a.HasDepth(m[i].a)) pairs.push_back(m[i]);
+  }
+  Eigen::Matrix3Xd p_a(3, pairs.size()), p_b(3, pairs.size());
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    p_a.col(k) = a.p_kf_m[pairs[k].a].cast<double>();
+    p_b.col(k) = b.p_kf_m[pairs[k].b].cast<double>();
+  }
+  v->inliers = AlignPoints(p_a, p_b, options, &v->T_a_b, &v->rms_m);
+  v->T_a_b_3d = v->T_a_b;
+  if (v->inliers >= options.min_inliers) RefineWeighted(a, b, pairs, p_a, p_b, options, v);
 }
 
 }  // namespace

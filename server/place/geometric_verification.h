@@ -16,7 +16,8 @@ namespace loci::place {
 struct Verification {
   bool accepted = false;
   std::string reason;             // why it was rejected; empty when accepted
-  SE3d T_a_b = SE3d::Identity();  // p_a = T_a_b * p_b, keyframe b's camera frame into a's
+  // p_a = T_a_b * p_b, keyframe b's camera frame into a's; meaningful only when accepted.
+  SE3d T_a_b = SE3d::Identity();
   SE3d T_a_b_pnp = SE3d::Identity();  // the PnP estimate, before the 3D-3D refinement
   SE3d T_a_b_3d = SE3d::Identity();   // the 3D-3D (Umeyama) estimate on the 3D inliers
   int matches = 0;                // descriptor matches passing the ratio test

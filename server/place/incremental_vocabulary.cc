@@ -1,7 +1,9 @@
 #include "server/place/incremental_vocabulary.h"
 
 #include <algorithm>
+#include <queue>
 #include <random>
+#include <utility>
 
 #include "server/place/keyframe_features.h"
 
@@ -110,27 +112,51 @@ IncrementalVocabulary::IncrementalVocabulary(const VocabularyOptions& options)
   nodes_[0].split_at = options_.max_leaf_words;
 }
 
-int IncrementalVocabulary::FindLeaf(const Descriptor256& d) const {
-  int n = 0;
-  while (!nodes_[n].children.empty()) n = nodes_[n].children[Nearest(nodes_[n].centres, d)];
-  return n;
+// Compiled twice, with the POPCNT instruction and without, picked at load time (glibc ifunc):
+// std::popcount is one instruction with it and about ten without, and Debian's amd64 baseline
+// does not guarantee it.
+__attribute__((target_clones("popcnt", "default")))
+WordId IncrementalVocabulary::Search(const Descriptor256& d, int* first_leaf) const {
+  using Entry = std::pair<int, int>;  // (distance to the branch's centre, node)
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> branches;
+  branches.emplace(0, 0);
+  WordId best = kNoWord;
+  int best_dist = options_.word_max_hamming + 1;
+  *first_leaf = -1;
+  for (int leaves = 0; leaves < options_.search_leaves && !branches.empty(); ++leaves) {
+    int n = branches.top().second;
+    branches.pop();
+    while (!nodes_[n].children.empty()) {  // descend, remembering the other branches
+      const Node& node = nodes_[n];
+      const int nearest = Nearest(node.centres, d);
+      for (size_t c = 0; c < node.children.size(); ++c) {
+        if (static_cast<int>(c) != nearest) {
+          branches.emplace(Hamming(node.centres[c], d), node.children[c]);
+        }
+      }
+      n = node.children[nearest];
+    }
+    if (*first_leaf < 0) *first_leaf = n;
+    const Node& leaf = nodes_[n];
+    for (size_t i = 0; i < leaf.descriptors.size(); ++i) {
+      const int dist = Hamming(leaf.descriptors[i], d);
+      if (dist < best_dist) {
+        best_dist = dist;
+        best = leaf.words[i];
+      }
+    }
+  }
+  return best;
 }
 
 WordId IncrementalVocabulary::Quantise(const Descriptor256& d, bool add_words) {
-  const int leaf = FindLeaf(d);
-  WordId best = kNoWord;
-  int best_dist = options_.word_max_hamming + 1;
-  for (const WordId w : nodes_[leaf].words) {
-    const int dist = Hamming(words_[w], d);
-    if (dist < best_dist) {
-      best_dist = dist;
-      best = w;
-    }
-  }
+  int leaf = 0;
+  const WordId best = Search(d, &leaf);
   if (best != kNoWord || !add_words) return best;
   const WordId id = static_cast<WordId>(words_.size());
   words_.push_back(d);
   nodes_[leaf].words.push_back(id);
+  nodes_[leaf].descriptors.push_back(d);
   if (nodes_[leaf].words.size() > static_cast<size_t>(nodes_[leaf].split_at) &&
       nodes_[leaf].depth < options_.max_depth) {
     SplitLeaf(leaf);
@@ -149,8 +175,7 @@ std::vector<WordId> IncrementalVocabulary::Quantise(const cv::Mat& descriptors, 
 }
 
 void IncrementalVocabulary::SplitLeaf(int leaf) {
-  std::vector<Descriptor256> items;
-  for (const WordId w : nodes_[leaf].words) items.push_back(words_[w]);
+  const std::vector<Descriptor256> items = nodes_[leaf].descriptors;
   std::vector<Descriptor256> centres;
   KMajority(items, options_.branching, kSplitIterations, static_cast<uint64_t>(leaf), &centres);
   // Words go where FindLeaf will look for them: to the nearest final centre.
@@ -173,10 +198,13 @@ void IncrementalVocabulary::SplitLeaf(int leaf) {
   }
   for (size_t i = 0; i < items.size(); ++i) {
     nodes_[children[route[i]]].words.push_back(nodes_[leaf].words[i]);
+    nodes_[children[route[i]]].descriptors.push_back(items[i]);
   }
   Node& parent = nodes_[leaf];
   parent.words.clear();
   parent.words.shrink_to_fit();
+  parent.descriptors.clear();
+  parent.descriptors.shrink_to_fit();
   parent.centres = std::move(centres);
   parent.children = std::move(children);
 }

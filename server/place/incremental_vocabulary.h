@@ -2,9 +2,12 @@
 // descriptor belongs to the nearest existing word within word_max_hamming bits, or founds a new
 // word. Words live in the leaves of a tree; a leaf that holds more than max_leaf_words words is
 // split into `branching` children by k-majority clustering (bitwise-majority centres, as in
-// DBoW2's training), so finding a word costs about branching * depth + max_leaf_words Hamming
-// distances whatever the vocabulary's size. The search descends to one leaf only: it is
-// approximate, like any vocabulary tree (a descriptor near a cluster border may miss its word).
+// DBoW2's training). A search descends to the nearest centre at each level and then visits up to
+// search_leaves leaves in the order of their centres' distances (a priority search like FLANN's
+// `checks`), so finding a word costs about search_leaves * (branching * depth + max_leaf_words)
+// Hamming distances whatever the vocabulary's size. It is approximate, like any vocabulary tree:
+// a descriptor may miss its word when that sits beyond the leaves visited. A new word joins the
+// first leaf visited.
 //
 // Word ids are dense (0, 1, 2, ...) and never change. Deterministic: the same descriptors in
 // the same order give the same words. Not thread-safe.
@@ -43,12 +46,14 @@ class IncrementalVocabulary {
   struct Node {
     std::vector<Descriptor256> centres;  // internal node: one per child
     std::vector<int> children;           // internal node: indices into nodes_
-    std::vector<WordId> words;           // leaf: the words it holds
+    std::vector<WordId> words;           // leaf: the words it holds ...
+    std::vector<Descriptor256> descriptors;  // ... and their descriptors (a contiguous scan)
     int depth = 0;
     int split_at = 0;  // leaf: split when holding more words than this
   };
 
-  int FindLeaf(const Descriptor256& d) const;
+  // The nearest word within word_max_hamming (kNoWord if none) and the first leaf visited.
+  WordId Search(const Descriptor256& d, int* first_leaf) const;
   void SplitLeaf(int leaf);
 
   VocabularyOptions options_;

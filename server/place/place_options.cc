@@ -13,7 +13,8 @@ Status CheckPlaceKeys(const YAML::Node& node) {
                                        "min_depth_m", "max_depth_m"}));
   LOCI_RETURN_IF_ERROR(
       CheckKnownKeys(node["vocabulary"], "place.vocabulary",
-                     {"word_max_hamming", "branching", "max_leaf_words", "max_depth"}));
+                     {"word_max_hamming", "branching", "max_leaf_words", "max_depth",
+                      "search_leaves"}));
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["query"], "place.query",
                                       {"max_candidates", "exclude_recent_keyframes", "min_score"}));
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
@@ -38,6 +39,7 @@ Status ReadVocabulary(const YAML::Node& n, VocabularyOptions* o) {
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "word_max_hamming", &o->word_max_hamming));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "branching", &o->branching));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_leaf_words", &o->max_leaf_words));
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "search_leaves", &o->search_leaves));
   return ReadOptional(n, "max_depth", &o->max_depth);
 }
 
@@ -91,6 +93,7 @@ Status ValidateVocabulary(const VocabularyOptions& v) {
     return Bad("vocabulary.max_leaf_words in [branching, 4096]");
   }
   if (v.max_depth < 1 || v.max_depth > 64) return Bad("vocabulary.max_depth in [1, 64]");
+  if (v.search_leaves < 1 || v.search_leaves > 256) return Bad("vocabulary.search_leaves in [1, 256]");
   return absl::OkStatus();
 }
 

@@ -24,11 +24,14 @@ struct FeatureOptions {
 // The incremental vocabulary (incremental_vocabulary.h).
 struct VocabularyOptions {
   // A descriptor belongs to its nearest word when they differ in at most this many of the 256
-  // bits; otherwise it founds a new word (40).
-  int word_max_hamming = 40;
-  int branching = 8;        // children made when a leaf of the word tree splits, k (8)
-  int max_leaf_words = 48;  // a leaf holding more words is split by k-majority clustering (48)
+  // bits; otherwise it founds a new word (60).
+  int word_max_hamming = 60;
+  int branching = 16;        // children made when a leaf of the word tree splits, k (16)
+  int max_leaf_words = 256;  // a leaf holding more words is split by k-majority clustering (256)
   int max_depth = 16;       // leaves at this depth are no longer split (16)
+  // Leaves a search visits, nearest centres first: more finds more words again across cluster
+  // borders, at a proportional cost (4).
+  int search_leaves = 4;
 };
 
 // Candidate retrieval (place_database.h).

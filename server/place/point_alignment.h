@@ -13,16 +13,15 @@
 
 namespace loci::place {
 
-// Noise of one depth-camera point.
+// Noise of a depth camera's points.
 struct PointNoise {
-  double pixel_sigma_px = 1.0;  // keypoint position noise at its pyramid level, px
-  double focal_px = 500.0;      // focal length, px
+  double focal_px = 500.0;  // focal length, px
   // Depth noise sigma_z = depth_sigma_m_per_m2 * z^2, floored at min_depth_sigma_m.
   double depth_sigma_m_per_m2 = 0.0025;
   double min_depth_sigma_m = 0.002;
 };
 
-// Covariance of a point p (camera frame, m) with lateral noise sigma_px at focal_px.
+// Covariance of a point p (camera frame, m) whose pixel has position noise sigma_px.
 Eigen::Matrix3d PointCovariance(const Eigen::Vector3d& p, double sigma_px,
                                 const PointNoise& noise);
 
