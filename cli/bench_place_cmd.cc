@@ -8,18 +8,17 @@
 //     (Hamming distances within a room are those of the real data; rooms share no words, like
 //     different places). Then `--queries` keyframes of one more such room go through the
 //     server's step: quantise (adding words), query, insert; each stage is timed.
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
-#include <random>
-#include <sstream>
-
-#include <sys/resource.h>
-
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <random>
+#include <sstream>
 
 #include "cli/commands.h"
 #include "common/config.h"
@@ -74,8 +73,9 @@ std::string DefaultTumDir() {
   if (!DataDirFromEnv().empty() && std::filesystem::exists(DataDirFromEnv() + "/tum_fr1_rpy")) {
     return DataDirFromEnv() + "/tum_fr1_rpy";
   }
-  return std::filesystem::exists(full + "/rgb.txt") ? full
-                                                    : SourceDir() + "/tests/data/tum_fr1_rpy_sample";
+  return std::filesystem::exists(full + "/rgb.txt")
+             ? full
+             : SourceDir() + "/tests/data/tum_fr1_rpy_sample";
 }
 
 // Features of every frame, with the extraction figures printed.
@@ -83,17 +83,17 @@ StatusOr<std::vector<KeyframeFeatures>> ExtractAll(const TumSequence& seq, int m
                                                    const place::FeatureOptions& options) {
   std::vector<KeyframeFeatures> out;
   std::vector<double> wall_ms, cpu_ms, bytes, image_bytes;
-  const size_t n = max_frames > 0 ? std::min<size_t>(max_frames, seq.frames.size())
-                                  : seq.frames.size();
+  const size_t n =
+      max_frames > 0 ? std::min<size_t>(max_frames, seq.frames.size()) : seq.frames.size();
   for (size_t i = 0; i < n; ++i) {
     LOCI_ASSIGN_OR_RETURN(const std::string png, ReadFileBytes(seq.frames[i].depth_path));
     const cv::Mat bgr = cv::imread(seq.frames[i].rgb_path, cv::IMREAD_COLOR);
     LOCI_ASSIGN_OR_RETURN(const std::string jpeg, EncodeJpeg(bgr, 90));
     const double cpu0 = ThreadCpuMs();
     const auto t0 = std::chrono::steady_clock::now();
-    LOCI_ASSIGN_OR_RETURN(KeyframeFeatures f,
-                          place::ExtractFeaturesFromEncoded(jpeg, png, 5000.0,
-                                                            PinholeCamera::TumFr1(), options));
+    LOCI_ASSIGN_OR_RETURN(
+        KeyframeFeatures f,
+        place::ExtractFeaturesFromEncoded(jpeg, png, 5000.0, PinholeCamera::TumFr1(), options));
     wall_ms.push_back(MsSince(t0));
     cpu_ms.push_back(ThreadCpuMs() - cpu0);
     LOCI_ASSIGN_OR_RETURN(const std::string stored, place::EncodeFeatures(f));
@@ -102,12 +102,14 @@ StatusOr<std::vector<KeyframeFeatures>> ExtractAll(const TumSequence& seq, int m
     out.push_back(std::move(f));
   }
   const Stats w = Summarise(wall_ms), c = Summarise(cpu_ms), b = Summarise(bytes);
-  std::printf("extraction (JPEG + PNG decode, ORB %d, depth): %.1f ms/keyframe median, %.1f p95, "
-              "%.1f mean wall; %.1f ms median thread CPU (%zu keyframes)\n",
-              options.max_features, w.median, w.p95, w.mean, c.median, out.size());
-  std::printf("features stored: %.0f bytes/keyframe mean (%.1f KB), vs %.0f KB of JPEG q90 + "
-              "depth PNG\n",
-              b.mean, b.mean / 1024, Summarise(image_bytes).mean / 1024);
+  std::printf(
+      "extraction (JPEG + PNG decode, ORB %d, depth): %.1f ms/keyframe median, %.1f p95, "
+      "%.1f mean wall; %.1f ms median thread CPU (%zu keyframes)\n",
+      options.max_features, w.median, w.p95, w.mean, c.median, out.size());
+  std::printf(
+      "features stored: %.0f bytes/keyframe mean (%.1f KB), vs %.0f KB of JPEG q90 + "
+      "depth PNG\n",
+      b.mean, b.mean / 1024, Summarise(image_bytes).mean / 1024);
   return out;
 }
 
@@ -122,14 +124,16 @@ void BenchVerification(const std::vector<KeyframeFeatures>& kfs,
     ms.push_back(MsSince(t0));
   }
   const Stats s = Summarise(ms);
-  std::printf("verification of a pair (frames 10 apart): %.1f ms median, %.1f p95 (%d of %zu "
-              "accepted)\n",
-              s.median, s.p95, accepted, ms.size());
+  std::printf(
+      "verification of a pair (frames 10 apart): %.1f ms median, %.1f p95 (%d of %zu "
+      "accepted)\n",
+      s.median, s.p95, accepted, ms.size());
 }
 
 cv::Mat MaskedDescriptors(const cv::Mat& descriptors, const cv::Mat& mask_row) {
   cv::Mat out(descriptors.size(), descriptors.type());
-  for (int r = 0; r < descriptors.rows; ++r) cv::bitwise_xor(descriptors.row(r), mask_row, out.row(r));
+  for (int r = 0; r < descriptors.rows; ++r)
+    cv::bitwise_xor(descriptors.row(r), mask_row, out.row(r));
   return out;
 }
 
@@ -187,16 +191,19 @@ void BenchSize(const std::vector<KeyframeFeatures>& kfs, int size, const BenchPl
   }
   const Stats qz = Summarise(quantise_ms), qr = Summarise(query_ms), in = Summarise(insert_ms),
               tt = Summarise(total_ms);
-  std::printf("database %6d keyframes (%zu words, tree depth %d; filled at %.2f ms/keyframe; "
-              "peak RSS %.0f MiB):\n",
-              size, db.words(), db.vocabulary().depth(), fill_ms, PeakRssMib());
-  std::printf("  per keyframe: quantise %.2f ms, query %.2f ms, insert %.2f ms (medians); "
-              "total %.2f ms median, %.2f p95, %.2f mean\n",
-              qz.median, qr.median, in.median, tt.median, tt.p95, tt.mean);
-  std::printf("  %.1f candidates/query, best candidate from the query's own room for %zu of %d; "
-              "%.0f%% of the query descriptors founded new words\n",
-              static_cast<double>(candidates) / a.queries, own_room_top1, a.queries,
-              100.0 * static_cast<double>(new_words) / static_cast<double>(descriptors));
+  std::printf(
+      "database %6d keyframes (%zu words, tree depth %d; filled at %.2f ms/keyframe; "
+      "peak RSS %.0f MiB):\n",
+      size, db.words(), db.vocabulary().depth(), fill_ms, PeakRssMib());
+  std::printf(
+      "  per keyframe: quantise %.2f ms, query %.2f ms, insert %.2f ms (medians); "
+      "total %.2f ms median, %.2f p95, %.2f mean\n",
+      qz.median, qr.median, in.median, tt.median, tt.p95, tt.mean);
+  std::printf(
+      "  %.1f candidates/query, best candidate from the query's own room for %zu of %d; "
+      "%.0f%% of the query descriptors founded new words\n",
+      static_cast<double>(candidates) / a.queries, own_room_top1, a.queries,
+      100.0 * static_cast<double>(new_words) / static_cast<double>(descriptors));
 }
 
 int RunBenchPlace(const BenchPlaceArgs& a) {
@@ -244,8 +251,9 @@ void RegisterBenchPlaceCommand(CLI::App& app) {
       ->capture_default_str();
   c->add_option("--queries", args->queries, "keyframes timed per size")->capture_default_str();
   c->add_option("--max-frames", args->max_frames, "use the first N frames (0 = all)");
-  c->add_option("--config", args->config, "server YAML whose `place` section is used "
-                                          "(default: config/server.yaml)");
+  c->add_option("--config", args->config,
+                "server YAML whose `place` section is used "
+                "(default: config/server.yaml)");
   c->add_option("--seed", args->seed, "seed of the room masks")->capture_default_str();
   c->callback([args] { ExitCode() = RunBenchPlace(*args); });
 }

@@ -33,8 +33,8 @@ int ConsistencyGate::Pending(const std::string& hypothesis) const {
   return it == pending_.end() ? 0 : static_cast<int>(it->second.size());
 }
 
-ConsistencyGate::Decision ConsistencyGate::Add(const std::string& hypothesis,
-                                               int64_t keyframe_id, const SE3d& T_x_y) {
+ConsistencyGate::Decision ConsistencyGate::Add(const std::string& hypothesis, int64_t keyframe_id,
+                                               const SE3d& T_x_y) {
   std::vector<Estimate>& collected = pending_[hypothesis];
   Decision decision;
   const bool seen = std::any_of(collected.begin(), collected.end(),

@@ -24,10 +24,10 @@ namespace loci::place {
 class ConsistencyGate {
  public:
   enum class Verdict {
-    kPending,   // agrees with the collected estimates (or is the first); not enough of them yet
-    kAccepted,  // the min_matches-th agreeing estimate: T_x_y is their consensus
-    kDuplicate, // a keyframe already counted for this hypothesis: ignored
-    kReset,     // disagreed: the collected estimates were dropped, this one starts a new count
+    kPending,    // agrees with the collected estimates (or is the first); not enough of them yet
+    kAccepted,   // the min_matches-th agreeing estimate: T_x_y is their consensus
+    kDuplicate,  // a keyframe already counted for this hypothesis: ignored
+    kReset,      // disagreed: the collected estimates were dropped, this one starts a new count
   };
   struct Decision {
     Verdict verdict = Verdict::kPending;

@@ -1,13 +1,12 @@
 #include "server/place/geometric_verification.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
-#include <vector>
-
-#include <Eigen/Geometry>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/features2d.hpp>
+#include <vector>
 
 #include "server/place/point_alignment.h"
 
@@ -32,7 +31,8 @@ std::vector<Match> RatioMatches(const KeyframeFeatures& a, const KeyframeFeature
   cv::BFMatcher(cv::NORM_HAMMING).knnMatch(a.descriptors, b.descriptors, knn, 2);
   for (const auto& m : knn) {
     if (m.size() < 2 || m[0].distance > options.max_hamming) continue;
-    if (m[0].distance < options.ratio * m[1].distance) out.push_back({m[0].queryIdx, m[0].trainIdx});
+    if (m[0].distance < options.ratio * m[1].distance)
+      out.push_back({m[0].queryIdx, m[0].trainIdx});
   }
   return out;
 }
@@ -70,10 +70,10 @@ std::vector<int> PnpInliers(const KeyframeFeatures& a, const KeyframeFeatures& b
   cv::eigen2cv(a.camera.K(), K);
   cv::Mat rvec, tvec;
   std::vector<int> inliers;
-  const bool ok = cv::solvePnPRansac(p_b, uv_a, K, cv::noArray(), rvec, tvec, false,
-                                     options.pnp_iterations,
-                                     static_cast<float>(options.pnp_reprojection_px),
-                                     options.pnp_confidence, inliers, cv::SOLVEPNP_SQPNP);
+  const bool ok =
+      cv::solvePnPRansac(p_b, uv_a, K, cv::noArray(), rvec, tvec, false, options.pnp_iterations,
+                         static_cast<float>(options.pnp_reprojection_px), options.pnp_confidence,
+                         inliers, cv::SOLVEPNP_SQPNP);
   if (!ok) return {};
   *T_a_b = ToSE3(rvec, tvec);
   for (int& i : inliers) i = index[i];
@@ -185,8 +185,8 @@ Verification VerifyPair(const KeyframeFeatures& a, const KeyframeFeatures& b,
   } else if (v.rms_m > options.max_rms_m) {
     v.reason = absl::StrCat("3D RMS ", v.rms_m, " m > ", options.max_rms_m, " m");
   } else if (v.inlier_area < options.min_inlier_area) {
-    v.reason = absl::StrCat("inliers cover ", v.inlier_area, " of the image < ",
-                            options.min_inlier_area);
+    v.reason =
+        absl::StrCat("inliers cover ", v.inlier_area, " of the image < ", options.min_inlier_area);
   } else {
     v.accepted = true;
   }

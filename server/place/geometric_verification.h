@@ -15,15 +15,15 @@ namespace loci::place {
 
 struct Verification {
   bool accepted = false;
-  std::string reason;             // why it was rejected; empty when accepted
+  std::string reason;  // why it was rejected; empty when accepted
   // p_a = T_a_b * p_b, keyframe b's camera frame into a's; meaningful only when accepted.
   SE3d T_a_b = SE3d::Identity();
   SE3d T_a_b_pnp = SE3d::Identity();  // the PnP estimate, before the 3D-3D refinement
   SE3d T_a_b_3d = SE3d::Identity();   // the 3D-3D (Umeyama) estimate on the 3D inliers
-  int matches = 0;                // descriptor matches passing the ratio test
-  int pnp_inliers = 0;            // PnP-RANSAC inliers
-  int inliers = 0;                // 3D-3D inliers of the final T_a_b
-  double rms_m = 0;               // RMS 3D distance of those inliers after alignment, m
+  int matches = 0;                    // descriptor matches passing the ratio test
+  int pnp_inliers = 0;                // PnP-RANSAC inliers
+  int inliers = 0;                    // 3D-3D inliers of the final T_a_b
+  double rms_m = 0;                   // RMS 3D distance of those inliers after alignment, m
   // Share of keyframe a's image covered by the box of the middle 90% of the inliers' pixels.
   double inlier_area = 0;
 };

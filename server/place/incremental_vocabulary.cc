@@ -33,7 +33,8 @@ Descriptor256 Majority(const std::vector<Descriptor256>& items, const std::vecto
   for (size_t i = 0; i < items.size(); ++i) {
     if (labels[i] != label) continue;
     ++n;
-    for (int b = 0; b < 256; ++b) counts[b] += static_cast<int>((items[i][b / 64] >> (b % 64)) & 1u);
+    for (int b = 0; b < 256; ++b)
+      counts[b] += static_cast<int>((items[i][b / 64] >> (b % 64)) & 1u);
   }
   Descriptor256 centre{};
   for (int b = 0; b < 256; ++b) {
@@ -115,8 +116,8 @@ IncrementalVocabulary::IncrementalVocabulary(const VocabularyOptions& options)
 // Compiled twice, with the POPCNT instruction and without, picked at load time (glibc ifunc):
 // std::popcount is one instruction with it and about ten without, and Debian's amd64 baseline
 // does not guarantee it.
-__attribute__((target_clones("popcnt", "default")))
-WordId IncrementalVocabulary::Search(const Descriptor256& d, int* first_leaf) const {
+__attribute__((target_clones("popcnt", "default"))) WordId IncrementalVocabulary::Search(
+    const Descriptor256& d, int* first_leaf) const {
   using Entry = std::pair<int, int>;  // (distance to the branch's centre, node)
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> branches;
   branches.emplace(0, 0);

@@ -15,9 +15,8 @@
 
 #include <cstdint>
 #include <limits>
-#include <vector>
-
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "server/place/binary_descriptor.h"
 #include "server/place/place_options.h"
@@ -44,9 +43,9 @@ class IncrementalVocabulary {
 
  private:
   struct Node {
-    std::vector<Descriptor256> centres;  // internal node: one per child
-    std::vector<int> children;           // internal node: indices into nodes_
-    std::vector<WordId> words;           // leaf: the words it holds ...
+    std::vector<Descriptor256> centres;      // internal node: one per child
+    std::vector<int> children;               // internal node: indices into nodes_
+    std::vector<WordId> words;               // leaf: the words it holds ...
     std::vector<Descriptor256> descriptors;  // ... and their descriptors (a contiguous scan)
     int depth = 0;
     int split_at = 0;  // leaf: split when holding more words than this

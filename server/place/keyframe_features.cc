@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -75,8 +74,9 @@ StatusOr<KeyframeFeatures> ExtractFeatures(const cv::Mat& bgr, const cv::Mat& de
     out.uv_px.emplace_back(kp.pt.x, kp.pt.y);
     out.octave.push_back(static_cast<uint8_t>(std::clamp(kp.octave, 0, 255)));
     const float z = DepthAt(depth_m, kp.pt, options);
-    out.p_kf_m.push_back(z > 0 ? Eigen::Vector3f(camera.BackProject(kp.pt.x, kp.pt.y, z).cast<float>())
-                               : Eigen::Vector3f::Zero());
+    out.p_kf_m.push_back(
+        z > 0 ? Eigen::Vector3f(camera.BackProject(kp.pt.x, kp.pt.y, z).cast<float>())
+              : Eigen::Vector3f::Zero());
   }
   if (keypoints.empty()) out.descriptors = cv::Mat(0, kDescriptorBytes, CV_8UC1);
   return out;

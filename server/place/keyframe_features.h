@@ -4,12 +4,11 @@
 // with depth, 3D-3D alignment) need of a keyframe; stored per keyframe (feature_codec.h).
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
+#include <opencv2/core.hpp>
 #include <string_view>
 #include <vector>
-
-#include <Eigen/Core>
-#include <opencv2/core.hpp>
 
 #include "common/camera.h"
 #include "common/status.h"

@@ -28,8 +28,7 @@ BowVector PlaceDatabase::Quantise(const cv::Mat& descriptors, bool add_words) {
   return MakeBow(vocabulary_.Quantise(descriptors, add_words));
 }
 
-Status PlaceDatabase::Insert(int64_t keyframe_id, const std::string& robot,
-                             const BowVector& bow) {
+Status PlaceDatabase::Insert(int64_t keyframe_id, const std::string& robot, const BowVector& bow) {
   if (doc_of_keyframe_.count(keyframe_id)) {
     return absl::AlreadyExistsError(absl::StrCat("place database: keyframe ", keyframe_id));
   }
@@ -58,7 +57,8 @@ std::vector<uint32_t> PlaceDatabase::ExcludedDocs(const std::string& robot) cons
   const auto it = docs_of_robot_.find(robot);
   if (it == docs_of_robot_.end()) return {};
   const std::vector<uint32_t>& own = it->second;
-  const size_t n = std::min(own.size(), static_cast<size_t>(query_options_.exclude_recent_keyframes));
+  const size_t n =
+      std::min(own.size(), static_cast<size_t>(query_options_.exclude_recent_keyframes));
   return {own.end() - static_cast<std::ptrdiff_t>(n), own.end()};
 }
 

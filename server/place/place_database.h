@@ -12,11 +12,10 @@
 
 #include <cstdint>
 #include <map>
+#include <opencv2/core.hpp>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "common/status.h"
 #include "server/place/incremental_vocabulary.h"

@@ -6,22 +6,21 @@ namespace loci::place {
 namespace {
 
 Status CheckPlaceKeys(const YAML::Node& node) {
-  LOCI_RETURN_IF_ERROR(CheckKnownKeys(
-      node, "place", {"features", "vocabulary", "query", "verify", "consistency"}));
-  LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["features"], "place.features",
-                                      {"max_features", "scale_factor", "levels", "fast_threshold",
-                                       "min_depth_m", "max_depth_m"}));
   LOCI_RETURN_IF_ERROR(
-      CheckKnownKeys(node["vocabulary"], "place.vocabulary",
-                     {"word_max_hamming", "branching", "max_leaf_words", "max_depth",
-                      "search_leaves"}));
+      CheckKnownKeys(node, "place", {"features", "vocabulary", "query", "verify", "consistency"}));
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(
+      node["features"], "place.features",
+      {"max_features", "scale_factor", "levels", "fast_threshold", "min_depth_m", "max_depth_m"}));
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(
+      node["vocabulary"], "place.vocabulary",
+      {"word_max_hamming", "branching", "max_leaf_words", "max_depth", "search_leaves"}));
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["query"], "place.query",
                                       {"max_candidates", "exclude_recent_keyframes", "min_score"}));
-  LOCI_RETURN_IF_ERROR(CheckKnownKeys(
-      node["verify"], "place.verify",
-      {"ratio", "max_hamming", "pnp_reprojection_px", "pnp_iterations", "pnp_confidence",
-       "max_point_error_m", "min_inliers", "max_rms_m", "min_inlier_area", "pixel_sigma_px",
-       "depth_sigma_m_per_m2"}));
+  LOCI_RETURN_IF_ERROR(
+      CheckKnownKeys(node["verify"], "place.verify",
+                     {"ratio", "max_hamming", "pnp_reprojection_px", "pnp_iterations",
+                      "pnp_confidence", "max_point_error_m", "min_inliers", "max_rms_m",
+                      "min_inlier_area", "pixel_sigma_px", "depth_sigma_m_per_m2"}));
   return CheckKnownKeys(node["consistency"], "place.consistency",
                         {"min_matches", "max_translation_m", "max_rotation_deg"});
 }
@@ -74,10 +73,13 @@ Status Bad(const char* what) {
 }
 
 Status ValidateFeatures(const FeatureOptions& f) {
-  if (f.max_features < 10 || f.max_features > 20000) return Bad("features.max_features in [10, 20000]");
-  if (!(f.scale_factor > 1.0 && f.scale_factor <= 2.0)) return Bad("features.scale_factor in (1, 2]");
+  if (f.max_features < 10 || f.max_features > 20000)
+    return Bad("features.max_features in [10, 20000]");
+  if (!(f.scale_factor > 1.0 && f.scale_factor <= 2.0))
+    return Bad("features.scale_factor in (1, 2]");
   if (f.levels < 1 || f.levels > 16) return Bad("features.levels in [1, 16]");
-  if (f.fast_threshold < 1 || f.fast_threshold > 255) return Bad("features.fast_threshold in [1, 255]");
+  if (f.fast_threshold < 1 || f.fast_threshold > 255)
+    return Bad("features.fast_threshold in [1, 255]");
   if (!(f.min_depth_m >= 0 && f.max_depth_m > f.min_depth_m)) {
     return Bad("features: 0 <= min_depth_m < max_depth_m");
   }
@@ -93,7 +95,8 @@ Status ValidateVocabulary(const VocabularyOptions& v) {
     return Bad("vocabulary.max_leaf_words in [branching, 4096]");
   }
   if (v.max_depth < 1 || v.max_depth > 64) return Bad("vocabulary.max_depth in [1, 64]");
-  if (v.search_leaves < 1 || v.search_leaves > 256) return Bad("vocabulary.search_leaves in [1, 256]");
+  if (v.search_leaves < 1 || v.search_leaves > 256)
+    return Bad("vocabulary.search_leaves in [1, 256]");
   return absl::OkStatus();
 }
 
@@ -102,11 +105,13 @@ Status ValidateVerify(const VerifyOptions& v) {
   if (v.max_hamming < 0 || v.max_hamming > 256) return Bad("verify.max_hamming in [0, 256]");
   if (!(v.pnp_reprojection_px > 0)) return Bad("verify.pnp_reprojection_px > 0");
   if (v.pnp_iterations < 1) return Bad("verify.pnp_iterations >= 1");
-  if (!(v.pnp_confidence > 0 && v.pnp_confidence < 1)) return Bad("verify.pnp_confidence in (0, 1)");
+  if (!(v.pnp_confidence > 0 && v.pnp_confidence < 1))
+    return Bad("verify.pnp_confidence in (0, 1)");
   if (!(v.max_point_error_m > 0)) return Bad("verify.max_point_error_m > 0");
   if (v.min_inliers < 6) return Bad("verify.min_inliers >= 6");
   if (!(v.max_rms_m > 0)) return Bad("verify.max_rms_m > 0");
-  if (!(v.min_inlier_area >= 0 && v.min_inlier_area < 1)) return Bad("verify.min_inlier_area in [0, 1)");
+  if (!(v.min_inlier_area >= 0 && v.min_inlier_area < 1))
+    return Bad("verify.min_inlier_area in [0, 1)");
   if (!(v.pixel_sigma_px > 0) || !(v.depth_sigma_m_per_m2 > 0)) {
     return Bad("verify.pixel_sigma_px and depth_sigma_m_per_m2 > 0");
   }

@@ -28,7 +28,7 @@ struct VocabularyOptions {
   int word_max_hamming = 60;
   int branching = 16;        // children made when a leaf of the word tree splits, k (16)
   int max_leaf_words = 256;  // a leaf holding more words is split by k-majority clustering (256)
-  int max_depth = 16;       // leaves at this depth are no longer split (16)
+  int max_depth = 16;        // leaves at this depth are no longer split (16)
   // Leaves a search visits, nearest centres first: more finds more words again across cluster
   // borders, at a proportional cost (4).
   int search_leaves = 4;
@@ -47,15 +47,15 @@ struct QueryOptions {
 
 // Geometric verification of a candidate pair (geometric_verification.h).
 struct VerifyOptions {
-  double ratio = 0.8;      // Lowe ratio test on Hamming distances: best < ratio * second best
-  int max_hamming = 64;    // matches differing in more bits are dropped (64 of 256)
+  double ratio = 0.8;    // Lowe ratio test on Hamming distances: best < ratio * second best
+  int max_hamming = 64;  // matches differing in more bits are dropped (64 of 256)
   double pnp_reprojection_px = 3.0;  // PnP-RANSAC inlier threshold, px (3.0)
   int pnp_iterations = 300;          // PnP-RANSAC iterations (300)
   double pnp_confidence = 0.999;     // PnP-RANSAC confidence (0.999)
   // 3D-3D check: a PnP inlier with depth in both keyframes is a 3D inlier when the points
   // agree within this distance after alignment, m (0.05).
   double max_point_error_m = 0.05;
-  int min_inliers = 30;     // PnP and 3D-3D inliers a match needs (30)
+  int min_inliers = 30;  // PnP and 3D-3D inliers a match needs (30)
   // Noise model of the final estimate (point_alignment.h): keypoint position noise at level 0
   // (1.0 px, grows with the pyramid level) and depth noise sigma_z = this * z^2 (0.0025 m/m^2;
   // Kinect-class sensors: about 1.5-3 mm at 1 m).

@@ -1,9 +1,8 @@
 #include "server/place/point_alignment.h"
 
-#include <algorithm>
-
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
+#include <algorithm>
 
 namespace loci::place {
 namespace {

@@ -5,9 +5,8 @@
 // with S = sigma_ray^2 * d d^T + sigma_lateral^2 * (I - d d^T) for the unit ray d of a point.
 #pragma once
 
-#include <vector>
-
 #include <Eigen/Core>
+#include <vector>
 
 #include "common/se3.h"
 
@@ -22,8 +21,7 @@ struct PointNoise {
 };
 
 // Covariance of a point p (camera frame, m) whose pixel has position noise sigma_px.
-Eigen::Matrix3d PointCovariance(const Eigen::Vector3d& p, double sigma_px,
-                                const PointNoise& noise);
+Eigen::Matrix3d PointCovariance(const Eigen::Vector3d& p, double sigma_px, const PointNoise& noise);
 
 // Refines T_a_b (in place) from point pairs p_a[k] ~ T_a_b * p_b[k] with covariances cov_a[k]
 // and cov_b[k] in their own frames; `iterations` Gauss-Newton steps at most.

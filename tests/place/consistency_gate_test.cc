@@ -26,8 +26,8 @@ TEST(ConsistencyGateTest, TwoAgreeingMatchesAreNotEnoughThreeAre) {
   ASSERT_EQ(third.verdict, Verdict::kAccepted);
   EXPECT_EQ(third.agreeing, 3);
   EXPECT_NEAR(third.T_x_y.translation().x(), (1.00 + 1.04 + 0.98) / 3, 1e-9);
-  EXPECT_NEAR(RotationAngleRad(Pose(0, 0).inverse() * third.T_x_y) * 180 / std::numbers::pi,
-              30.17, 0.01);
+  EXPECT_NEAR(RotationAngleRad(Pose(0, 0).inverse() * third.T_x_y) * 180 / std::numbers::pi, 30.17,
+              0.01);
   EXPECT_EQ(gate.Pending("a|b"), 0);  // accepted: the hypothesis starts over
 }
 

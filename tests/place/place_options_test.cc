@@ -48,8 +48,7 @@ TEST_F(PlaceOptionsTest, UnknownKeysFailWhenStrict) {
   SetStrictConfig(true);
   const Status s = PlaceOptions().FromYaml(YAML::Load("verify:\n  min_inlier: 20\n"));
   ASSERT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_NE(s.message().find("unknown key 'min_inlier' in 'place.verify'"), std::string::npos)
-      << s;
+  EXPECT_NE(s.message().find("unknown key 'min_inlier' in 'place.verify'"), std::string::npos) << s;
   EXPECT_FALSE(PlaceOptions().FromYaml(YAML::Load("vocab: {}\n")).ok());
 }
 

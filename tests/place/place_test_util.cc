@@ -38,9 +38,9 @@ double ErrorStats::QuantileR(double q) const {
 
 std::string ErrorStats::Summary() const {
   char s[200];
-  std::snprintf(s, sizeof(s), "n %zu, median %.3f m %.2f deg, p90 %.3f m %.2f deg, max %.3f m %.2f deg",
-                size(), MedianT(), MedianR(), QuantileT(0.9), QuantileR(0.9), QuantileT(1.0),
-                QuantileR(1.0));
+  std::snprintf(
+      s, sizeof(s), "n %zu, median %.3f m %.2f deg, p90 %.3f m %.2f deg, max %.3f m %.2f deg",
+      size(), MedianT(), MedianR(), QuantileT(0.9), QuantileR(0.9), QuantileT(1.0), QuantileR(1.0));
   return s;
 }
 

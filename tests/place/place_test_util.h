@@ -2,10 +2,9 @@
 // features, block-shuffled images.
 #pragma once
 
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "common/se3.h"
 #include "server/place/keyframe_features.h"
@@ -43,8 +42,7 @@ struct SyntheticFrame {
 };
 // Frame `index` of the scene's camera path, rendered (depth noise as the scene says) and with
 // its features.
-SyntheticFrame RenderSynthetic(const synth::Scene& scene, int index,
-                               const FeatureOptions& options);
+SyntheticFrame RenderSynthetic(const synth::Scene& scene, int index, const FeatureOptions& options);
 
 // Cuts bgr and depth into block_px squares and shuffles them (the same permutation for both).
 void ShuffleBlocks(const cv::Mat& bgr, const cv::Mat& depth_m, int block_px, uint64_t seed,

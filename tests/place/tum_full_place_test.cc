@@ -27,10 +27,10 @@ const std::vector<TumKeyframe>* Full() {
   return kfs;
 }
 
-#define REQUIRE_FULL_SEQUENCE()                                                               \
-  if (!Full()) {                                                                              \
+#define REQUIRE_FULL_SEQUENCE()                                                                \
+  if (!Full()) {                                                                               \
     GTEST_SKIP() << "tum_fr1_rpy not found: set LOCI_DATA to a folder holding tum_fr1_rpy or " \
-                    "place it in ../shared/data (scripts/fetch-tum.sh downloads it)";         \
+                    "place it in ../shared/data (scripts/fetch-tum.sh downloads it)";          \
   }
 
 // As in tum_place_test.cc: a revisit has a frame >= 1 s back within 15 deg of its view; a
@@ -85,8 +85,8 @@ TEST(TumFullPlaceTest, RetrievesAndVerifiesRevisitedPlaces) {
             << "\n  30-60 deg/s: " << medium.Summary() << "\n  > 60 deg/s: " << fast.Summary()
             << "\n";
   ASSERT_GT(revisits, 300);
-  EXPECT_GE(in_top5, 0.90 * revisits);  // measured 0.923 (454 of 492)
-  EXPECT_GE(in_top1, 0.75 * revisits);  // measured 0.795
+  EXPECT_GE(in_top5, 0.90 * revisits);   // measured 0.923 (454 of 492)
+  EXPECT_GE(in_top1, 0.75 * revisits);   // measured 0.795
   EXPECT_GE(verified, 0.90 * revisits);  // measured 0.980
   // Where the truth holds to a degree, no verified match is off by a wrong-place error.
   EXPECT_LE(slow.QuantileT(1.0), 0.10);

@@ -2,9 +2,8 @@
 
 #include <filesystem>
 #include <numbers>
-#include <span>
-
 #include <opencv2/imgcodecs.hpp>
+#include <span>
 
 #include "common/config.h"
 #include "common/image_codec.h"
@@ -19,11 +18,14 @@ constexpr int64_t kMaxGtDtNs = 10'000'000;
 
 double SpeedDegS(const Trajectory& gt, int64_t t_ns) {
   constexpr int64_t kHalfNs = 50'000'000;
-  const StampedPose* a = NearestByTime(std::span<const StampedPose>(gt), t_ns - kHalfNs, kMaxGtDtNs);
-  const StampedPose* b = NearestByTime(std::span<const StampedPose>(gt), t_ns + kHalfNs, kMaxGtDtNs);
+  const StampedPose* a =
+      NearestByTime(std::span<const StampedPose>(gt), t_ns - kHalfNs, kMaxGtDtNs);
+  const StampedPose* b =
+      NearestByTime(std::span<const StampedPose>(gt), t_ns + kHalfNs, kMaxGtDtNs);
   if (!a || !b || a == b) return -1;
   const double dt_s = NsToSeconds(b->t_ns - a->t_ns);
-  return RotationAngleRad(a->T_world_cam.inverse() * b->T_world_cam) * 180.0 / std::numbers::pi / dt_s;
+  return RotationAngleRad(a->T_world_cam.inverse() * b->T_world_cam) * 180.0 / std::numbers::pi /
+         dt_s;
 }
 
 }  // namespace
@@ -47,8 +49,8 @@ StatusOr<std::vector<TumKeyframe>> LoadTumKeyframes(const std::string& dir, int 
     }
     kf.depth_m = DepthToMetres(depth_u16, kTumDepthScale);
     LOCI_ASSIGN_OR_RETURN(kf.features, ExtractFeatures(kf.bgr, kf.depth_m, camera, options));
-    const StampedPose* gt = NearestByTime(std::span<const StampedPose>(seq.groundtruth),
-                                          f.rgb_t_ns, kMaxGtDtNs);
+    const StampedPose* gt =
+        NearestByTime(std::span<const StampedPose>(seq.groundtruth), f.rgb_t_ns, kMaxGtDtNs);
     if (gt) {
       kf.has_gt = true;
       kf.T_world_cam = gt->T_world_cam;

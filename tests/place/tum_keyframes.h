@@ -11,7 +11,7 @@
 namespace loci::place::testing {
 
 struct TumKeyframe {
-  int index = 0;   // frame number in rgb.txt
+  int index = 0;     // frame number in rgb.txt
   int64_t t_ns = 0;  // rgb stamp
   cv::Mat bgr;
   cv::Mat depth_m;

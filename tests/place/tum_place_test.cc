@@ -4,14 +4,15 @@
 //
 // Ground truth of the sample: groundtruth.txt (motion capture, 100 Hz) gives T_world_cam of
 // the colour camera; each frame takes the pose whose stamp is nearest its rgb stamp
-// (NearestByTime, at most 10 ms away), and the truth of a pair is T_a_b = T_world_a^-1 *
-// T_world_b. At 50-70 deg/s that truth is itself uncertain by degrees: the verified transforms
-// fit it best when the mocap stamps are taken 15-20 ms earlier than the image stamps (measured,
-// README.md), and the Kinect's rolling shutter and unsynchronised depth add to it. So the
-// sample checks that verification finds the right transform to within 10 cm and 7 deg per pair
-// and 4 cm and 3 deg in the median (a wrong place, the identity or an inverted transform are
-// off by 10 deg or more on the pairs used); the 3 cm / 1 deg accuracy is checked on synthetic frames with exact truth here and on
-// slow-moving pairs of the full sequence (tum_full_place_test.cc, slow).
+// (NearestByTime, at most 10 ms away), and the truth of a pair is
+// T_a_b = T_world_a^-1 * T_world_b. At 50-70 deg/s that truth is itself uncertain by degrees:
+// the verified transforms fit it best when the mocap stamps are taken 15-20 ms earlier than the
+// image stamps (measured, server/place/README.md), and the Kinect's rolling shutter and
+// unsynchronised depth add to it. So the sample checks that verification finds the right
+// transform to within 10 cm and 7 deg per pair and 4 cm and 3 deg in the median (a wrong place,
+// the identity or an inverted transform are off by 10 deg or more on the pairs used); the
+// 3 cm / 1 deg accuracy is checked on synthetic frames with exact truth here and on slow-moving
+// pairs of the full sequence (tum_full_place_test.cc, slow).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -62,7 +63,8 @@ TEST(TumSamplePlaceTest, RetrievesFramesFarApartInTimeThatSeeTheSamePlace) {
     const BowVector bow = db.Quantise(kfs[i].features.descriptors, true);
     const std::vector<PlaceCandidate> c = db.Query(bow, "fr1");
     bool expected = false;
-    for (size_t j = 0; j + kMinFramesApart <= i; ++j) expected |= Within(kfs[i], kfs[j], kRevisitDeg);
+    for (size_t j = 0; j + kMinFramesApart <= i; ++j)
+      expected |= Within(kfs[i], kfs[j], kRevisitDeg);
     if (i < kMinFramesApart) {
       EXPECT_TRUE(c.empty()) << i;  // every earlier frame is in the window
     }
@@ -141,7 +143,7 @@ TEST(TumSamplePlaceTest, RejectsAScrambledImageOfTheSamePlace) {
               << v.pnp_inliers << " PnP inliers, " << v.inliers << " 3D inliers: " << v.reason
               << "\n";
     EXPECT_GT(v.matches, 60);  // the descriptors do match ...
-    EXPECT_FALSE(v.accepted);   // ... but only block by block
+    EXPECT_FALSE(v.accepted);  // ... but only block by block
   }
 }
 
@@ -181,7 +183,6 @@ TEST(SyntheticPlaceTest, VerificationIsWithinThreeCentimetresAndOneDegreeOfExact
       ++tried;
       const Verification v = VerifyPair(frames[i].features, frames[j].features, VerifyOptions{});
       if (v.accepted) errors.Add(Error(gt, v.T_a_b));
-
     }
   }
   std::cout << "synthetic: " << errors.size() << " of " << tried << " pairs verified; "

@@ -1,17 +1,15 @@
 // The incremental vocabulary: words found again, new words for new descriptors, splits that keep
 // every word findable, and k-majority clustering.
-#include "server/place/incremental_vocabulary.h"
-
 #include <gtest/gtest.h>
 
 #include <random>
 
+#include "server/place/incremental_vocabulary.h"
+
 namespace loci::place {
 namespace {
 
-Descriptor256 RandomDescriptor(std::mt19937_64& rng) {
-  return {rng(), rng(), rng(), rng()};
-}
+Descriptor256 RandomDescriptor(std::mt19937_64& rng) { return {rng(), rng(), rng(), rng()}; }
 
 // d with `bits` distinct bits flipped.
 Descriptor256 Flip(Descriptor256 d, int bits, std::mt19937_64& rng) {
