@@ -36,6 +36,10 @@ void RegisterBenchRestartCommand(CLI::App& app);
 // `loci bench graph` (server/graph/): pose-graph solve time and ATE on synthetic loops.
 void RegisterBenchGraphCommand(CLI::App& app);
 
+// `loci bench place` (server/place/): feature extraction, feature bytes, place-recognition query
+// time against 1k and 10k keyframes.
+void RegisterBenchPlaceCommand(CLI::App& app);
+
 // `loci bench report` (cli/report/): evaluation report on a TUM folder.
 void RegisterBenchReportCommand(CLI::App& app);
 

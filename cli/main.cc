@@ -40,6 +40,7 @@ int main(int argc, char** argv) {
   loci::cli::RegisterBenchDetectCommand(app);
   loci::cli::RegisterBenchTrackCommand(app);
   loci::cli::RegisterBenchQueryCommand(app);
+  loci::cli::RegisterBenchPlaceCommand(app);
   loci::cli::RegisterAskCommand(app);
   loci::cli::RegisterObjectsCommands(app);
   loci::cli::RegisterBenchReportCommand(app);

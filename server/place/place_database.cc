@@ -1,0 +1,95 @@
+#include "server/place/place_database.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace loci::place {
+
+BowVector MakeBow(const std::vector<WordId>& words) {
+  std::vector<WordId> sorted;
+  sorted.reserve(words.size());
+  for (const WordId w : words) {
+    if (w != kNoWord) sorted.push_back(w);
+  }
+  std::sort(sorted.begin(), sorted.end());
+  BowVector bow;
+  const float share = sorted.empty() ? 0.0f : 1.0f / static_cast<float>(sorted.size());
+  for (const WordId w : sorted) {
+    if (bow.tf.empty() || bow.tf.back().first != w) bow.tf.emplace_back(w, 0.0f);
+    bow.tf.back().second += share;
+  }
+  return bow;
+}
+
+PlaceDatabase::PlaceDatabase(const VocabularyOptions& vocabulary, const QueryOptions& query)
+    : query_options_(query), vocabulary_(vocabulary) {}
+
+BowVector PlaceDatabase::Quantise(const cv::Mat& descriptors, bool add_words) {
+  return MakeBow(vocabulary_.Quantise(descriptors, add_words));
+}
+
+Status PlaceDatabase::Insert(int64_t keyframe_id, const std::string& robot, const BowVector& bow) {
+  if (doc_of_keyframe_.count(keyframe_id)) {
+    return absl::AlreadyExistsError(absl::StrCat("place database: keyframe ", keyframe_id));
+  }
+  for (const auto& [w, tf] : bow.tf) {
+    if (w >= vocabulary_.size()) {
+      return absl::InvalidArgumentError(absl::StrCat("place database: unknown word ", w));
+    }
+  }
+  const uint32_t doc = static_cast<uint32_t>(docs_.size());
+  auto robot_it = std::find(robot_names_.begin(), robot_names_.end(), robot);
+  if (robot_it == robot_names_.end()) robot_it = robot_names_.insert(robot_names_.end(), robot);
+  docs_.push_back({keyframe_id, static_cast<int>(robot_it - robot_names_.begin())});
+  doc_of_keyframe_[keyframe_id] = doc;
+  docs_of_robot_[robot].push_back(doc);
+  if (postings_.size() < vocabulary_.size()) postings_.resize(vocabulary_.size());
+  for (const auto& [w, tf] : bow.tf) postings_[w].push_back({doc, tf});
+  return absl::OkStatus();
+}
+
+double PlaceDatabase::Idf(WordId w) const {
+  const size_t n_w = w < postings_.size() ? postings_[w].size() : 0;
+  return std::log((static_cast<double>(docs_.size()) + 1.0) / (static_cast<double>(n_w) + 1.0));
+}
+
+std::vector<uint32_t> PlaceDatabase::ExcludedDocs(const std::string& robot) const {
+  const auto it = docs_of_robot_.find(robot);
+  if (it == docs_of_robot_.end()) return {};
+  const std::vector<uint32_t>& own = it->second;
+  const size_t n =
+      std::min(own.size(), static_cast<size_t>(query_options_.exclude_recent_keyframes));
+  return {own.end() - static_cast<std::ptrdiff_t>(n), own.end()};
+}
+
+std::vector<PlaceCandidate> PlaceDatabase::Query(const BowVector& bow,
+                                                 const std::string& robot) const {
+  std::vector<float> score(docs_.size(), 0.0f);
+  double query_mass = 0;
+  for (const auto& [w, tf_q] : bow.tf) {
+    const float idf = static_cast<float>(Idf(w));
+    query_mass += idf * tf_q;
+    if (w >= postings_.size()) continue;
+    for (const Posting& p : postings_[w]) score[p.doc] += idf * std::min(tf_q, p.tf);
+  }
+  if (!(query_mass > 0)) return {};
+  for (const uint32_t doc : ExcludedDocs(robot)) score[doc] = 0.0f;
+  std::vector<std::pair<float, uint32_t>> ranked;
+  const float min_score = static_cast<float>(query_options_.min_score * query_mass);
+  for (uint32_t d = 0; d < score.size(); ++d) {
+    if (score[d] > 0.0f && score[d] >= min_score) ranked.emplace_back(score[d], d);
+  }
+  const size_t k = std::min(ranked.size(), static_cast<size_t>(query_options_.max_candidates));
+  std::partial_sort(ranked.begin(), ranked.begin() + static_cast<std::ptrdiff_t>(k), ranked.end(),
+                    [](const auto& a, const auto& b) {
+                      return a.first != b.first ? a.first > b.first : a.second < b.second;
+                    });
+  std::vector<PlaceCandidate> out;
+  for (size_t i = 0; i < k; ++i) {
+    const Doc& doc = docs_[ranked[i].second];
+    out.push_back({doc.keyframe_id, robot_names_[doc.robot], ranked[i].first / query_mass});
+  }
+  return out;
+}
+
+}  // namespace loci::place

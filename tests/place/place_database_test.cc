@@ -1,0 +1,103 @@
+// The inverted index: tf-idf ranking, the exclusion window of the querying robot's newest
+// keyframes, scores in [0, 1], duplicate ids.
+#include "server/place/place_database.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace loci::place {
+namespace {
+
+// n random ORB-shaped descriptors.
+cv::Mat RandomDescriptors(int n, uint64_t seed) {
+  cv::Mat m(n, 32, CV_8UC1);
+  cv::RNG rng(seed);
+  rng.fill(m, cv::RNG::UNIFORM, 0, 256);
+  return m;
+}
+
+QueryOptions Window(int recent) {
+  QueryOptions q;
+  q.exclude_recent_keyframes = recent;
+  q.max_candidates = 5;
+  q.min_score = 0.0;
+  return q;
+}
+
+TEST(MakeBowTest, TermFrequenciesSumToOneAndSkipNoWord) {
+  const BowVector bow = MakeBow({3, 1, 3, kNoWord, 3});
+  ASSERT_EQ(bow.tf.size(), 2u);
+  EXPECT_EQ(bow.tf[0].first, 1u);
+  EXPECT_FLOAT_EQ(bow.tf[0].second, 0.25f);
+  EXPECT_FLOAT_EQ(bow.tf[1].second, 0.75f);
+}
+
+TEST(PlaceDatabaseTest, FindsTheKeyframeSharingWordsAndRanksByOverlap) {
+  PlaceDatabase db(VocabularyOptions{}, Window(0));
+  std::vector<cv::Mat> places;
+  for (int p = 0; p < 20; ++p) places.push_back(RandomDescriptors(300, 100 + p));
+  for (int p = 0; p < 20; ++p) {
+    ASSERT_TRUE(db.Insert(p, "a", db.Quantise(places[p], true)).ok());
+  }
+  // A view of place 7 sharing 200 of its 300 descriptors, and 100 of place 3's.
+  cv::Mat query;
+  cv::vconcat(places[7].rowRange(0, 200), places[3].rowRange(0, 100), query);
+  const std::vector<PlaceCandidate> c = db.Query(db.Quantise(query, false), "b");
+  ASSERT_GE(c.size(), 2u);
+  EXPECT_EQ(c[0].keyframe_id, 7);
+  EXPECT_EQ(c[1].keyframe_id, 3);
+  EXPECT_EQ(c[0].robot, "a");
+  EXPECT_GT(c[0].score, c[1].score);
+  EXPECT_NEAR(c[0].score, 2.0 / 3.0, 0.02);  // shares 2/3 of the query's (equal-idf) mass
+  EXPECT_LE(c[0].score, 1.0);
+}
+
+TEST(PlaceDatabaseTest, ExcludesOnlyTheQueryingRobotsNewestKeyframes) {
+  PlaceDatabase db(VocabularyOptions{}, Window(3));
+  const cv::Mat place = RandomDescriptors(200, 1);
+  // Other places (robot c), so that the place's words are not in every keyframe (idf 0).
+  for (int p = 0; p < 10; ++p) {
+    ASSERT_TRUE(db.Insert(100 + p, "c", db.Quantise(RandomDescriptors(200, 50 + p), true)).ok());
+  }
+  // The same place seen by robot a (ids 0..5) and once by robot b (id 10).
+  for (int i = 0; i < 6; ++i) ASSERT_TRUE(db.Insert(i, "a", db.Quantise(place, true)).ok());
+  ASSERT_TRUE(db.Insert(10, "b", db.Quantise(place, true)).ok());
+  std::vector<int64_t> ids;
+  for (const PlaceCandidate& c : db.Query(db.Quantise(place, false), "a")) {
+    ids.push_back(c.keyframe_id);
+  }
+  std::sort(ids.begin(), ids.end());
+  EXPECT_EQ(ids, (std::vector<int64_t>{0, 1, 2, 10}));  // a's newest 3 (3, 4, 5) left out
+  // Robot b's window holds only its own keyframe 10.
+  ids.clear();
+  for (const PlaceCandidate& c : db.Query(db.Quantise(place, false), "b")) {
+    ids.push_back(c.keyframe_id);
+  }
+  EXPECT_EQ(ids.size(), 5u);  // max_candidates of a's six
+  EXPECT_EQ(std::count(ids.begin(), ids.end(), 10), 0);
+}
+
+TEST(PlaceDatabaseTest, UnrelatedPlacesScoreBelowMinScore) {
+  QueryOptions q = Window(0);
+  q.min_score = 0.05;
+  PlaceDatabase db(VocabularyOptions{}, q);
+  for (int p = 0; p < 10; ++p) {
+    ASSERT_TRUE(db.Insert(p, "a", db.Quantise(RandomDescriptors(300, 200 + p), true)).ok());
+  }
+  EXPECT_TRUE(db.Query(db.Quantise(RandomDescriptors(300, 999), true), "b").empty());
+}
+
+TEST(PlaceDatabaseTest, RefusesDuplicateIdsAndUnknownWords) {
+  PlaceDatabase db(VocabularyOptions{}, Window(0));
+  const BowVector bow = db.Quantise(RandomDescriptors(10, 1), true);
+  ASSERT_TRUE(db.Insert(1, "a", bow).ok());
+  EXPECT_EQ(db.Insert(1, "b", bow).code(), absl::StatusCode::kAlreadyExists);
+  BowVector bad;
+  bad.tf.emplace_back(static_cast<WordId>(db.words() + 5), 1.0f);
+  EXPECT_EQ(db.Insert(2, "a", bad).code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(db.keyframes(), 1u);
+}
+
+}  // namespace
+}  // namespace loci::place
