@@ -61,12 +61,7 @@ loci::v1::OpenSessionRequest BenchOpenRequest(const std::string& robot, double d
   loci::v1::OpenSessionRequest open;
   open.set_robot_name(robot);
   const PinholeCamera cam = PinholeCamera::TumFr1();
-  open.mutable_intrinsics()->set_fx(cam.fx);
-  open.mutable_intrinsics()->set_fy(cam.fy);
-  open.mutable_intrinsics()->set_cx(cam.cx);
-  open.mutable_intrinsics()->set_cy(cam.cy);
-  open.mutable_intrinsics()->set_width_px(cam.width_px);
-  open.mutable_intrinsics()->set_height_px(cam.height_px);
+  loci::ToProto(cam, open.mutable_intrinsics());
   open.set_depth_scale(depth_scale);
   return open;
 }

@@ -23,6 +23,15 @@ void ToProto(const Eigen::Vector3d& v, v1::Vec3* out) {
   out->set_z(v.z());
 }
 
+void ToProto(const PinholeCamera& camera, v1::CameraIntrinsics* out) {
+  out->set_fx(camera.fx);
+  out->set_fy(camera.fy);
+  out->set_cx(camera.cx);
+  out->set_cy(camera.cy);
+  out->set_width_px(camera.width_px);
+  out->set_height_px(camera.height_px);
+}
+
 Status ToProto(const Detection2D& d, v1::Detection* out) {
   out->set_class_id(d.class_id);
   out->set_class_name(d.class_name);

@@ -8,6 +8,7 @@
 
 #include "client/streaming/keyframe_encoder.h"
 #include "loci/v1/mapping.grpc.pb.h"
+#include "proto/convert.h"
 
 namespace loci {
 
@@ -81,13 +82,7 @@ struct MapClient::Impl {
   Status OpenSession(bool resume, int64_t* last_stored_seq) {
     v1::OpenSessionRequest req;
     req.set_robot_name(opt.robot_name);
-    auto* k = req.mutable_intrinsics();
-    k->set_fx(camera.fx);
-    k->set_fy(camera.fy);
-    k->set_cx(camera.cx);
-    k->set_cy(camera.cy);
-    k->set_width_px(camera.width_px);
-    k->set_height_px(camera.height_px);
+    loci::ToProto(camera, req.mutable_intrinsics());
     req.set_depth_scale(depth_scale);
     req.set_client_version(opt.client_version);
     req.set_resume(resume);

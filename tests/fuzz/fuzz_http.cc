@@ -119,13 +119,7 @@ void MapBoxWorld(loci::server::MapServer& map) {
   const loci::PinholeCamera camera{517.3 / 2, 516.5 / 2, 318.6 / 2, 255.3 / 2, 320, 240};
   loci::v1::OpenSessionRequest open;
   open.set_robot_name("robot1");
-  auto* k = open.mutable_intrinsics();
-  k->set_fx(camera.fx);
-  k->set_fy(camera.fy);
-  k->set_cx(camera.cx);
-  k->set_cy(camera.cy);
-  k->set_width_px(camera.width_px);
-  k->set_height_px(camera.height_px);
+  loci::ToProto(camera, open.mutable_intrinsics());
   open.set_depth_scale(5000.0);
   auto session = map.OpenSession(open);
   if (!session.ok()) Fail("cannot open the fixture session", session.status().ToString());

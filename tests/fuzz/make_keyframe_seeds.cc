@@ -80,13 +80,9 @@ int main(int argc, char** argv) {
     kf.set_seq(static_cast<int64_t>(n));
     kf.set_t_ns(f.rgb_t_ns);
     loci::ToProto(NearestPose(seq->groundtruth, f.rgb_t_ns), kf.mutable_t_odom_cam());
-    auto* k = kf.mutable_intrinsics();
-    k->set_fx(fr1.fx / kScale);
-    k->set_fy(fr1.fy / kScale);
-    k->set_cx(fr1.cx / kScale);
-    k->set_cy(fr1.cy / kScale);
-    k->set_width_px(bgr.cols);
-    k->set_height_px(bgr.rows);
+    loci::ToProto(loci::PinholeCamera{fr1.fx / kScale, fr1.fy / kScale, fr1.cx / kScale,
+                                      fr1.cy / kScale, bgr.cols, bgr.rows},
+                  kf.mutable_intrinsics());
     kf.set_rgb_jpeg(*loci::EncodeJpeg(bgr, 75));
     kf.set_depth_png(*loci::EncodeDepthPng(depth));
     if (auto g = loci::GravityInCamAt(seq->accel, f.rgb_t_ns); g.ok()) {

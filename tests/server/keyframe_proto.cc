@@ -11,13 +11,7 @@ loci::v1::OpenSessionRequest OpenRequest(const std::string& robot, const Pinhole
                                          bool resume) {
   loci::v1::OpenSessionRequest req;
   req.set_robot_name(robot);
-  auto* k = req.mutable_intrinsics();
-  k->set_fx(c.fx);
-  k->set_fy(c.fy);
-  k->set_cx(c.cx);
-  k->set_cy(c.cy);
-  k->set_width_px(c.width_px);
-  k->set_height_px(c.height_px);
+  loci::ToProto(c, req.mutable_intrinsics());
   req.set_depth_scale(5000.0);
   req.set_client_version("server tests");
   req.set_resume(resume);
