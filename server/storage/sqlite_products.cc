@@ -81,19 +81,24 @@ Status SqliteStore::ForEachKeyframe(int64_t after_id,
   return absl::OkStatus();
 }
 
-Status SqliteStore::WriteOne(const char* sql, const std::function<void(Stmt&)>& bind,
-                             const char* what) {
+Status SqliteStore::Write(const std::function<Status(sqlite3*)>& body) {
   std::lock_guard<std::mutex> lock(write_mu_);
   LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Writer());
   Transaction tx(db);
   LOCI_RETURN_IF_ERROR(tx.status());
-  {
+  LOCI_RETURN_IF_ERROR(body(db));
+  return tx.Commit();
+}
+
+Status SqliteStore::WriteOne(const char* sql, const std::function<void(Stmt&)>& bind,
+                             const char* what) {
+  return Write([&](sqlite3* db) -> Status {
     Stmt s(db, sql);
     if (!s.status().ok()) return SqlError(db, absl::StrCat("prepare ", what));
     bind(s);
     if (s.Step() != SQLITE_DONE) return SqlError(db, what);
-  }
-  return tx.Commit();
+    return absl::OkStatus();
+  });
 }
 
 Status SqliteStore::PutProducts(int64_t keyframe_id, const std::string& fingerprint,
@@ -108,11 +113,7 @@ Status SqliteStore::PutProducts(int64_t keyframe_id, const std::string& fingerpr
 }
 
 Status SqliteStore::PutKeyframePoses(const std::vector<KeyframePoseRecord>& poses) {
-  std::lock_guard<std::mutex> lock(write_mu_);
-  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Writer());
-  Transaction tx(db);
-  LOCI_RETURN_IF_ERROR(tx.status());
-  {
+  return Write([&](sqlite3* db) -> Status {
     Stmt s(db,
            "INSERT OR REPLACE INTO keyframe_poses(keyframe_id, tx, ty, tz, qw, qx, qy, qz,"
            " updated_ns) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?)");
@@ -127,8 +128,8 @@ Status SqliteStore::PutKeyframePoses(const std::vector<KeyframePoseRecord>& pose
         return SqlError(db, absl::StrCat("store the pose of keyframe ", p.keyframe_id));
       }
     }
-  }
-  return tx.Commit();
+    return absl::OkStatus();
+  });
 }
 
 StatusOr<std::optional<std::string>> SqliteStore::GetProducts(int64_t keyframe_id,

@@ -159,28 +159,29 @@ StatusOr<int> SqliteStore::SchemaVersion() {
 }
 
 StatusOr<SessionRecord> SqliteStore::CreateSession(SessionRecord session) {
-  std::lock_guard<std::mutex> lock(write_mu_);
-  LOCI_ASSIGN_OR_RETURN(sqlite3 * db, Writer());
-  Transaction tx(db);
-  LOCI_RETURN_IF_ERROR(tx.status());
-  // The public id carries the row id, which is only known after the insert.
-  Stmt ins(db,
-           "INSERT INTO sessions(session_id, robot_name, client_version, fx, fy, cx, cy, width_px,"
-           " height_px, depth_scale, map_tx, map_ty, map_tz, map_qw, map_qx, map_qy, map_qz,"
-           " opened_ns) VALUES(lower(hex(randomblob(8))), ?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
-  LOCI_RETURN_IF_ERROR(ins.status());
-  ins.BindText(1, session.robot_name).BindText(2, session.client_version);
-  BindCamera(ins, 3, session.camera);
-  ins.Bind(9, session.depth_scale);
-  BindPose(ins, 10, session.T_base_odom);
-  ins.Bind(17, session.opened_ns);
-  if (ins.Step() != SQLITE_DONE) return SqlError(db, "insert session");
-  session.row_id = sqlite3_last_insert_rowid(db);
-  session.session_id = absl::StrCat(session.robot_name, "-", session.row_id, "-", RandomHex128());
-  Stmt upd(db, "UPDATE sessions SET session_id = ? WHERE id = ?");
-  upd.BindText(1, session.session_id).Bind(2, session.row_id);
-  if (upd.Step() != SQLITE_DONE) return SqlError(db, "update session");
-  LOCI_RETURN_IF_ERROR(tx.Commit());
+  const Status written = Write([&](sqlite3* db) -> Status {
+    // The public id carries the row id, which is only known after the insert.
+    Stmt ins(db,
+             "INSERT INTO sessions(session_id, robot_name, client_version, fx, fy, cx, cy,"
+             " width_px, height_px, depth_scale, map_tx, map_ty, map_tz, map_qw, map_qx, map_qy,"
+             " map_qz, opened_ns) VALUES(lower(hex(randomblob(8))), ?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,"
+             "?,?)");
+    LOCI_RETURN_IF_ERROR(ins.status());
+    ins.BindText(1, session.robot_name).BindText(2, session.client_version);
+    BindCamera(ins, 3, session.camera);
+    ins.Bind(9, session.depth_scale);
+    BindPose(ins, 10, session.T_base_odom);
+    ins.Bind(17, session.opened_ns);
+    if (ins.Step() != SQLITE_DONE) return SqlError(db, "insert session");
+    session.row_id = sqlite3_last_insert_rowid(db);
+    session.session_id =
+        absl::StrCat(session.robot_name, "-", session.row_id, "-", RandomHex128());
+    Stmt upd(db, "UPDATE sessions SET session_id = ? WHERE id = ?");
+    upd.BindText(1, session.session_id).Bind(2, session.row_id);
+    if (upd.Step() != SQLITE_DONE) return SqlError(db, "update session");
+    return absl::OkStatus();
+  });
+  if (!written.ok()) return written;
   session.open = true;
   return session;
 }

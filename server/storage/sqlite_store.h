@@ -74,6 +74,9 @@ class SqliteStore final : public MapStore {
   // The write connection; FailedPrecondition when read-only. Call with write_mu_ held.
   StatusOr<sqlite3*> Writer();
   Status Migrate(sqlite3* db);
+  // Runs `body` in one write transaction (the write lock held, BEGIN IMMEDIATE, COMMIT when it
+  // returns OK, ROLLBACK otherwise).
+  Status Write(const std::function<Status(sqlite3*)>& body);
   // Runs one write statement with `bind` in its own transaction.
   Status WriteOne(const char* sql, const std::function<void(sqlite::Stmt&)>& bind,
                   const char* what);
