@@ -77,6 +77,34 @@ int RunObjects(const ObjectsArgs& a) {
   return 0;
 }
 
+// The sessions (aligned or islands) and what place recognition did.
+void PrintAlignment(const loci::v1::GetStatsResponse& resp) {
+  const loci::v1::AlignmentStats& a = resp.alignment();
+  if (a.enabled()) {
+    std::printf("place recognition  %.1f ms per keyframe, %llu keyframes indexed, %llu words\n",
+                a.place_ms_mean(), static_cast<unsigned long long>(a.keyframes_indexed()),
+                static_cast<unsigned long long>(a.vocabulary_words()));
+    std::printf("merges             %llu accepted, %llu disagreeing matches; %llu verified, "
+                "%llu rejected candidates\n",
+                static_cast<unsigned long long>(a.merges_accepted()),
+                static_cast<unsigned long long>(a.merge_resets()),
+                static_cast<unsigned long long>(a.verified()),
+                static_cast<unsigned long long>(a.rejected()));
+  }
+  for (const loci::v1::SessionAlignment& s : resp.session_alignments()) {
+    const auto& t = s.t_map_odom().t_m();
+    if (s.aligned()) {
+      std::printf("session %-24s %-12s aligned, odometry origin at (%.3f, %.3f, %.3f) m, %llu kf\n",
+                  s.session_id().substr(0, 24).c_str(), s.robot().c_str(), t.x(), t.y(), t.z(),
+                  static_cast<unsigned long long>(s.keyframes()));
+    } else {
+      std::printf("session %-24s %-12s island (not aligned yet), %llu kf\n",
+                  s.session_id().substr(0, 24).c_str(), s.robot().c_str(),
+                  static_cast<unsigned long long>(s.keyframes()));
+    }
+  }
+}
+
 int RunStats(const ServerArgs& a) {
   auto stub = ConnectQuery(a.server, a.security);
   if (!stub.ok()) {
@@ -109,6 +137,7 @@ int RunStats(const ServerArgs& a) {
   std::printf("checkpoint         %.1f MB\n", resp.checkpoint_bytes() / 1e6);
   std::printf("queue depth        %llu\n", static_cast<unsigned long long>(resp.queue_depth()));
   std::printf("mapping per kf     %.1f ms\n", resp.ingest_ms_mean());
+  PrintAlignment(resp);
   return 0;
 }
 

@@ -27,6 +27,7 @@ struct Args {
   std::string poses, detections, model;
   ChannelSecurity security;
   bool offline = false, no_progress = false, live = false, strict_config = false;
+  int start_frame = 0;
   int max_frames = 0;
 };
 
@@ -159,6 +160,7 @@ int Run(const Args& a) {
     return 2;
   }
   TrackPipelineOptions po;
+  po.start_frame = static_cast<size_t>(a.start_frame);
   po.max_frames = a.max_frames > 0 ? static_cast<size_t>(a.max_frames) : 0;
   po.progress = !a.no_progress;
   auto r = RunTrackPipeline(*seq, tracker.get(), pose_source.get(), det.file_dets, stage, po);
@@ -198,6 +200,9 @@ int main(int argc, char** argv) {
                  "detections.jsonl, or 'none'; default: run the configured detector");
   app.add_option("--model", a.model, "detector ONNX model (overrides config/detection.yaml)");
   app.add_option("--config", a.config, "client YAML (default: config/client.yaml)");
+  app.add_option("--start-frame", a.start_frame,
+                 "start at this frame of rgb.txt (0-based); odometry starts at the identity there")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--max-frames", a.max_frames, "stop after N frames (0 = all)");
   app.add_flag("--no-progress", a.no_progress, "no progress on stderr");
   app.add_option("--log-level", log_level, "trace|debug|info|warn|error");

@@ -113,8 +113,10 @@ StatusOr<TrackPipelineResult> RunTrackPipeline(const TumSequence& seq, Tracker* 
     return absl::InvalidArgumentError("give exactly one of a tracker and a pose source");
   }
   TrackPipelineResult r;
-  const size_t n = o.max_frames > 0 ? std::min(o.max_frames, seq.frames.size()) : seq.frames.size();
-  for (size_t i = 0; i < n; ++i) {
+  const size_t first = std::min(o.start_frame, seq.frames.size());
+  const size_t left = seq.frames.size() - first;
+  const size_t n = first + (o.max_frames > 0 ? std::min(o.max_frames, left) : left);
+  for (size_t i = first; i < n; ++i) {
     const TumFrame& f = seq.frames[i];
     cv::Mat bgr = cv::imread(f.rgb_path, cv::IMREAD_COLOR);
     cv::Mat depth = cv::imread(f.depth_path, cv::IMREAD_UNCHANGED);

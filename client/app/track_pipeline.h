@@ -31,7 +31,8 @@ StatusOr<ClientConfig> LoadClientConfig(const std::string& client_config,
 
 struct TrackPipelineOptions {
   int64_t max_box_age_ns = 300'000'000;  // dynamic prior: boxes at most this old (0.3 s)
-  size_t max_frames = 0;                 // 0 = every frame
+  size_t start_frame = 0;                // first frame (index in rgb.txt) to track
+  size_t max_frames = 0;                 // frames from start_frame on; 0 = to the end
   bool progress = false;                 // progress on stderr
 };
 

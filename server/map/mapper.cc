@@ -166,13 +166,15 @@ StageTimes Mapper::Integrate(const MapperKeyframe& kf, const KeyframeProducts& p
   {
     std::lock_guard<std::mutex> lock(mu_);
     if (!have_frame_) FixFirstFrame(kf, gravity_cam);  // the origin and a first up
-    keyframe_poses_.push_back({kf.keyframe_id, kf.robot, kf.t_ns, kf.T_base_kf, {}});
+    // In id order; a keyframe held back (an unaligned robot's) may arrive after newer ones.
+    keyframe_poses_.insert(KeyframePoseAfter(kf.keyframe_id),
+                           {kf.keyframe_id, kf.robot, kf.t_ns, kf.T_base_kf, {}});
   }
   if (!frame_settled_) CollectFrameEvidence(kf, gravity_cam, products);
   std::vector<int64_t> ids = IntegrateProducts(kf, products, &times, &events);
   {
     std::lock_guard<std::mutex> lock(mu_);
-    keyframe_poses_.back().observation_object_ids = std::move(ids);
+    FindKeyframePose(kf.keyframe_id)->observation_object_ids = std::move(ids);
   }
   if (!frame_settled_) {
     MapperKeyframe kept = kf;  // the products carry what mapping needs; drop the images
@@ -186,6 +188,20 @@ StageTimes Mapper::Integrate(const MapperKeyframe& kf, const KeyframeProducts& p
   }
   if (listener_ && !events.empty()) listener_(events);
   return times;
+}
+
+std::vector<Mapper::KeyframePose>::iterator Mapper::KeyframePoseAfter(int64_t keyframe_id) {
+  return std::upper_bound(
+      keyframe_poses_.begin(), keyframe_poses_.end(), keyframe_id,
+      [](int64_t id, const KeyframePose& k) { return id < k.keyframe_id; });
+}
+
+std::vector<Mapper::KeyframePose>::iterator Mapper::FindKeyframePose(int64_t keyframe_id) {
+  auto it = std::lower_bound(
+      keyframe_poses_.begin(), keyframe_poses_.end(), keyframe_id,
+      [](const KeyframePose& k, int64_t id) { return k.keyframe_id < id; });
+  return it != keyframe_poses_.end() && it->keyframe_id == keyframe_id ? it
+                                                                        : keyframe_poses_.end();
 }
 
 void Mapper::SettleFrame(std::vector<ObjectEventOut>* events) {
@@ -223,7 +239,7 @@ void Mapper::SettleFrame(std::vector<ObjectEventOut>* events) {
     std::vector<int64_t> ids =
         IntegrateProducts(settling[i].keyframe, settling[i].products, &ignored, events);
     std::lock_guard<std::mutex> lock(mu_);
-    keyframe_poses_[i].observation_object_ids = std::move(ids);  // the settling ones come first
+    FindKeyframePose(settling[i].keyframe.keyframe_id)->observation_object_ids = std::move(ids);
   }
 }
 

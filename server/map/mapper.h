@@ -44,6 +44,7 @@ struct MapperKeyframe {
   // Pose in the base frame (map_frame.h): T_base_odom(session) * T_odom_cam. The mapper moves
   // it into the map frame.
   SE3d T_base_kf = SE3d::Identity();
+  SE3d T_odom_kf = SE3d::Identity();  // the pose the robot sent, in its odometry frame
   PinholeCamera camera;
   cv::Mat bgr;      // CV_8UC3
   cv::Mat depth_m;  // CV_32FC1, metres, 0 = invalid
@@ -96,7 +97,8 @@ class Mapper {
   // BuildProducts, then maps them.
   StageTimes Integrate(const MapperKeyframe& keyframe);
   // Maps a keyframe from its products alone: the keyframe's images are not read (may be empty).
-  // Keyframes must arrive in increasing keyframe_id.
+  // Keyframes arrive in increasing keyframe_id, except those of a robot held back until it was
+  // aligned (server/align/), which come in later, in id order among themselves.
   StageTimes Integrate(const MapperKeyframe& keyframe, const KeyframeProducts& products);
 
   // The whole derived map (objects, cloud, OctoMap, frame, poses) as a
@@ -195,6 +197,10 @@ class Mapper {
                             const KeyframeProducts& products);
   // Queues OctoMap work (call without mu_: the queue is bounded and its thread takes mu_).
   void PushOctomap(OctomapJob job);
+  // Where a keyframe's pose goes in keyframe_poses_ (id order) / where it is (end() when
+  // absent); mu_ held.
+  std::vector<KeyframePose>::iterator KeyframePoseAfter(int64_t keyframe_id);
+  std::vector<KeyframePose>::iterator FindKeyframePose(int64_t keyframe_id);
   // Moves keyframe_poses_[index] and its points (mu_ held).
   void MoveKeyframe(size_t index, const SE3d& T_base_kf, const KeyframeProducts& products,
                     std::vector<int64_t>* moved_objects);

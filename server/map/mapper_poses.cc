@@ -25,10 +25,8 @@ StatusOr<size_t> Mapper::UpdateKeyframePoses(const std::vector<KeyframePoseUpdat
         return absl::InvalidArgumentError(absl::StrCat("pose of keyframe ", u.keyframe_id,
                                                        " is not finite"));
       }
-      auto it = std::lower_bound(
-          keyframe_poses_.begin(), keyframe_poses_.end(), u.keyframe_id,
-          [](const KeyframePose& k, int64_t id) { return k.keyframe_id < id; });
-      if (it == keyframe_poses_.end() || it->keyframe_id != u.keyframe_id) {
+      auto it = FindKeyframePose(u.keyframe_id);
+      if (it == keyframe_poses_.end()) {
         return absl::NotFoundError(absl::StrCat("keyframe ", u.keyframe_id, " is not mapped"));
       }
       index.push_back(static_cast<size_t>(it - keyframe_poses_.begin()));

@@ -42,13 +42,14 @@ class ConsistencyGate {
   // Estimates collected for a hypothesis (0 when none).
   int Pending(const std::string& hypothesis) const;
   void Clear(const std::string& hypothesis) { pending_.erase(hypothesis); }
+  // Whether two estimates agree within max_translation_m and max_rotation_deg.
+  bool Agree(const SE3d& a, const SE3d& b) const;
 
  private:
   struct Estimate {
     int64_t keyframe_id;
     SE3d T_x_y;
   };
-  bool Agree(const SE3d& a, const SE3d& b) const;
 
   ConsistencyOptions options_;
   std::map<std::string, std::vector<Estimate>> pending_;

@@ -70,10 +70,17 @@ std::vector<int> PnpInliers(const KeyframeFeatures& a, const KeyframeFeatures& b
   cv::eigen2cv(a.camera.K(), K);
   cv::Mat rvec, tvec;
   std::vector<int> inliers;
-  const bool ok =
-      cv::solvePnPRansac(p_b, uv_a, K, cv::noArray(), rvec, tvec, false, options.pnp_iterations,
-                         static_cast<float>(options.pnp_reprojection_px), options.pnp_confidence,
-                         inliers, cv::SOLVEPNP_SQPNP);
+  bool ok = false;
+  try {
+    ok = cv::solvePnPRansac(p_b, uv_a, K, cv::noArray(), rvec, tvec, false,
+                            options.pnp_iterations,
+                            static_cast<float>(options.pnp_reprojection_px),
+                            options.pnp_confidence, inliers, cv::SOLVEPNP_SQPNP);
+  } catch (const cv::Exception&) {
+    // SQPnP asserts on degenerate point sets (OpenCV 4.6 sqpnp.cpp computeOmega: "more than 6
+    // null vectors", seen live on fr1_rpy); such a pair is no place match.
+    return {};
+  }
   if (!ok) return {};
   *T_a_b = ToSE3(rvec, tvec);
   for (int& i : inliers) i = index[i];

@@ -34,6 +34,9 @@ MapServer::MapServer(const ServerOptions& options, std::shared_ptr<MapStore> sto
       store_(std::move(store)),
       detector_(std::move(detector)),
       mapper_(std::make_unique<Mapper>(options.map)),
+      aligner_(options.align.enabled
+                   ? std::make_unique<RobotAligner>(options.place, options.align)
+                   : nullptr),
       decode_slots_(options.decode_slots),
       queue_(static_cast<size_t>(options.queue_capacity)) {}
 
@@ -42,6 +45,8 @@ StatusOr<std::unique_ptr<MapServer>> MapServer::OpenAsync(
     std::shared_ptr<detection::Detector> detector) {
   LOCI_RETURN_IF_ERROR(options.map.Validate());
   LOCI_RETURN_IF_ERROR(options.ValidateLimits());
+  LOCI_RETURN_IF_ERROR(options.place.Validate());
+  LOCI_RETURN_IF_ERROR(options.align.Validate());
   if (!store) {
     LOCI_ASSIGN_OR_RETURN(std::unique_ptr<SqliteStore> sqlite, SqliteStore::Open(options.db_path));
     store = std::move(sqlite);
@@ -89,6 +94,7 @@ void MapServer::LoadLoop() {
     spdlog::error("the map failed to load: {}", report.status().ToString());
   }
   FinishLoad(report.status());
+  if (report.ok()) Reindex();  // the stored keyframes into place recognition
 }
 
 void MapServer::FinishLoad(const Status& status) {
@@ -136,6 +142,12 @@ void MapServer::OnReady(std::function<void()> fn) {
 StatusOr<size_t> MapServer::UpdateKeyframePoses(
     const std::vector<Mapper::KeyframePoseUpdate>& updates) {
   LOCI_RETURN_IF_ERROR(CheckReady());
+  std::lock_guard<std::mutex> lock(mapping_mu_);
+  return UpdateKeyframePosesLocked(updates);
+}
+
+StatusOr<size_t> MapServer::UpdateKeyframePosesLocked(
+    const std::vector<Mapper::KeyframePoseUpdate>& updates) {
   // By value: the OctoMap rebuild reads products on its own thread after this call returns
   // (the store is shared with it).
   auto source = [store = store_, fingerprint = mapper_->options().ProductsFingerprint()](
@@ -147,7 +159,6 @@ StatusOr<size_t> MapServer::UpdateKeyframePoses(
     }
     return DecodeProducts(*bytes, fingerprint, /*with_visibility=*/false);
   };
-  std::lock_guard<std::mutex> lock(mapping_mu_);
   auto moved = mapper_->UpdateKeyframePoses(updates, source);
   if (!moved.ok()) return moved;
   since_checkpoint_ += *moved;  // the next checkpoint keeps the moved map
@@ -250,6 +261,10 @@ StatusOr<loci::v1::OpenSessionResponse> MapServer::OpenSession(
   }
   if (auto it = options_.T_base_odom.find(s.robot_name); it != options_.T_base_odom.end()) {
     s.T_base_odom = it->second;
+  } else {
+    // Placed by place recognition (server/align/), or the map's origin if its first keyframe
+    // is the map's first (map_server_align.cc).
+    s.aligned = !options_.align.enabled;
   }
   s.opened_ns = NowNs();
   LOCI_ASSIGN_OR_RETURN(s, store_->CreateSession(s));
@@ -411,7 +426,7 @@ void MapServer::WorkerLoop() {
     const auto t0 = std::chrono::steady_clock::now();
     {
       std::lock_guard<std::mutex> mapping(mapping_mu_);
-      MapAndStoreProducts(*mapper_, *kf, detector_.get(), store_.get());
+      MapQueued(*kf);
       mapping_ms_total_.fetch_add(
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
               .count());
@@ -427,6 +442,11 @@ void MapServer::WorkerLoop() {
 void MapServer::Flush() {
   std::unique_lock<std::mutex> lock(progress_mu_);
   progress_cv_.wait(lock, [&] { return mapped_ >= enqueued_; });
+}
+
+std::optional<AlignStats> MapServer::align_stats() const {
+  if (!aligner_) return std::nullopt;
+  return aligner_->Stats();
 }
 
 double MapServer::ingest_ms_mean() const {

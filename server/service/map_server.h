@@ -18,6 +18,7 @@
 #include "common/status.h"
 #include "detection/detector.h"
 #include "loci/v1/mapping.pb.h"
+#include "server/align/robot_aligner.h"
 #include "server/map/bounded_queue.h"
 #include "server/map/mapper.h"
 #include "server/service/replay.h"
@@ -85,6 +86,14 @@ class MapServer {
   const ServerOptions& options() const { return options_; }
   size_t queue_depth() const { return queue_.size(); }
   uint64_t replayed_keyframes() const { return replayed_; }
+  // Robot alignment (nullptr when align.enabled is false): its statistics.
+  std::optional<AlignStats> align_stats() const;
+  // How long a session aligned by place recognition (since this start) waited for it.
+  std::optional<AlignmentDelay> alignment_delay(int64_t session_row) const {
+    return aligner_ ? aligner_->Delay(session_row) : std::nullopt;
+  }
+  // Keyframes of robots that were held back and entered the map when their robot was aligned.
+  uint64_t merged_keyframes() const { return merged_keyframes_; }
   // Mean mapping time per keyframe mapped by the worker since start (replay excluded), ms.
   double ingest_ms_mean() const;
   // Mean time of the handler-side stages per accepted keyframe, ms: validation with image
@@ -96,6 +105,23 @@ class MapServer {
   MapServer(const ServerOptions& options, std::shared_ptr<MapStore> store,
             std::shared_ptr<detection::Detector> detector);
   void WorkerLoop();
+  // UpdateKeyframePoses with mapping_mu_ held by the caller.
+  StatusOr<size_t> UpdateKeyframePosesLocked(const std::vector<Mapper::KeyframePoseUpdate>& updates);
+  // Maps (or, for an unaligned session, holds back) one queued keyframe and gives it to the
+  // aligner (map_server_align.cc); worker thread, mapping_mu_ held.
+  void MapQueued(MapperKeyframe& kf);
+  // Tells the aligner about a session on its first keyframe; the map's first keyframe makes its
+  // session the origin.
+  void DeclareSession(int64_t session_row);
+  // Stores the session's placement and maps its held keyframes (ids up to upto_keyframe_id).
+  void ApplyAlignment(const SessionAlignment& alignment, int64_t upto_keyframe_id);
+  // After a restart: indexes every stored keyframe for place recognition from its images, on
+  // the loading thread once the map is ready (new keyframes are indexed meanwhile).
+  void Reindex();
+  // Moves a session's mapped keyframes to its refined placement.
+  void MoveSession(const SessionAlignment& alignment);
+  std::optional<SessionRecord> SessionByRow(int64_t session_row);
+  void SetSessionCache(const SessionRecord& session);
   void LoadLoop();
   void FinishLoad(const Status& status);
   // Checkpoints when checkpoint_keyframes or checkpoint_interval_s have passed (worker thread).
@@ -115,6 +141,8 @@ class MapServer {
   std::shared_ptr<MapStore> store_;
   std::shared_ptr<detection::Detector> detector_;
   std::unique_ptr<Mapper> mapper_;
+  std::unique_ptr<RobotAligner> aligner_;  // used by the worker thread only (Stats: any)
+  std::atomic<uint64_t> merged_keyframes_{0};
   uint64_t replayed_ = 0;
 
   std::thread loader_;

@@ -8,9 +8,7 @@
 #include "server/service/keyframe_decoder.h"
 
 namespace loci::server {
-namespace {
 
-// Maps one stored keyframe; false when it had to be skipped.
 bool LoadKeyframe(const KeyframeRecord& rec, const SessionRecord& session, Mapper& mapper,
                   detection::Detector* detector, MapStore* store, LoadReport* report) {
   const std::string fingerprint = mapper.options().ProductsFingerprint();
@@ -40,6 +38,8 @@ bool LoadKeyframe(const KeyframeRecord& rec, const SessionRecord& session, Mappe
   return true;
 }
 
+namespace {
+
 // Restores the latest checkpoint into `mapper`; the id after which keyframes remain.
 int64_t RestoreCheckpoint(MapStore& store, std::unique_ptr<Mapper>* mapper, LoadReport* report) {
   auto checkpoint = store.LatestCheckpoint();
@@ -65,13 +65,12 @@ Status DetectIfNeeded(detection::Detector* detector, MapperKeyframe* kf) {
   return absl::OkStatus();
 }
 
-StageTimes MapAndStoreProducts(Mapper& mapper, MapperKeyframe& kf, detection::Detector* detector,
-                               MapStore* store) {
+KeyframeProducts BuildAndStoreProducts(const Mapper& mapper, MapperKeyframe& kf,
+                                       detection::Detector* detector, MapStore* store) {
   if (Status s = DetectIfNeeded(detector, &kf); !s.ok()) {
     spdlog::warn("detector failed on keyframe {}: {}", kf.keyframe_id, s.ToString());
   }
-  const KeyframeProducts products = mapper.BuildProducts(kf);
-  const StageTimes times = mapper.Integrate(kf, products);
+  KeyframeProducts products = mapper.BuildProducts(kf);
   if (store != nullptr) {
     const std::string fingerprint = mapper.options().ProductsFingerprint();
     if (Status s = store->PutProducts(kf.keyframe_id, fingerprint,
@@ -81,7 +80,12 @@ StageTimes MapAndStoreProducts(Mapper& mapper, MapperKeyframe& kf, detection::De
                    kf.keyframe_id, s.ToString());
     }
   }
-  return times;
+  return products;
+}
+
+StageTimes MapAndStoreProducts(Mapper& mapper, MapperKeyframe& kf, detection::Detector* detector,
+                               MapStore* store) {
+  return mapper.Integrate(kf, BuildAndStoreProducts(mapper, kf, detector, store));
 }
 
 StatusOr<LoadReport> LoadMap(MapStore& store, std::unique_ptr<Mapper>* mapper,
@@ -111,7 +115,9 @@ StatusOr<LoadReport> LoadMap(MapStore& store, std::unique_ptr<Mapper>* mapper,
         if (it == by_row.end()) {
           return absl::DataLossError(absl::StrCat("keyframe ", rec.id, " has no session"));
         }
-        if (!LoadKeyframe(rec, it->second, **mapper, detector, product_store, &report)) {
+        if (!it->second.aligned) {
+          ++report.held;  // an unaligned robot's: stays out of the map until it is aligned
+        } else if (!LoadKeyframe(rec, it->second, **mapper, detector, product_store, &report)) {
           ++report.skipped;
         }
         if (options.progress && ++seen % 200 == 0) options.progress(seen, total);

@@ -21,11 +21,24 @@ namespace loci::server {
 // Runs the detector on keyframes stored without detections (when `detector` is non-null).
 Status DetectIfNeeded(detection::Detector* detector, MapperKeyframe* keyframe);
 
+// Runs the detector when needed and builds a decoded keyframe's products; stores them when
+// `store` is non-null (a failure to store is logged: the products are recomputed on the next
+// start).
+KeyframeProducts BuildAndStoreProducts(const Mapper& mapper, MapperKeyframe& keyframe,
+                                       detection::Detector* detector, MapStore* store);
+
 // Maps one decoded keyframe from its images (detector when needed, products, fusion) and
 // stores its products when `store` is non-null (a failure to store is logged: the products are
 // recomputed on the next start). Returns the mapping stage times.
 StageTimes MapAndStoreProducts(Mapper& mapper, MapperKeyframe& keyframe,
                                detection::Detector* detector, MapStore* store);
+
+struct LoadReport;
+
+// Maps one stored keyframe from its products, or from its images (whose new products are
+// stored when `store` is non-null); false when it had to be skipped (counted in `report`).
+bool LoadKeyframe(const KeyframeRecord& rec, const SessionRecord& session, Mapper& mapper,
+                  detection::Detector* detector, MapStore* store, LoadReport* report);
 
 struct LoadOptions {
   bool use_checkpoint = true;
@@ -40,6 +53,7 @@ struct LoadReport {
   int64_t checkpoint_keyframe_id = 0;  // 0 = no checkpoint used
   std::string checkpoint_skipped;      // why a stored checkpoint was not used
   uint64_t from_products = 0, from_raw = 0, skipped = 0;
+  uint64_t held = 0;  // keyframes of unaligned sessions, left out of the map
   int64_t last_keyframe_id = 0;
   uint64_t keyframes() const { return from_products + from_raw; }
 };

@@ -12,7 +12,7 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
   const ConfigFileScope scope(path);
   // `graph` is the pose graph's section (server/graph/GraphOptions), not read here yet.
   LOCI_RETURN_IF_ERROR(
-      CheckKnownKeys(root, "", {"server", "detector", "map", "place", "sessions", "graph"}));
+      CheckKnownKeys(root, "", {"server", "detector", "map", "place", "align", "sessions", "graph"}));
   if (const YAML::Node s = root["server"]) {
     LOCI_RETURN_IF_ERROR(CheckKnownKeys(s, "server",
                                         {"listen", "db", "http", "max_message_mb", "queue_capacity",
@@ -55,6 +55,7 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
   LOCI_RETURN_IF_ERROR(LoadClasses());
   LOCI_RETURN_IF_ERROR(map.FromYaml(root["map"]));
   LOCI_RETURN_IF_ERROR(place.FromYaml(root["place"]));
+  LOCI_RETURN_IF_ERROR(align.FromYaml(root["align"]));
   if (const YAML::Node sessions = root["sessions"]) {
     for (const auto& kv : sessions) {
       const std::string robot = kv.first.as<std::string>();

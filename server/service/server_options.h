@@ -9,6 +9,7 @@
 #include "common/se3.h"
 #include "common/status.h"
 #include "server/map/map_options.h"
+#include "server/align/align_options.h"
 #include "server/place/place_options.h"
 
 namespace loci::server {
@@ -52,11 +53,12 @@ struct ServerOptions {
   // robot's odometry frame (server/map/map_frame.h); identity when absent.
   std::map<std::string, SE3d> T_base_odom;
   MapOptions map;
-  // Place recognition and geometric verification (section `place`); read and validated, not
-  // used by MapServer yet (issue 15).
+  // Place recognition and geometric verification (section `place`), used to align robots.
   ::loci::place::PlaceOptions place;
+  // Robots that start anywhere (section `align`, server/align/).
+  AlignOptions align;
 
-  // Reads config/server.yaml (sections server, detector, map, place, sessions); then the classes
+  // Reads config/server.yaml (sections server, detector, map, place, align, sessions); then the classes
   // file.
   Status FromYamlFile(const std::string& path);
   // Checks the keyframe limits above (called by FromYamlFile and MapServer::Open).

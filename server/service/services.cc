@@ -295,6 +295,39 @@ grpc::Status QueryService::GetStats(loci::v1::GetStatsResponse* resp) {
   resp->set_keyframes_with_raw(bytes->keyframes_with_raw);
   resp->set_keyframes_with_products(bytes->products);
   resp->set_checkpoint_bytes(bytes->checkpoint_bytes);
+  return FillAlignment(*sessions, resp);
+}
+
+grpc::Status QueryService::FillAlignment(const std::vector<SessionRecord>& sessions,
+                                         loci::v1::GetStatsResponse* resp) {
+  const SE3d T_map_base = server_->mapper().MapFromBaseFrame();
+  for (const SessionRecord& s : sessions) {
+    loci::v1::SessionAlignment* out = resp->add_session_alignments();
+    out->set_session_id(s.session_id);
+    out->set_robot(s.robot_name);
+    out->set_aligned(s.aligned);
+    if (s.aligned) ToProto(T_map_base * s.T_base_odom, out->mutable_t_map_odom());
+    auto n = server_->store().CountKeyframes(s.row_id);
+    if (!n.ok()) return ToGrpc(n.status());
+    out->set_keyframes(*n);
+    if (const std::optional<AlignmentDelay> d = server_->alignment_delay(s.row_id)) {
+      out->set_aligned_after_keyframes(static_cast<uint32_t>(d->keyframes));
+      out->set_aligned_after_s(d->seconds);
+    }
+  }
+  loci::v1::AlignmentStats* a = resp->mutable_alignment();
+  const std::optional<AlignStats> st = server_->align_stats();
+  a->set_enabled(st.has_value());
+  if (!st) return grpc::Status::OK;
+  a->set_keyframes_indexed(st->keyframes);
+  a->set_queries(st->queries);
+  a->set_verified(st->verified);
+  a->set_rejected(st->rejected);
+  a->set_merges_accepted(st->merges_accepted);
+  a->set_merge_resets(st->merge_resets);
+  a->set_merged_keyframes(server_->merged_keyframes());
+  a->set_place_ms_mean(st->keyframes == 0 ? 0.0 : st->place_ms_total / double(st->keyframes));
+  a->set_vocabulary_words(st->vocabulary_words);
   return grpc::Status::OK;
 }
 

@@ -78,6 +78,9 @@ class QueryService final : public loci::v1::Query::Service {
 
  private:
   grpc::Status AllowRead(const grpc::ServerContext& ctx) const;
+  // GetStats' sessions and alignment figures.
+  grpc::Status FillAlignment(const std::vector<SessionRecord>& sessions,
+                             loci::v1::GetStatsResponse* resp);
 
   MapServer* const server_;
   const std::shared_ptr<QueryEngine> engine_;

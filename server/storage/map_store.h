@@ -26,6 +26,9 @@ struct SessionRecord {
   PinholeCamera camera;         // default intrinsics of the session's keyframes
   double depth_scale = 5000.0;  // depth PNG units per metre
   SE3d T_base_odom = SE3d::Identity();
+  // Whether T_base_odom is known (server/align/): an unaligned session's keyframes stay out of
+  // the map.
+  bool aligned = true;
   int64_t opened_ns = 0;  // wall time
   bool open = true;
 };
@@ -70,6 +73,7 @@ struct KeyframeScan {
   // Non-empty: KeyframeRecord::products of this fingerprint (MapOptions::ProductsFingerprint),
   // and the images only of keyframes without such products (a restart needs nothing else).
   std::string products_fingerprint;
+  std::optional<int64_t> session_row;  // only this session's keyframes
 };
 
 // A checkpoint of the derived map.
@@ -118,6 +122,8 @@ class MapStore {
   virtual StatusOr<std::optional<SessionRecord>> FindSession(const std::string& session_id) = 0;
   virtual StatusOr<std::vector<SessionRecord>> ListSessions() = 0;
   virtual Status CloseSession(int64_t session_row, int64_t closed_ns) = 0;
+  // Marks a session aligned at T_base_odom (robot alignment).
+  virtual Status SetSessionAlignment(int64_t session_row, const SE3d& T_base_odom) = 0;
 
   // Stores a keyframe in one transaction; (session_row, seq) is stored at most once.
   virtual StatusOr<InsertResult> InsertKeyframe(const KeyframeRecord& keyframe) = 0;

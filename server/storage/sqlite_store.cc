@@ -46,7 +46,8 @@ void BindCamera(Stmt& s, int i, const PinholeCamera& c) {
 
 constexpr char kSessionColumns[] =
     "id, session_id, robot_name, client_version, fx, fy, cx, cy, width_px, height_px, "
-    "depth_scale, map_tx, map_ty, map_tz, map_qw, map_qx, map_qy, map_qz, opened_ns, closed_ns";
+    "depth_scale, map_tx, map_ty, map_tz, map_qw, map_qx, map_qy, map_qz, opened_ns, closed_ns, "
+    "aligned";
 
 // Creates a missing database file with mode 0600: it holds every camera image. SQLite gives its
 // -wal and -shm files the same mode. An existing file keeps its mode.
@@ -164,14 +165,15 @@ StatusOr<SessionRecord> SqliteStore::CreateSession(SessionRecord session) {
     Stmt ins(db,
              "INSERT INTO sessions(session_id, robot_name, client_version, fx, fy, cx, cy,"
              " width_px, height_px, depth_scale, map_tx, map_ty, map_tz, map_qw, map_qx, map_qy,"
-             " map_qz, opened_ns) VALUES(lower(hex(randomblob(8))), ?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,"
-             "?,?)");
+             " map_qz, opened_ns, aligned) VALUES(lower(hex(randomblob(8))), ?,?,?,?,?,?,?,?,?,?,?,?,?,"
+             "?,?,?,?,?)");
     LOCI_RETURN_IF_ERROR(ins.status());
     ins.BindText(1, session.robot_name).BindText(2, session.client_version);
     BindCamera(ins, 3, session.camera);
     ins.Bind(9, session.depth_scale);
     BindPose(ins, 10, session.T_base_odom);
     ins.Bind(17, session.opened_ns);
+    ins.Bind(18, static_cast<int64_t>(session.aligned ? 1 : 0));
     if (ins.Step() != SQLITE_DONE) return SqlError(db, "insert session");
     session.row_id = sqlite3_last_insert_rowid(db);
     session.session_id =
@@ -207,6 +209,7 @@ StatusOr<std::vector<SessionRecord>> SqliteStore::QuerySessions(const std::strin
     s.T_base_odom = PoseFrom(q, 11);
     s.opened_ns = q.Int(18);
     s.open = q.IsNull(19);
+    s.aligned = q.Int(20) != 0;
     out.push_back(std::move(s));
   }
   if (rc != SQLITE_DONE) return SqlError(db, "query sessions");
@@ -242,6 +245,22 @@ Status SqliteStore::CloseSession(int64_t session_row, int64_t closed_ns) {
   q.Bind(1, closed_ns).Bind(2, session_row);
   if (q.Step() != SQLITE_DONE) return SqlError(db, "close session");
   return absl::OkStatus();
+}
+
+Status SqliteStore::SetSessionAlignment(int64_t session_row, const SE3d& T_base_odom) {
+  return Write([&](sqlite3* db) -> Status {
+    Stmt q(db,
+           "UPDATE sessions SET map_tx = ?, map_ty = ?, map_tz = ?, map_qw = ?, map_qx = ?,"
+           " map_qy = ?, map_qz = ?, aligned = 1 WHERE id = ?");
+    LOCI_RETURN_IF_ERROR(q.status());
+    BindPose(q, 1, T_base_odom);
+    q.Bind(8, session_row);
+    if (q.Step() != SQLITE_DONE) return SqlError(db, "align session");
+    if (sqlite3_changes(db) != 1) {
+      return absl::NotFoundError(absl::StrCat("no session row ", session_row));
+    }
+    return absl::OkStatus();
+  });
 }
 
 StatusOr<InsertResult> SqliteStore::InsertKeyframe(const KeyframeRecord& kf) {

@@ -491,7 +491,7 @@ TEST_F(Integration, MovingEveryKeyframeMovesTheMapAndTheMoveSurvivesARestart) {
                                         updates.push_back({r.id, T_move * T_base_kf});
                                         return absl::OkStatus();
                                       },
-                                      {.images = false, .products_fingerprint = {}})
+                                      {.images = false, .products_fingerprint = {}, .session_row = {}})
                     .ok());
     auto n = server->UpdateKeyframePoses(updates);
     ASSERT_TRUE(n.ok()) << n.status();

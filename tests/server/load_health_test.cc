@@ -40,6 +40,9 @@ class GatedStore final : public MapStore {
   }
   StatusOr<std::vector<SessionRecord>> ListSessions() override { return inner_->ListSessions(); }
   Status CloseSession(int64_t row, int64_t ns) override { return inner_->CloseSession(row, ns); }
+  Status SetSessionAlignment(int64_t row, const SE3d& T_base_odom) override {
+    return inner_->SetSessionAlignment(row, T_base_odom);
+  }
   StatusOr<InsertResult> InsertKeyframe(const KeyframeRecord& k) override {
     return inner_->InsertKeyframe(k);
   }

@@ -64,10 +64,16 @@ class Server:
 
     def __init__(self, bin_dir, viewer_dir, work):
         self.log_path = os.path.join(work, "server.log")
+        # robot2 streams another synthetic room from the same start: placed by config, as a
+        # robot that place recognition cannot align (a different room) has to be.
+        config = os.path.join(work, "server.yaml")
+        with open(config, "w") as f:
+            f.write("sessions:\n  robot2:\n    t_base_odom_m: [0, 0, 0]\n"
+                    "    q_base_odom_wxyz: [1, 0, 0, 0]\n")
         self.proc = subprocess.Popen(
             [os.path.join(bin_dir, "loci-server"), "--listen", "127.0.0.1:0", "--http",
              "127.0.0.1:0", "--db", os.path.join(work, "map.db"), "--viewer-dir", viewer_dir,
-             "--log-level", "warn"],
+             "--config", config, "--log-level", "warn"],
             stdout=subprocess.PIPE, stderr=open(self.log_path, "w"), text=True)
         self.lines = queue.Queue()  # stdout lines, None at EOF, read by a thread
         threading.Thread(target=self._pump, daemon=True).start()

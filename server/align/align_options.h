@@ -1,0 +1,37 @@
+// Options of robot alignment (section `align` of config/server.yaml; robot_aligner.h).
+#pragma once
+
+#include <yaml-cpp/yaml.h>
+
+#include "common/status.h"
+
+namespace loci::server {
+
+struct AlignOptions {
+  // A new session of a robot that config/server.yaml's `sessions.T_base_odom` does not place
+  // starts unaligned when the map already has an aligned session: its keyframes are stored, and
+  // their products made, but they stay out of the shared map until place recognition finds
+  // where the robot is (true). false: every session is placed at its configured T_base_odom or
+  // the identity, as if all robots started at the first robot's start.
+  bool enabled = true;
+  // Place-recognition candidates verified per keyframe of an unaligned session (3).
+  int max_verify = 3;
+  // When both robots send gravity, the merge's roll and pitch come from gravity, not from the
+  // matched images: only x, y, z and yaw are estimated, so a merge cannot tilt the map (true).
+  bool level_with_gravity = true;
+  // Keyframes with gravity a session needs before its gravity is trusted for levelling (1: the
+  // levelled estimate is refined with more keyframes' gravity as matches accumulate).
+  int min_gravity_keyframes = 1;
+  // After a session is aligned its later keyframes keep being matched against the other aligned
+  // sessions; each time the agreeing matches double (6, 12, 24, ...) the placement is
+  // re-estimated from all of them and the session's keyframes move to it, until this many
+  // matches are in (48; 0 = no refinement). One match's error grows with the camera's speed
+  // (docs/results.md): the mean of many is steadier than that of the first three.
+  int refine_max_matches = 48;
+
+  // Reads the keys of `align`; unknown keys are errors.
+  Status FromYaml(const YAML::Node& node);
+  Status Validate() const;
+};
+
+}  // namespace loci::server

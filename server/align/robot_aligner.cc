@@ -1,0 +1,214 @@
+#include "server/align/robot_aligner.h"
+
+#include <spdlog/spdlog.h>
+
+#include "common/time.h"
+#include "server/place/geometric_verification.h"
+
+namespace loci::server {
+
+RobotAligner::RobotAligner(const place::PlaceOptions& place, const AlignOptions& options)
+    : place_(place),
+      options_(options),
+      db_(place.vocabulary, place.query),
+      gate_(place.consistency) {}
+
+std::string RobotAligner::Key(int64_t session_row) { return absl::StrCat("s", session_row); }
+
+void RobotAligner::AddSession(int64_t session_row, std::optional<SE3d> T_base_odom) {
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  Session s;
+  s.T_base_odom = T_base_odom;
+  sessions_.try_emplace(session_row, std::move(s));
+}
+
+std::optional<SE3d> RobotAligner::Alignment(int64_t session_row) const {
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  auto it = sessions_.find(session_row);
+  return it == sessions_.end() ? std::nullopt : it->second.T_base_odom;
+}
+
+bool RobotAligner::Known(int64_t session_row) const {
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  return sessions_.count(session_row) > 0;
+}
+
+bool RobotAligner::AnyAligned() const {
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  for (const auto& [row, s] : sessions_) {
+    if (s.T_base_odom) return true;
+  }
+  return false;
+}
+
+AlignStats RobotAligner::Stats() const {
+  std::lock_guard<std::mutex> lock(stats_mu_);
+  AlignStats s = stats_;
+  return s;
+}
+
+StatusOr<std::optional<SessionAlignment>> RobotAligner::AddKeyframe(const AlignKeyframe& kf,
+                                                                    const cv::Mat& bgr,
+                                                                    const cv::Mat& depth_m,
+                                                                    const PinholeCamera& camera,
+                                                                    bool match) {
+  const double t0_ms = ThreadCpuMs();
+  std::lock_guard<std::mutex> work(work_mu_);
+  if (indexed_.count(kf.keyframe_id)) return std::optional<SessionAlignment>();  // re-indexed
+  bool aligned = false;
+  {
+    std::lock_guard<std::mutex> lock(sessions_mu_);
+    auto it = sessions_.find(kf.session_row);
+    if (it == sessions_.end()) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("keyframe ", kf.keyframe_id, ": session ", kf.session_row, " not declared"));
+    }
+    aligned = it->second.T_base_odom.has_value();
+    if (it->second.keyframes++ == 0) it->second.first_t_ns = kf.t_ns;
+    if (kf.gravity_cam) {
+      it->second.gravity_sum_odom += kf.T_odom_kf.linear() * *kf.gravity_cam;
+      ++it->second.gravity_count;
+    }
+  }
+  LOCI_ASSIGN_OR_RETURN(place::KeyframeFeatures features,
+                        place::ExtractFeatures(bgr, depth_m, camera, place_.features));
+  const place::BowVector bow = db_.Quantise(features.descriptors, /*add_words=*/true);
+  std::optional<SessionAlignment> result;
+  if (match && !aligned) {
+    result = Gate(kf, Match(kf, features, bow));
+  } else if (match && Refining(kf.session_row)) {
+    result = Refine(kf, Match(kf, features, bow));
+  }
+  LOCI_RETURN_IF_ERROR(db_.Insert(kf.keyframe_id, Key(kf.session_row), bow));
+  indexed_[kf.keyframe_id] = {kf.session_row, kf.T_odom_kf, std::move(features)};
+  std::lock_guard<std::mutex> lock(stats_mu_);
+  ++stats_.keyframes;
+  stats_.place_ms_total += ThreadCpuMs() - t0_ms;
+  stats_.vocabulary_words = db_.words();
+  if (result) ++(result->refined ? stats_.refinements : stats_.merges_accepted);
+  return result;
+}
+
+std::vector<SE3d> RobotAligner::Match(const AlignKeyframe& kf,
+                                      const place::KeyframeFeatures& features,
+                                      const place::BowVector& bow) {
+  std::vector<SE3d> estimates;
+  int tried = 0;
+  uint64_t verified = 0, rejected = 0;
+  for (const place::PlaceCandidate& c : db_.Query(bow, Key(kf.session_row))) {
+    auto a = indexed_.find(c.keyframe_id);
+    if (a == indexed_.end()) continue;
+    if (a->second.session_row == kf.session_row) continue;  // a loop, not a merge
+    const std::optional<SE3d> T_base_odom_a = Alignment(a->second.session_row);
+    if (!T_base_odom_a) continue;  // unaligned sessions do not align each other
+    if (tried++ >= options_.max_verify) break;
+    const place::Verification v = place::VerifyPair(a->second.features, features, place_.verify);
+    if (!v.accepted) {
+      ++rejected;
+      continue;
+    }
+    ++verified;
+    estimates.push_back(*T_base_odom_a * a->second.T_odom_kf * v.T_a_b * kf.T_odom_kf.inverse());
+  }
+  std::lock_guard<std::mutex> lock(stats_mu_);
+  ++stats_.queries;
+  stats_.verified += verified;
+  stats_.rejected += rejected;
+  return estimates;
+}
+
+std::optional<SessionAlignment> RobotAligner::Gate(const AlignKeyframe& kf,
+                                                   const std::vector<SE3d>& estimates) {
+  // One estimate per keyframe: the best-ranked verified candidate's (the gate counts keyframes).
+  if (estimates.empty()) return std::nullopt;
+  const place::ConsistencyGate::Decision d =
+      gate_.Add(Key(kf.session_row), kf.keyframe_id, estimates.front());
+  if (d.verdict == place::ConsistencyGate::Verdict::kReset) {
+    std::lock_guard<std::mutex> lock(stats_mu_);
+    ++stats_.merge_resets;
+  }
+  if (d.verdict != place::ConsistencyGate::Verdict::kAccepted) return std::nullopt;
+  SessionAlignment out{kf.session_row, d.T_x_y, kf.keyframe_id, d.agreeing, false, false};
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  Session& s = sessions_.at(kf.session_row);
+  if (options_.level_with_gravity) out.levelled = Level(s, kf.T_odom_kf.translation(), &out.T_base_odom);
+  s.T_base_odom = out.T_base_odom;
+  s.recognised = true;
+  s.delay = AlignmentDelay{s.keyframes, 1e-9 * static_cast<double>(kf.t_ns - s.first_t_ns)};
+  s.estimates.assign(static_cast<size_t>(d.agreeing), d.T_x_y);
+  s.next_refine = 2 * s.estimates.size();
+  if (static_cast<int>(s.next_refine) > options_.refine_max_matches) s.next_refine = 0;
+  spdlog::info("session row {} aligned at keyframe {} ({} agreeing matches{})", kf.session_row,
+               kf.keyframe_id, d.agreeing, out.levelled ? ", levelled with gravity" : "");
+  return out;
+}
+
+std::optional<AlignmentDelay> RobotAligner::Delay(int64_t session_row) const {
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  auto it = sessions_.find(session_row);
+  return it == sessions_.end() ? std::nullopt : it->second.delay;
+}
+
+bool RobotAligner::Indexed(int64_t keyframe_id) const {
+  std::lock_guard<std::mutex> work(work_mu_);
+  return indexed_.count(keyframe_id) > 0;
+}
+
+std::vector<std::pair<int64_t, SE3d>> RobotAligner::SessionKeyframes(int64_t session_row) const {
+  std::lock_guard<std::mutex> work(work_mu_);
+  std::vector<std::pair<int64_t, SE3d>> out;
+  for (const auto& [id, k] : indexed_) {
+    if (k.session_row == session_row) out.emplace_back(id, k.T_odom_kf);
+  }
+  return out;
+}
+
+bool RobotAligner::Refining(int64_t session_row) const {
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  auto it = sessions_.find(session_row);
+  return it != sessions_.end() && it->second.recognised && it->second.next_refine > 0;
+}
+
+std::optional<SessionAlignment> RobotAligner::Refine(const AlignKeyframe& kf,
+                                                     const std::vector<SE3d>& estimates) {
+  if (estimates.empty()) return std::nullopt;
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  Session& s = sessions_.at(kf.session_row);
+  // The best-ranked verified match, when it agrees with the placement so far.
+  if (!gate_.Agree(*s.T_base_odom, estimates.front())) return std::nullopt;
+  s.estimates.push_back(estimates.front());
+  if (s.estimates.size() < s.next_refine) return std::nullopt;
+  SessionAlignment out{kf.session_row, place::MeanTransform(s.estimates), kf.keyframe_id,
+                       static_cast<int>(s.estimates.size()), false, true};
+  if (options_.level_with_gravity) out.levelled = Level(s, kf.T_odom_kf.translation(), &out.T_base_odom);
+  s.T_base_odom = out.T_base_odom;
+  s.next_refine *= 2;
+  if (static_cast<int>(s.next_refine) > options_.refine_max_matches) s.next_refine = 0;
+  spdlog::info("session row {} placement refined from {} matches{}", kf.session_row,
+               out.matches, out.levelled ? ", levelled with gravity" : "");
+  return out;
+}
+
+bool RobotAligner::Level(const Session& session, const Vec3d& pivot_odom,
+                         SE3d* T_base_odom) const {
+  if (session.gravity_count < options_.min_gravity_keyframes) return false;
+  Vec3d down_base = Vec3d::Zero();
+  int count = 0;
+  for (const auto& [row, other] : sessions_) {
+    if (!other.T_base_odom || other.gravity_count == 0) continue;
+    down_base += other.T_base_odom->linear() * other.gravity_sum_odom;
+    count += other.gravity_count;
+  }
+  if (count < options_.min_gravity_keyframes || down_base.norm() < 1e-9) return false;
+  const Vec3d down_odom_in_base = T_base_odom->linear() * session.gravity_sum_odom.normalized();
+  const Eigen::Matrix3d R_fix =
+      Quatd::FromTwoVectors(down_odom_in_base, down_base.normalized()).toRotationMatrix();
+  const Vec3d pivot_base = *T_base_odom * pivot_odom;  // stays where the images put it
+  SE3d levelled = SE3d::Identity();
+  levelled.linear() = R_fix * T_base_odom->linear();
+  levelled.translation() = pivot_base - levelled.linear() * pivot_odom;
+  *T_base_odom = levelled;
+  return true;
+}
+
+}  // namespace loci::server

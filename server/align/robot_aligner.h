@@ -1,0 +1,146 @@
+// Robots that start anywhere (issue 15, item 3): finds where an unaligned session's odometry
+// frame sits in the shared map from place recognition (server/place), and says so once enough
+// verified matches agree.
+//
+// Per keyframe (AddKeyframe, one thread): ORB features from its images, a bag of words in the
+// incremental vocabulary, then for a keyframe of an unaligned session a query over the
+// keyframes of aligned sessions, geometric verification of the best candidates, and one
+// estimate of T_base_odom per verified match,
+//   T_base_odom(S) = T_base_kf(a) * T_a_b * T_odom_kf(b)^-1,
+// given to a ConsistencyGate. When it accepts (3 agreeing keyframes by default), the estimate
+// is levelled with both sides' gravity when both have it (only x, y, z and yaw come from the
+// images), the session counts as aligned, and AddKeyframe returns the alignment. Every keyframe
+// is then indexed, so later sessions can align against it too. An aligned session's later
+// keyframes keep being matched until refine_max_matches agreeing matches are in; each time they
+// double, AddKeyframe returns a refined placement (their mean, levelled).
+//
+// Two unaligned sessions are not matched with each other: a session aligns to the shared map.
+// The index lives in memory; after a restart the server rebuilds it from the stored images
+// (MapServer's re-indexing thread) while new keyframes are indexed as they come.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/camera.h"
+#include "common/se3.h"
+#include "server/align/align_options.h"
+#include "server/place/consistency_gate.h"
+#include "server/place/keyframe_features.h"
+#include "server/place/place_database.h"
+#include "server/place/place_options.h"
+
+namespace loci::server {
+
+struct AlignKeyframe {
+  int64_t keyframe_id = 0;
+  int64_t session_row = 0;
+  int64_t t_ns = 0;                      // capture time
+  SE3d T_odom_kf = SE3d::Identity();     // the pose the robot sent
+  std::optional<Vec3d> gravity_cam;      // unit, pointing down, when the robot sent it
+};
+
+struct SessionAlignment {
+  int64_t session_row = 0;
+  SE3d T_base_odom = SE3d::Identity();
+  int64_t keyframe_id = 0;  // the keyframe whose match completed the consensus
+  int matches = 0;          // verified matches that agreed
+  bool levelled = false;    // roll and pitch from gravity
+  bool refined = false;     // a better placement of a session aligned before
+};
+
+// How long a session waited to be aligned (by place recognition).
+struct AlignmentDelay {
+  int keyframes = 0;         // the session's keyframes up to and including the aligning one
+  double seconds = 0;        // capture time from its first keyframe to the aligning one
+};
+
+struct AlignStats {
+  uint64_t keyframes = 0;         // keyframes indexed
+  uint64_t queries = 0;           // keyframes of unaligned sessions queried
+  uint64_t verified = 0;          // candidates that passed geometric verification
+  uint64_t rejected = 0;          // candidates that did not
+  uint64_t merges_accepted = 0;   // sessions aligned
+  uint64_t refinements = 0;       // placements re-estimated from more matches
+  uint64_t merge_resets = 0;      // verified estimates that disagreed with the collected ones
+  double place_ms_total = 0;      // features + words + query + verification, thread CPU ms
+  uint64_t vocabulary_words = 0;
+};
+
+class RobotAligner {
+ public:
+  RobotAligner(const place::PlaceOptions& place, const AlignOptions& options);
+
+  // Declares a session before its first keyframe: aligned at T_base_odom, or not (nullopt).
+  // A session declared again keeps its state.
+  void AddSession(int64_t session_row, std::optional<SE3d> T_base_odom);
+  // The session's placement in the base frame, when aligned (nullopt: unaligned or unknown).
+  std::optional<SE3d> Alignment(int64_t session_row) const;
+  bool Known(int64_t session_row) const;
+  // Whether any declared session is aligned.
+  bool AnyAligned() const;
+
+  // See the file comment. `bgr` CV_8UC3 and `depth_m` CV_32FC1 (0 = no depth) of the keyframe;
+  // an unknown session is an error, as are images the features cannot be read from.
+  // With match = false the keyframe is only indexed (rebuilding the index after a restart).
+  // Calls are serialised (the mapping worker and the re-indexing after a restart).
+  StatusOr<std::optional<SessionAlignment>> AddKeyframe(const AlignKeyframe& kf,
+                                                        const cv::Mat& bgr, const cv::Mat& depth_m,
+                                                        const PinholeCamera& camera,
+                                                        bool match = true);
+  bool Indexed(int64_t keyframe_id) const;
+  // For a session aligned by place recognition since the start: how long it waited.
+  std::optional<AlignmentDelay> Delay(int64_t session_row) const;
+  AlignStats Stats() const;  // any thread
+  // The indexed keyframes of a session, with the poses the robot sent, in id order.
+  std::vector<std::pair<int64_t, SE3d>> SessionKeyframes(int64_t session_row) const;
+
+ private:
+  struct Session {
+    std::optional<SE3d> T_base_odom;
+    Vec3d gravity_sum_odom = Vec3d::Zero();  // sum of unit gravity vectors in the odom frame
+    int gravity_count = 0;
+    // Aligned by place recognition (not the origin or a configured placement): refined.
+    bool recognised = false;
+    std::vector<SE3d> estimates;  // agreeing estimates of T_base_odom since the alignment
+    size_t next_refine = 0;       // refine when estimates reach this many (0 = done)
+    int keyframes = 0;            // seen by AddKeyframe
+    int64_t first_t_ns = 0;
+    std::optional<AlignmentDelay> delay;
+  };
+  struct IndexedKeyframe {
+    int64_t session_row = 0;
+    SE3d T_odom_kf = SE3d::Identity();
+    place::KeyframeFeatures features;
+  };
+  // Verifies the best candidates; the estimates of T_base_odom(kf's session), one per match.
+  std::vector<SE3d> Match(const AlignKeyframe& kf, const place::KeyframeFeatures& features,
+                          const place::BowVector& bow);
+  std::optional<SessionAlignment> Gate(const AlignKeyframe& kf, const std::vector<SE3d>& estimates);
+  // For an aligned session: keeps the estimates that agree with its placement; a refined
+  // placement when their count reached the next refinement.
+  std::optional<SessionAlignment> Refine(const AlignKeyframe& kf,
+                                         const std::vector<SE3d>& estimates);
+  bool Refining(int64_t session_row) const;
+  // Replaces the roll and pitch of T_base_odom with those gravity gives, keeping the matched
+  // keyframe's position; false when either side lacks gravity.
+  bool Level(const Session& session, const Vec3d& pivot_odom, SE3d* T_base_odom) const;
+  static std::string Key(int64_t session_row);
+
+  place::PlaceOptions place_;
+  AlignOptions options_;
+  mutable std::mutex work_mu_;  // db_, gate_, indexed_
+  place::PlaceDatabase db_;
+  place::ConsistencyGate gate_;
+  std::map<int64_t, Session> sessions_;
+  std::map<int64_t, IndexedKeyframe> indexed_;  // by keyframe id
+  mutable std::mutex stats_mu_;
+  AlignStats stats_;
+  mutable std::mutex sessions_mu_;  // sessions_ (Alignment / Known from other threads)
+};
+
+}  // namespace loci::server

@@ -1,0 +1,179 @@
+// MapServer: robots that start anywhere (server/align/). The mapping worker maps a keyframe of
+// an aligned session as before; a keyframe of an unaligned session only gets its products
+// made and stored. Every keyframe then goes to the RobotAligner; when it aligns a session, the
+// session's placement is stored and its held keyframes enter the map at their new poses, in id
+// order, from their stored products.
+#include <spdlog/spdlog.h>
+
+#include "server/service/keyframe_decoder.h"
+#include "server/service/map_server.h"
+#include "server/service/replay.h"
+
+namespace loci::server {
+
+void MapServer::MapQueued(MapperKeyframe& kf) {
+  if (!aligner_) {
+    MapAndStoreProducts(*mapper_, kf, detector_.get(), store_.get());
+    return;
+  }
+  DeclareSession(kf.session_row);
+  if (const std::optional<SE3d> T_base_odom = aligner_->Alignment(kf.session_row)) {
+    kf.T_base_kf = *T_base_odom * kf.T_odom_kf;  // the session may have been aligned since
+    MapAndStoreProducts(*mapper_, kf, detector_.get(), store_.get());
+  } else {
+    BuildAndStoreProducts(*mapper_, kf, detector_.get(), store_.get());  // held back
+  }
+  AlignKeyframe in{kf.keyframe_id, kf.session_row, kf.t_ns, kf.T_odom_kf, std::nullopt};
+  if (kf.has_gravity) in.gravity_cam = kf.gravity_cam;
+  StatusOr<std::optional<SessionAlignment>> aligned = std::nullopt;
+  try {  // OpenCV asserts by throwing; a keyframe's place recognition must not end the server
+    aligned = aligner_->AddKeyframe(in, kf.bgr, kf.depth_m, kf.camera);
+  } catch (const std::exception& e) {
+    aligned = absl::InternalError(e.what());
+  }
+  if (!aligned.ok()) {
+    spdlog::warn("place recognition skipped keyframe {}: {}", kf.keyframe_id,
+                 aligned.status().ToString());
+  } else if (*aligned) {
+    ApplyAlignment(**aligned, kf.keyframe_id);
+  }
+}
+
+std::optional<SessionRecord> MapServer::SessionByRow(int64_t session_row) {
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  for (const auto& [id, s] : sessions_) {
+    if (s.row_id == session_row) return s;
+  }
+  return std::nullopt;
+}
+
+void MapServer::SetSessionCache(const SessionRecord& session) {
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  sessions_[session.session_id] = session;
+}
+
+void MapServer::DeclareSession(int64_t session_row) {
+  if (aligner_->Known(session_row)) return;
+  std::optional<SessionRecord> s = SessionByRow(session_row);
+  if (!s) {  // not cached (cannot happen for a keyframe that was just ingested): from the store
+    auto all = store_->ListSessions();
+    if (all.ok()) {
+      for (const SessionRecord& r : *all) {
+        if (r.row_id == session_row) s = r;
+      }
+    }
+    if (s) SetSessionCache(*s);
+  }
+  if (!s) {
+    aligner_->AddSession(session_row, std::nullopt);
+    return;
+  }
+  if (!s->aligned && mapper_->last_keyframe_id() == 0 && !aligner_->AnyAligned()) {
+    // The map's first keyframe: its session defines the base frame.
+    s->aligned = true;
+    if (Status st = store_->SetSessionAlignment(s->row_id, s->T_base_odom); !st.ok()) {
+      spdlog::warn("session {}: alignment not stored: {}", s->session_id, st.ToString());
+    }
+    SetSessionCache(*s);
+    spdlog::info("session {} of robot {} defines the map frame", s->session_id, s->robot_name);
+  }
+  aligner_->AddSession(session_row, s->aligned ? std::optional<SE3d>(s->T_base_odom)
+                                               : std::nullopt);
+}
+
+void MapServer::ApplyAlignment(const SessionAlignment& a, int64_t upto_keyframe_id) {
+  std::optional<SessionRecord> s = SessionByRow(a.session_row);
+  if (!s) return;
+  s->T_base_odom = a.T_base_odom;
+  s->aligned = true;
+  if (Status st = store_->SetSessionAlignment(s->row_id, s->T_base_odom); !st.ok()) {
+    spdlog::warn("session {}: alignment not stored ({}); it aligns again after a restart",
+                 s->session_id, st.ToString());
+  }
+  SetSessionCache(*s);
+  if (a.refined) {
+    MoveSession(a);
+    return;
+  }
+  // The held keyframes, up to the one being mapped (later ones are still queued and are mapped
+  // at the new placement when the worker reaches them).
+  KeyframeScan scan;
+  scan.products_fingerprint = mapper_->options().ProductsFingerprint();
+  scan.session_row = s->row_id;
+  LoadReport report;
+  Status st = store_->ForEachKeyframe(
+      0,
+      [&](KeyframeRecord rec) -> Status {
+        if (rec.id > upto_keyframe_id) return absl::OkStatus();
+        if (!LoadKeyframe(rec, *s, *mapper_, detector_.get(), store_.get(), &report)) {
+          ++report.skipped;
+        }
+        return absl::OkStatus();
+      },
+      scan);
+  if (!st.ok()) spdlog::warn("session {}: held keyframes not all mapped: {}", s->session_id,
+                             st.ToString());
+  spdlog::info("robot {} (session {}) aligned to the map: {} keyframes mapped, {} skipped",
+               s->robot_name, s->session_id, report.keyframes(), report.skipped);
+  merged_keyframes_ += report.keyframes();
+  // The keyframes just mapped have ids below the checkpoint's last one: checkpoint now, so a
+  // restart does not lose them from the map.
+  if (Status c = Checkpoint(); !c.ok()) {
+    spdlog::warn("checkpoint: {}", c.ToString());
+    since_checkpoint_ += report.keyframes();
+  } else {
+    since_checkpoint_ = 0;
+    last_checkpoint_ = std::chrono::steady_clock::now();
+  }
+}
+
+void MapServer::Reindex() {
+  if (!aligner_) return;
+  const auto t0 = std::chrono::steady_clock::now();
+  uint64_t indexed = 0, without_images = 0;
+  KeyframeScan scan;  // images, no products
+  const Status st = store_->ForEachKeyframe(
+      0,
+      [&](KeyframeRecord rec) -> Status {
+        if (stop_loading_) return absl::CancelledError("the server is stopping");
+        if (aligner_->Indexed(rec.id)) return absl::OkStatus();  // mapped since the start
+        if (rec.rgb_jpeg.empty()) {
+          ++without_images;  // retention dropped them
+          return absl::OkStatus();
+        }
+        DeclareSession(rec.session_row);
+        std::optional<SessionRecord> session = SessionByRow(rec.session_row);
+        if (!session) return absl::OkStatus();
+        auto kf = DecodeKeyframe(rec, *session);
+        if (!kf.ok()) return absl::OkStatus();  // validated on ingest; a corrupt row is skipped
+        AlignKeyframe in{rec.id, rec.session_row, rec.t_ns, rec.T_odom_cam, std::nullopt};
+        if (rec.has_gravity) in.gravity_cam = rec.gravity_cam;
+        try {
+          if (aligner_->AddKeyframe(in, kf->bgr, kf->depth_m, kf->camera, /*match=*/false).ok()) {
+            ++indexed;
+          }
+        } catch (const std::exception& e) {
+          spdlog::warn("re-indexing keyframe {}: {}", rec.id, e.what());
+        }
+        return absl::OkStatus();
+      },
+      scan);
+  spdlog::info("place recognition: {} stored keyframes re-indexed in {:.1f} s ({} without images){}",
+               indexed,
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+               without_images, st.ok() ? "" : absl::StrCat("; stopped: ", st.ToString()));
+}
+
+void MapServer::MoveSession(const SessionAlignment& a) {
+  std::vector<Mapper::KeyframePoseUpdate> updates;
+  for (const auto& [id, T_odom_kf] : aligner_->SessionKeyframes(a.session_row)) {
+    updates.push_back({id, a.T_base_odom * T_odom_kf});
+  }
+  auto moved = UpdateKeyframePosesLocked(updates);
+  if (!moved.ok()) {
+    spdlog::warn("refined placement of session row {} not applied to its mapped keyframes: {}",
+                 a.session_row, moved.status().ToString());
+  }
+}
+
+}  // namespace loci::server
