@@ -276,7 +276,7 @@ cv::Mat BackgroundPlaneMask(const cv::Mat& depth, const cv::Rect& roi, const cv:
   // Furniture with a flat top: what stands on the top is other objects.
   std::optional<double> max_height;
   if (supports.top_height && o.IsFlatTopClass(context.class_name)) {
-    max_height = *supports.top_height + 0.03;
+    max_height = *supports.top_height + o.flat_top_margin_m;
   }
   // (top_height is only set with camera and a valid gravity.)
   const Eigen::Vector3d up =

@@ -20,7 +20,8 @@ constexpr const char* kMaskKeys[] = {"depth_scale",           "min_depth_m",
                                      "min_plane_support",     "min_outside_fraction",
                                      "min_object_fraction",   "max_centre_fraction",
                                      "horizontal_max_deg",    "support_min_rise_m",
-                                     "support_classes",       "flat_top_classes"};
+                                     "support_classes",       "flat_top_classes",
+                                     "flat_top_margin_m"};
 
 StatusOr<MaskOptions> MaskOptions::FromYaml(const YAML::Node& node) {
   MaskOptions o;
@@ -47,6 +48,7 @@ StatusOr<MaskOptions> MaskOptions::FromYaml(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "support_min_rise_m", &o.support_min_rise_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "support_classes", &o.support_classes));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "flat_top_classes", &o.flat_top_classes));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "flat_top_margin_m", &o.flat_top_margin_m));
   LOCI_RETURN_IF_ERROR(o.Validate());
   return o;
 }
@@ -71,7 +73,8 @@ Status MaskOptions::Validate() const {
       !(min_outside_fraction > 0.f && min_outside_fraction <= 1.f) ||
       !(min_object_fraction >= 0.f && min_object_fraction < 1.f) ||
       !(max_centre_fraction > 0.f && max_centre_fraction <= 1.f) ||
-      !(horizontal_max_deg >= 0.f && horizontal_max_deg < 90.f) || !(support_min_rise_m >= 0.f)) {
+      !(horizontal_max_deg >= 0.f && horizontal_max_deg < 90.f) || !(support_min_rise_m >= 0.f) ||
+      !(flat_top_margin_m >= 0.f)) {
     return absl::InvalidArgumentError("mask: invalid background-plane parameter");
   }
   return absl::OkStatus();

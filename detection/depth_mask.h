@@ -75,6 +75,9 @@ struct MaskOptions {
   // Support furniture whose top is its highest part: what rises above the top is other objects
   // standing on it (the cups on a table), left out of its mask. Default: dining table, bench.
   std::vector<std::string> flat_top_classes = {"dining table", "bench"};
+  // ... precisely: what rises more than this above the top, m. A top is flat to depth noise
+  // (about 1 cm at 2 m), while a book lying on it is 2 cm thick or more. Default 0.03.
+  float flat_top_margin_m = 0.03f;
 
   bool IsSupportClass(const std::string& class_name) const;
   bool IsFlatTopClass(const std::string& class_name) const;

@@ -193,6 +193,14 @@ void FusedObject::RecomputeGeometry() {
   if (pts.empty()) {  // no cell has the support yet: every voxel counts
     for (const auto& [key, v] : voxels_) pts.push_back(v.sum_m / v.count);
   }
+  top_surface_z_m_ = DensestLayerZ(pts);
+  if (IsFlatTop()) {  // what stands on the top is other objects
+    std::vector<Eigen::Vector3d> below;
+    for (const Eigen::Vector3d& p : pts) {
+      if (p.z() <= top_surface_z_m_ + support_.flat_top_margin_m) below.push_back(p);
+    }
+    pts.swap(below);
+  }
   for (const Eigen::Vector3d& p : pts) {
     sum += p;
     aabb_min_m_ = aabb_min_m_.cwiseMin(p);
@@ -218,10 +226,14 @@ void FusedObject::RecomputeGeometry() {
   R_map_box_ = R;
   obb_center_m_ = mean + R * (0.5 * (lo + hi));
   obb_half_m_ = 0.5 * (hi - lo);
-  top_surface_z_m_ = DensestLayerZ(pts);
   sample_m_.clear();
   const size_t stride = std::max<size_t>(1, pts.size() / 48);
   for (size_t i = 0; i < pts.size(); i += stride) sample_m_.push_back(pts[i]);
+}
+
+bool FusedObject::IsFlatTop() const {
+  const auto& c = support_.flat_top_classes;
+  return !c.empty() && std::find(c.begin(), c.end(), labels_.Argmax()) != c.end();
 }
 
 MapObject FusedObject::Snapshot() const {

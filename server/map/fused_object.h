@@ -45,6 +45,10 @@ struct SupportOptions {
   // hold less than this fraction of them (point_components.h), so a stray cluster does not move
   // it while a contiguous part, a table's legs, always counts (0 = the full box).
   double centroid_min_part = 0.0;
+  // Flat-topped furniture (FusionOptions::flat_top_classes): geometry from the points up to
+  // flat_top_margin_m above its top surface (the densest level layer).
+  std::vector<std::string> flat_top_classes;
+  double flat_top_margin_m = 0.03;
 };
 
 class FusedObject {
@@ -121,6 +125,8 @@ class FusedObject {
   };
   // Whether a voxel (mean point p) lies in a cell with enough observations.
   bool Supported(const Eigen::Vector3d& p) const;
+  // Its most likely class is flat-topped furniture (SupportOptions::flat_top_classes).
+  bool IsFlatTop() const;
   uint32_t MinSupport() const;
   struct Cell {
     uint32_t observations = 0;  // observations with points in the cell

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <future>
+#include <map>
 #include <numeric>
 #include <opencv2/imgproc.hpp>
 
@@ -179,6 +180,103 @@ double RobustExtentM(const pcl::PointCloud<pcl::PointXYZRGB>& cloud) {
   return longest;
 }
 
+// The pieces of one detection's cloud: one per top surface of flat-topped furniture seen with
+// gravity (support_tops.h), else the whole cloud. *tops is set when the cloud was split.
+std::vector<pcl::PointCloud<pcl::PointXYZRGB>> Pieces(pcl::PointCloud<pcl::PointXYZRGB> cloud,
+                                                      const std::string& class_name,
+                                                      const MapOptions& options,
+                                                      const std::optional<Vec3d>& gravity_cam,
+                                                      std::optional<SupportTops>* tops) {
+  std::vector<pcl::PointCloud<pcl::PointXYZRGB>> pieces;
+  if (!gravity_cam || !options.observation.support_tops.enabled ||
+      !options.observation.mask.IsFlatTopClass(class_name)) {
+    pieces.push_back(std::move(cloud));
+    return pieces;
+  }
+  std::vector<Eigen::Vector3d> points_kf;
+  points_kf.reserve(cloud.size());
+  for (const auto& p : cloud) points_kf.push_back(p.getVector3fMap().cast<double>());
+  tops->emplace(points_kf, -gravity_cam->normalized(), options.observation.support_tops,
+                options.observation.mask);
+  if ((*tops)->size() == 0) {  // no top in view (seen from below, or too little of it)
+    tops->reset();
+    pieces.push_back(std::move(cloud));
+    return pieces;
+  }
+  pieces.resize((*tops)->size());
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const int t = (*tops)->TopOf(points_kf[i]);
+    if (t >= 0) pieces[t].push_back(cloud[i]);
+  }
+  return pieces;
+}
+
+// Whether one piece of a detection is worth fusing (ObservationOptions).
+bool Fusable(const pcl::PointCloud<pcl::PointXYZRGB>& cloud, const std::string& class_name,
+             const MapOptions& options) {
+  return static_cast<int>(cloud.size()) >= options.observation.min_points &&
+         RobustExtentM(cloud) <= options.MaxSizeM(class_name) &&
+         MedianDepthM(cloud) <= options.observation.max_object_depth_m;
+}
+
+// Pixel label (1 + detection index) -> observation (1 + index, 0 = none) of the dense cloud's
+// points; a detection split by its tops sends each point to its top's observation.
+struct LabelToObservation {
+  std::vector<uint32_t> whole;
+  std::map<uint32_t, std::pair<SupportTops, std::vector<uint32_t>>> split;
+
+  uint32_t Of(const pcl::PointXYZRGBL& p) const {
+    auto it = split.find(p.label);
+    if (it == split.end()) return p.label < whole.size() ? whole[p.label] : 0;
+    const int t = it->second.first.TopOf(p.getVector3fMap().cast<double>());
+    return t >= 0 ? it->second.second[t] : 0;
+  }
+};
+
+// The object observations of the detections (appended to products->observations).
+LabelToObservation AddObservations(const cv::Mat& bgr, const cv::Mat& depth_m,
+                                   const cv::Mat& labels, const PinholeCamera& camera,
+                                   const std::vector<Detection2D>& detections,
+                                   const MapOptions& options,
+                                   const std::optional<Vec3d>& gravity_cam,
+                                   KeyframeProducts* products) {
+  LabelToObservation to_obs;
+  to_obs.whole.assign(detections.size() + 1, 0);
+  for (int i = 0; i < static_cast<int>(detections.size()); ++i) {
+    const Detection2D& d = detections[i];
+    if (options.IsDynamic(d.class_name) || d.score < options.observation.min_score ||
+        !options.IsMapped(d.class_name) ||
+        std::min(d.box_px.width, d.box_px.height) < options.observation.min_box_px) {
+      continue;
+    }
+    std::optional<SupportTops> tops;
+    std::vector<pcl::PointCloud<pcl::PointXYZRGB>> pieces = Pieces(
+        ObjectCloud(bgr, depth_m, labels, static_cast<int16_t>(i + 1),
+                    MaskRect(d.box_px, depth_m.cols, depth_m.rows), camera, options),
+        d.class_name, options, gravity_cam, &tops);
+    std::vector<uint32_t> observation_of_piece(pieces.size(), 0);
+    for (size_t k = 0; k < pieces.size(); ++k) {
+      if (!Fusable(pieces[k], d.class_name, options)) continue;
+      ObjectObservation obs;
+      obs.detection_index = i;
+      obs.class_name = d.class_name;
+      obs.score = d.score;
+      // A track follows the box; a box split into several pieces of furniture names none.
+      obs.track_id = pieces.size() == 1 ? d.track_id : 0;
+      obs.cloud_kf = std::move(pieces[k]);
+      products->observations.push_back(std::move(obs));
+      observation_of_piece[k] = static_cast<uint32_t>(products->observations.size());
+    }
+    if (tops) {
+      to_obs.split.emplace(static_cast<uint32_t>(i + 1),
+                           std::make_pair(std::move(*tops), std::move(observation_of_piece)));
+    } else {
+      to_obs.whole[i + 1] = observation_of_piece[0];
+    }
+  }
+  return to_obs;
+}
+
 }  // namespace
 
 KeyframeProducts BuildKeyframeProducts(const cv::Mat& bgr, const cv::Mat& depth_m,
@@ -215,34 +313,12 @@ KeyframeProducts BuildKeyframeProducts(const cv::Mat& bgr, const cv::Mat& depth_
   });
 
   t = ThreadCpuMs();
-  // Object observations; remember which pixel label became which observation.
-  std::vector<uint32_t> label_to_observation(detections.size() + 1, 0);
-  for (int i = 0; i < static_cast<int>(detections.size()); ++i) {
-    const Detection2D& d = detections[i];
-    if (options.IsDynamic(d.class_name) || d.score < options.observation.min_score ||
-        !options.IsMapped(d.class_name) ||
-        std::min(d.box_px.width, d.box_px.height) < options.observation.min_box_px) {
-      continue;
-    }
-    ObjectObservation obs;
-    obs.detection_index = i;
-    obs.class_name = d.class_name;
-    obs.score = d.score;
-    obs.track_id = d.track_id;
-    obs.cloud_kf = ObjectCloud(bgr, depth_m, labels, static_cast<int16_t>(i + 1),
-                               MaskRect(d.box_px, depth_m.cols, depth_m.rows), camera, options);
-    if (static_cast<int>(obs.cloud_kf.size()) < options.observation.min_points) continue;
-    if (RobustExtentM(obs.cloud_kf) > options.MaxSizeM(d.class_name)) continue;
-    if (MedianDepthM(obs.cloud_kf) > options.observation.max_object_depth_m) continue;
-    products.observations.push_back(std::move(obs));
-    label_to_observation[i + 1] = static_cast<uint32_t>(products.observations.size());
-  }
+  const LabelToObservation to_observation =
+      AddObservations(bgr, depth_m, labels, camera, detections, options, gravity_cam, &products);
   products.objects_ms = ThreadCpuMs() - t;
 
   Dense dense = dense_future.get();
-  for (auto& p : dense.cloud) {
-    p.label = p.label < label_to_observation.size() ? label_to_observation[p.label] : 0;
-  }
+  for (auto& p : dense.cloud) p.label = to_observation.Of(p);
   products.static_cloud_kf = std::move(dense.cloud);
   products.backproject_ms = dense.backproject_ms;
   products.voxel_ms = dense.voxel_ms;

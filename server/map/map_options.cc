@@ -29,7 +29,13 @@ Status CheckMapKeys(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(
       CheckKnownKeys(node["observation"], "map.observation",
                      {"min_score", "mask", "voxel_m", "max_points", "sor_mean_k", "sor_stddev_mul",
-                      "sor_min_voxels", "min_points", "min_box_px", "max_object_depth_m"}));
+                      "sor_min_voxels", "min_points", "min_box_px", "max_object_depth_m",
+                      "support_tops"}));
+  if (const YAML::Node observation = node["observation"]) {
+    LOCI_RETURN_IF_ERROR(CheckKnownKeys(observation["support_tops"], "map.observation.support_tops",
+                                        {"enabled", "cell_m", "max_tilt_deg", "min_top_area_m2",
+                                         "reach_m", "max_planes", "ransac_iterations"}));
+  }
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["fusion"], "map.fusion", kFusionKeys));
   if (const YAML::Node fusion = node["fusion"]) {
     LOCI_RETURN_IF_ERROR(
@@ -100,6 +106,16 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_points", &observation.min_points));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_box_px", &observation.min_box_px));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_object_depth_m", &observation.max_object_depth_m));
+    if (const YAML::Node t = n["support_tops"]) {
+      SupportTopsOptions& o = observation.support_tops;
+      LOCI_RETURN_IF_ERROR(ReadOptional(t, "enabled", &o.enabled));
+      LOCI_RETURN_IF_ERROR(ReadOptional(t, "cell_m", &o.cell_m));
+      LOCI_RETURN_IF_ERROR(ReadOptional(t, "max_tilt_deg", &o.max_tilt_deg));
+      LOCI_RETURN_IF_ERROR(ReadOptional(t, "min_top_area_m2", &o.min_top_area_m2));
+      LOCI_RETURN_IF_ERROR(ReadOptional(t, "reach_m", &o.reach_m));
+      LOCI_RETURN_IF_ERROR(ReadOptional(t, "max_planes", &o.max_planes));
+      LOCI_RETURN_IF_ERROR(ReadOptional(t, "ransac_iterations", &o.ransac_iterations));
+    }
   }
   if (const YAML::Node n = node["fusion"]) {
     LOCI_RETURN_IF_ERROR(
@@ -196,6 +212,13 @@ Status MapOptions::Validate() const {
     return bad("fusion.min_likelihood in (0, 0.5)");
   }
   if (observation.max_points < 10) return bad("observation.max_points >= 10");
+  const SupportTopsOptions& tops = observation.support_tops;
+  if (!(tops.cell_m > 0.001) || !(tops.max_tilt_deg >= 0 && tops.max_tilt_deg < 90) ||
+      !(tops.min_top_area_m2 >= 0) || !(tops.reach_m >= 0) || tops.max_planes < 1 ||
+      tops.ransac_iterations < 1) {
+    return bad("observation.support_tops: cell_m > 0.001, max_tilt_deg in [0, 90), "
+               "min_top_area_m2 >= 0, reach_m >= 0, max_planes >= 1, ransac_iterations >= 1");
+  }
   if (fusion.confirm_observations < 1) return bad("fusion.confirm_observations >= 1");
   if (!(fusion.support_cell_m > 0.001) ||
       !(fusion.min_support_fraction >= 0 && fusion.min_support_fraction <= 1)) {

@@ -11,6 +11,7 @@
 #include "common/status.h"
 #include "detection/depth_mask.h"
 #include "server/map/map_frame.h"
+#include "server/map/support_tops.h"
 #include "server/map/visibility.h"
 
 namespace loci::server {
@@ -48,6 +49,9 @@ struct ObservationOptions {
   // and a detector's precision falls on small, far boxes) are not fused.
   double min_box_px = 20;
   double max_object_depth_m = 3.5;
+  // Flat-topped furniture (mask.flat_top_classes) seen with gravity: one observation per top
+  // surface, without what lies outside the tops' footprints (support_tops.h).
+  SupportTopsOptions support_tops;
 };
 
 // Association of observations with objects and merging (paper 000 3.3).
@@ -98,6 +102,11 @@ struct FusionOptions {
   double confirm_llr = 2.0;
   double remove_llr = -4.0;
   VisibilityOptions visibility;
+  // Flat-topped furniture (observation.mask.flat_top_classes and flat_top_margin_m, set by
+  // Mapper from there): its geometry comes from its points up to its top surface, not from what
+  // stands on it. Empty = none.
+  std::vector<std::string> flat_top_classes;
+  double flat_top_margin_m = 0.03;
 };
 
 struct OctomapOptions {
@@ -150,6 +159,6 @@ struct MapOptions {
 
 // Version of the product and fusion code; bump it when a change alters products or the map
 // for the same options (stored products and checkpoints of another version are recomputed).
-inline constexpr int kMapCodeVersion = 1;
+inline constexpr int kMapCodeVersion = 2;
 
 }  // namespace loci::server

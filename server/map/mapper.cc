@@ -12,11 +12,19 @@ namespace {
 
 double MsSince(double t0_cpu_ms) { return ThreadCpuMs() - t0_cpu_ms; }
 
+// The fusion options with the flat-topped furniture of the observation masks.
+FusionOptions FusionWithFlatTops(const MapOptions& options) {
+  FusionOptions f = options.fusion;
+  f.flat_top_classes = options.observation.mask.flat_top_classes;
+  f.flat_top_margin_m = options.observation.mask.flat_top_margin_m;
+  return f;
+}
+
 }  // namespace
 
 Mapper::Mapper(const MapOptions& options)
     : options_(options),
-      objects_(options.fusion, options.observation.voxel_m),
+      objects_(FusionWithFlatTops(options), options.observation.voxel_m),
       cloud_(options.cloud.voxel_m),
       octomap_(options.octomap.enabled ? std::make_unique<OccupancyMap>(options.octomap)
                                        : nullptr) {

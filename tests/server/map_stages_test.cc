@@ -409,7 +409,8 @@ TEST(FusedObject, OneStrayObservationDoesNotStretchTheObject) {
     return pts;
   };
   for (double min_fraction : {0.1, 0.0}) {
-    FusedObject cup(1, 0.01, true, LabelDistribution(13, 0.05), {0.05, min_fraction});
+    FusedObject cup(1, 0.01, true, LabelDistribution(13, 0.05),
+                    {0.05, min_fraction, 0.0, {}, 0.03});
     for (int k = 0; k < 11; ++k) cup.AddPoints(view(k == 5));
     const MapObject o = cup.Snapshot();
     const Eigen::Vector3d extent = o.aabb_max_m - o.aabb_min_m;
@@ -437,7 +438,7 @@ TEST(FusedObject, BoxCentreKeepsContiguousLegsAndDropsAStrayCluster) {
     for (int k = 0; k < 72; ++k) pts.push_back({Eigen::Vector3f(x, y, 0.01f * k), 0});
   }
   for (int i = 0; i < 40; ++i) pts.push_back({Eigen::Vector3f(0.5f, 0.3f, 1.02f + 0.005f * i), 0});
-  FusedObject table(1, 0.01, true, LabelDistribution(13, 0.05), {0.05, 0.0, 0.05});
+  FusedObject table(1, 0.01, true, LabelDistribution(13, 0.05), {0.05, 0.0, 0.05, {}, 0.03});
   table.AddPoints(pts);
   const MapObject o = table.Snapshot();
   EXPECT_NEAR(o.centroid_m.z(), 0.36, 0.01);
