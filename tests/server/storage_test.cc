@@ -144,6 +144,49 @@ TEST(SqliteStore, KeyframeRoundTripAndDuplicates) {
   EXPECT_FALSE((*(*store)->FindSession("nope")).has_value());
 }
 
+// Robot alignment (schema 4): a session created unaligned is stored so, gets its placement
+// and the aligned flag in one update, and a scan can be limited to one session's keyframes.
+TEST(SqliteStore, SessionAlignmentIsStoredAndScansFilterBySession) {
+  auto store = SqliteStore::Open(FreshDb("alignment"));
+  ASSERT_TRUE(store.ok()) << store.status();
+  SessionRecord s;
+  s.robot_name = "robot2";
+  s.camera = PinholeCamera::TumFr1();
+  s.aligned = false;
+  auto b = (*store)->CreateSession(s);
+  s.robot_name = "robot1";
+  s.aligned = true;
+  auto a = (*store)->CreateSession(s);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_FALSE((*(*store)->FindSession(b->session_id))->aligned);
+  EXPECT_TRUE((*(*store)->FindSession(a->session_id))->aligned);
+  const SE3d T = MakeSE3(Vec3d(0.5, -1, 0.2), Quatd(Eigen::AngleAxisd(1.0, Vec3d::UnitZ())));
+  ASSERT_TRUE((*store)->SetSessionAlignment(b->row_id, T).ok());
+  auto found = (*store)->FindSession(b->session_id);
+  ASSERT_TRUE(found.ok() && found->has_value());
+  EXPECT_TRUE((*found)->aligned);
+  EXPECT_TRUE((*found)->T_base_odom.isApprox(T, 1e-12));
+  EXPECT_EQ((*store)->SetSessionAlignment(999, T).code(), absl::StatusCode::kNotFound);
+
+  for (int seq = 0; seq < 3; ++seq) {
+    ASSERT_TRUE((*store)->InsertKeyframe(MakeKeyframe(seq == 1 ? b->row_id : a->row_id, seq)).ok());
+  }
+  KeyframeScan scan;
+  scan.images = false;
+  scan.session_row = b->row_id;
+  std::vector<int64_t> seqs;
+  ASSERT_TRUE((*store)
+                  ->ForEachKeyframe(0,
+                                    [&](KeyframeRecord r) {
+                                      EXPECT_EQ(r.session_row, b->row_id);
+                                      seqs.push_back(r.seq);
+                                      return absl::OkStatus();
+                                    },
+                                    scan)
+                  .ok());
+  EXPECT_EQ(seqs, std::vector<int64_t>({1}));
+}
+
 TEST(SqliteStore, ManyReaderThreadsKeepTheConnectionCountBounded) {
   SqliteStoreOptions o;
   o.max_idle_readers = 2;
