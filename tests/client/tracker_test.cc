@@ -14,6 +14,7 @@
 #include "common/trajectory_eval.h"
 #include "common/tum_io.h"
 #include "synth/annotate.h"
+#include "tests/support/tum_data.h"
 #include "synth/renderer.h"
 #include "synth/scene.h"
 
@@ -67,11 +68,7 @@ TEST(TrackerTest, ShippedSampleWithLocalBundleAdjustment) {
 }
 
 TEST(TrackerTest, FullFr1RpyAteWithinTarget) {
-  std::string dir;
-  for (const std::string& c :
-       {DataDirFromEnv() + "/tum_fr1_rpy", SourceDir() + "/../shared/data/tum_fr1_rpy"}) {
-    if (std::filesystem::exists(c + "/rgb.txt")) dir = c;
-  }
+  const std::string dir = loci::testing::FullTumSequence("tum_fr1_rpy");
   if (dir.empty()) {
     GTEST_SKIP() << "tum_fr1_rpy not found: set LOCI_DATA to a folder holding tum_fr1_rpy "
                     "(scripts/fetch-tum.sh downloads it) or place it in ../shared/data";

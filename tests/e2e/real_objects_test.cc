@@ -9,25 +9,15 @@
 #include <filesystem>
 
 #include "cli/report/report_pipeline.h"
+#include "tests/support/tum_data.h"
 
 namespace loci::report {
 namespace {
 
 namespace fs = std::filesystem;
 
-// $LOCI_DATA/tum_fr1_rpy, else ../shared/data/tum_fr1_rpy beside the source tree.
-std::string FullSequence() {
-  std::vector<std::string> candidates;
-  if (const char* d = std::getenv("LOCI_DATA")) candidates.push_back(std::string(d) + "/tum_fr1_rpy");
-  candidates.push_back(std::string(LOCI_SOURCE_DIR) + "/../shared/data/tum_fr1_rpy");
-  for (const auto& c : candidates) {
-    if (fs::exists(c + "/objects_gt.json") && fs::exists(c + "/rgb.txt")) return c;
-  }
-  return "";
-}
-
 TEST(RealObjects, Fr1RpyAgainstHandMadeGroundTruth) {
-  const std::string dir = FullSequence();
+  const std::string dir = loci::testing::FullTumSequence("tum_fr1_rpy", {"objects_gt.json"});
   if (dir.empty()) GTEST_SKIP() << "no tum_fr1_rpy with objects_gt.json in $LOCI_DATA or ../shared/data";
   ReportOptions o;
   o.tum_dir = dir;

@@ -20,23 +20,13 @@
 #include "loci/v1/query.grpc.pb.h"
 #include "proto/convert.h"
 #include "tests/support/server_process.h"
+#include "tests/support/tum_data.h"
 
 namespace loci {
 namespace {
 
 namespace fs = std::filesystem;
 const std::string kRoot = LOCI_SOURCE_DIR;
-
-// $LOCI_DATA/tum_fr1_rpy, else ../shared/data/tum_fr1_rpy beside the source tree; "" if absent.
-std::string FullSequence() {
-  std::vector<std::string> candidates;
-  if (const char* d = std::getenv("LOCI_DATA")) candidates.push_back(std::string(d) + "/tum_fr1_rpy");
-  candidates.push_back(kRoot + "/../shared/data/tum_fr1_rpy");
-  for (const auto& c : candidates) {
-    if (fs::exists(c + "/groundtruth.txt") && fs::exists(c + "/rgb.txt")) return c;
-  }
-  return "";
-}
 
 struct RobotRun {
   std::string name;
@@ -379,7 +369,7 @@ TEST(TwoRobots, ShippedSampleSplitIsAligned) {
 // large part, and 2.5-3 cm, 1.9-3.7 deg on the same images. The bounds below guard what is
 // reached, not the target.
 TEST(TwoRobots, Fr1RpySplitIsAlignedAndMergedOnce) {
-  const std::string tum = FullSequence();
+  const std::string tum = testing::FullTumSequence("tum_fr1_rpy", {"groundtruth.txt"});
   if (tum.empty()) GTEST_SKIP() << "no tum_fr1_rpy in $LOCI_DATA or ../shared/data";
   CheckTwoRobots(tum, {"A", 0, 451, "", ""}, {"B", 300, 0, "", ""}, 0.10, 8.0, 0.05, 4.5,
                  /*check_duplicates=*/true);

@@ -9,6 +9,7 @@
 #include "common/image_codec.h"
 #include "common/time.h"
 #include "common/tum_io.h"
+#include "tests/support/tum_data.h"
 
 namespace loci::place::testing {
 namespace {
@@ -69,13 +70,6 @@ SE3d GroundTruthT_a_b(const TumKeyframe& a, const TumKeyframe& b) {
   return a.T_world_cam.inverse() * b.T_world_cam;
 }
 
-std::string FullFr1RpyDir() {
-  const std::string from_env = DataDirFromEnv().empty() ? "" : DataDirFromEnv() + "/tum_fr1_rpy";
-  for (const std::string& c :
-       {from_env, std::string(LOCI_SOURCE_DIR) + "/../shared/data/tum_fr1_rpy"}) {
-    if (!c.empty() && std::filesystem::exists(c + "/rgb.txt")) return c;
-  }
-  return "";
-}
+std::string FullFr1RpyDir() { return loci::testing::FullTumSequence("tum_fr1_rpy"); }
 
 }  // namespace loci::place::testing
