@@ -91,6 +91,27 @@ void PrintAlignment(const loci::v1::GetStatsResponse& resp) {
                 static_cast<unsigned long long>(a.verified()),
                 static_cast<unsigned long long>(a.rejected()));
   }
+  const loci::v1::PoseGraphStats& g = resp.pose_graph();
+  if (g.enabled()) {
+    std::printf("loop closure       %llu loop and %llu merge matches verified; %llu solves "
+                "(%.0f ms mean) moved %llu keyframes\n",
+                static_cast<unsigned long long>(g.loop_matches()),
+                static_cast<unsigned long long>(g.merge_matches()),
+                static_cast<unsigned long long>(g.optimizations()), g.solve_ms_mean(),
+                static_cast<unsigned long long>(g.keyframes_moved()));
+    if (g.optimizations() > 0) {
+      std::printf("pose graph         %llu keyframes, %llu edges, loops %llu kept / %llu rejected, "
+                  "merges %llu kept / %llu rejected, %llu islands%s, %.0f ms\n",
+                  static_cast<unsigned long long>(g.nodes()),
+                  static_cast<unsigned long long>(g.edges()),
+                  static_cast<unsigned long long>(g.loops_accepted()),
+                  static_cast<unsigned long long>(g.loops_rejected()),
+                  static_cast<unsigned long long>(g.merges_accepted()),
+                  static_cast<unsigned long long>(g.merges_rejected()),
+                  static_cast<unsigned long long>(g.islands()), g.four_dof() ? ", 4-DoF" : "",
+                  g.last_solve_ms());
+    }
+  }
   for (const loci::v1::SessionAlignment& s : resp.session_alignments()) {
     const auto& t = s.t_map_odom().t_m();
     if (s.aligned()) {

@@ -8,13 +8,40 @@ Status AlignOptions::FromYaml(const YAML::Node& node) {
   if (!node) return absl::OkStatus();
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
       node, "align", {"enabled", "max_verify", "level_with_gravity", "min_gravity_keyframes",
-                 "refine_max_matches"}));
+                 "refine_max_matches", "loops"}));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "enabled", &enabled));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "max_verify", &max_verify));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "level_with_gravity", &level_with_gravity));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "min_gravity_keyframes", &min_gravity_keyframes));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "refine_max_matches", &refine_max_matches));
+  LOCI_RETURN_IF_ERROR(loops.FromYaml(node["loops"]));
   return Validate();
+}
+
+Status LoopOptions::FromYaml(const YAML::Node& node) {
+  if (!node) return absl::OkStatus();
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(node, "align.loops",
+                                      {"enabled", "min_gap_s", "sigma_trans_m", "sigma_rot_rad",
+                                       "optimize_every_edges", "optimize_min_keyframes"}));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "enabled", &enabled));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "min_gap_s", &min_gap_s));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "sigma_trans_m", &sigma_trans_m));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "sigma_rot_rad", &sigma_rot_rad));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "optimize_every_edges", &optimize_every_edges));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "optimize_min_keyframes", &optimize_min_keyframes));
+  return Validate();
+}
+
+Status LoopOptions::Validate() const {
+  if (!(min_gap_s >= 0)) return absl::InvalidArgumentError("align.loops.min_gap_s must be >= 0");
+  if (!(sigma_trans_m > 0) || !(sigma_rot_rad > 0)) {
+    return absl::InvalidArgumentError("align.loops.sigma_trans_m and sigma_rot_rad must be > 0");
+  }
+  if (optimize_every_edges < 1 || optimize_min_keyframes < 0) {
+    return absl::InvalidArgumentError(
+        "align.loops.optimize_every_edges must be >= 1 and optimize_min_keyframes >= 0");
+  }
+  return absl::OkStatus();
 }
 
 Status AlignOptions::Validate() const {
@@ -24,6 +51,7 @@ Status AlignOptions::Validate() const {
   if (min_gravity_keyframes < 1) {
     return absl::InvalidArgumentError("align.min_gravity_keyframes must be >= 1");
   }
+  LOCI_RETURN_IF_ERROR(loops.Validate());
   if (refine_max_matches < 0) {
     return absl::InvalidArgumentError("align.refine_max_matches must be >= 0 (0 = off)");
   }

@@ -7,6 +7,32 @@
 
 namespace loci::server {
 
+// Loop closure and the pose graph on the server (section `align.loops`; loop_closer.h).
+struct LoopOptions {
+  // Every keyframe of an aligned session is also matched against the older keyframes of its
+  // own session (loops) and the other aligned sessions (merges); verified matches become pose
+  // graph edges, and the graph (section `graph`) is solved and the map moved to its solution
+  // (true). false: no loop closure; a merged session's placement is refined from its later
+  // matches instead (refine_max_matches).
+  bool enabled = true;
+  // A loop joins keyframes captured at least this far apart, s (5.0): nearer ones are odometry
+  // neighbours (place.query.exclude_recent_keyframes also applies).
+  double min_gap_s = 5.0;
+  // Standard deviations of a verified match as a graph edge: translation (m) and rotation (rad)
+  // (0.02, 0.01). The wrong-loop guard (graph.pcm) works in these units.
+  double sigma_trans_m = 0.02;
+  double sigma_rot_rad = 0.01;
+  // The graph is solved once this many new verified edges (loops or merges between mapped
+  // keyframes) are in (3) ...
+  int optimize_every_edges = 3;
+  // ... and at least this many keyframes were mapped since the last solve (10).
+  int optimize_min_keyframes = 10;
+
+  int64_t min_gap_ns() const { return static_cast<int64_t>(min_gap_s * 1e9); }
+  Status FromYaml(const YAML::Node& node);
+  Status Validate() const;
+};
+
 struct AlignOptions {
   // A new session of a robot that config/server.yaml's `sessions.T_base_odom` does not place
   // starts unaligned when the map already has an aligned session: its keyframes are stored, and
@@ -28,6 +54,7 @@ struct AlignOptions {
   // matches are in (48; 0 = no refinement). One match's error grows with the camera's speed
   // (docs/results.md): the mean of many is steadier than that of the first three.
   int refine_max_matches = 48;
+  LoopOptions loops;
 
   // Reads the keys of `align`; unknown keys are errors.
   Status FromYaml(const YAML::Node& node);

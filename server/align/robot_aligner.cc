@@ -47,14 +47,18 @@ AlignStats RobotAligner::Stats() const {
   return s;
 }
 
-StatusOr<std::optional<SessionAlignment>> RobotAligner::AddKeyframe(const AlignKeyframe& kf,
-                                                                    const cv::Mat& bgr,
-                                                                    const cv::Mat& depth_m,
-                                                                    const PinholeCamera& camera,
-                                                                    bool match) {
+void RobotAligner::SetAlignment(int64_t session_row, const SE3d& T_base_odom) {
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  auto it = sessions_.find(session_row);
+  if (it != sessions_.end() && it->second.T_base_odom) it->second.T_base_odom = T_base_odom;
+}
+
+StatusOr<AlignOutcome> RobotAligner::AddKeyframe(const AlignKeyframe& kf, const cv::Mat& bgr,
+                                                 const cv::Mat& depth_m,
+                                                 const PinholeCamera& camera, bool match) {
   const double t0_ms = ThreadCpuMs();
   std::lock_guard<std::mutex> work(work_mu_);
-  if (indexed_.count(kf.keyframe_id)) return std::optional<SessionAlignment>();  // re-indexed
+  if (indexed_.count(kf.keyframe_id)) return AlignOutcome();  // re-indexed
   bool aligned = false;
   {
     std::lock_guard<std::mutex> lock(sessions_mu_);
@@ -73,34 +77,40 @@ StatusOr<std::optional<SessionAlignment>> RobotAligner::AddKeyframe(const AlignK
   LOCI_ASSIGN_OR_RETURN(place::KeyframeFeatures features,
                         place::ExtractFeatures(bgr, depth_m, camera, place_.features));
   const place::BowVector bow = db_.Quantise(features.descriptors, /*add_words=*/true);
-  std::optional<SessionAlignment> result;
+  AlignOutcome out;
+  std::optional<SessionAlignment>& result = out.alignment;
   if (match && !aligned) {
-    result = Gate(kf, Match(kf, features, bow));
+    out.matches = Match(kf, features, bow, /*loops=*/false);
+    result = Gate(kf, Estimates(kf, out.matches));
+  } else if (match && options_.loops.enabled) {
+    out.matches = Match(kf, features, bow, /*loops=*/true);
   } else if (match && Refining(kf.session_row)) {
-    result = Refine(kf, Match(kf, features, bow));
+    out.matches = Match(kf, features, bow, /*loops=*/false);
+    result = Refine(kf, Estimates(kf, out.matches));
   }
   LOCI_RETURN_IF_ERROR(db_.Insert(kf.keyframe_id, Key(kf.session_row), bow));
-  indexed_[kf.keyframe_id] = {kf.session_row, kf.T_odom_kf, std::move(features)};
+  indexed_[kf.keyframe_id] = {kf.session_row, kf.t_ns, kf.T_odom_kf, std::move(features)};
   std::lock_guard<std::mutex> lock(stats_mu_);
   ++stats_.keyframes;
   stats_.place_ms_total += ThreadCpuMs() - t0_ms;
   stats_.vocabulary_words = db_.words();
   if (result) ++(result->refined ? stats_.refinements : stats_.merges_accepted);
-  return result;
+  return out;
 }
 
-std::vector<SE3d> RobotAligner::Match(const AlignKeyframe& kf,
-                                      const place::KeyframeFeatures& features,
-                                      const place::BowVector& bow) {
-  std::vector<SE3d> estimates;
+std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
+                                               const place::KeyframeFeatures& features,
+                                               const place::BowVector& bow, bool loops) {
+  std::vector<VerifiedMatch> matches;
   int tried = 0;
   uint64_t verified = 0, rejected = 0;
   for (const place::PlaceCandidate& c : db_.Query(bow, Key(kf.session_row))) {
     auto a = indexed_.find(c.keyframe_id);
     if (a == indexed_.end()) continue;
-    if (a->second.session_row == kf.session_row) continue;  // a loop, not a merge
-    const std::optional<SE3d> T_base_odom_a = Alignment(a->second.session_row);
-    if (!T_base_odom_a) continue;  // unaligned sessions do not align each other
+    const bool loop = a->second.session_row == kf.session_row;
+    if (loop && (!loops || kf.t_ns - a->second.t_ns < options_.loops.min_gap_ns())) continue;
+    // Unaligned sessions do not align each other.
+    if (!loop && !Alignment(a->second.session_row)) continue;
     if (tried++ >= options_.max_verify) break;
     const place::Verification v = place::VerifyPair(a->second.features, features, place_.verify);
     if (!v.accepted) {
@@ -108,12 +118,25 @@ std::vector<SE3d> RobotAligner::Match(const AlignKeyframe& kf,
       continue;
     }
     ++verified;
-    estimates.push_back(*T_base_odom_a * a->second.T_odom_kf * v.T_a_b * kf.T_odom_kf.inverse());
+    matches.push_back({c.keyframe_id, kf.keyframe_id, v.T_a_b, v.inliers, v.rms_m, loop});
   }
   std::lock_guard<std::mutex> lock(stats_mu_);
   ++stats_.queries;
   stats_.verified += verified;
   stats_.rejected += rejected;
+  return matches;
+}
+
+std::vector<SE3d> RobotAligner::Estimates(const AlignKeyframe& kf,
+                                          const std::vector<VerifiedMatch>& matches) const {
+  std::vector<SE3d> estimates;
+  for (const VerifiedMatch& m : matches) {
+    if (m.loop) continue;
+    const IndexedKeyframe& a = indexed_.at(m.a_id);
+    const std::optional<SE3d> T_base_odom_a = Alignment(a.session_row);
+    if (!T_base_odom_a) continue;
+    estimates.push_back(*T_base_odom_a * a.T_odom_kf * m.T_a_b * kf.T_odom_kf.inverse());
+  }
   return estimates;
 }
 

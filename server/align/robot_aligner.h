@@ -54,6 +54,23 @@ struct SessionAlignment {
 };
 
 // How long a session waited to be aligned (by place recognition).
+// A verified place-recognition match between two indexed keyframes (p_a = T_a_b * p_b): a loop
+// (one session) or a merge (two sessions), for the pose graph (loop_closer.h).
+struct VerifiedMatch {
+  int64_t a_id = 0;  // the stored keyframe that was found
+  int64_t b_id = 0;  // the querying keyframe
+  SE3d T_a_b = SE3d::Identity();
+  int inliers = 0;   // 3D-3D inliers
+  double rms_m = 0;  // their RMS distance after alignment
+  bool loop = false; // same session
+};
+
+// What one keyframe gave: an alignment of its session, and the verified matches.
+struct AlignOutcome {
+  std::optional<SessionAlignment> alignment;
+  std::vector<VerifiedMatch> matches;
+};
+
 struct AlignmentDelay {
   int keyframes = 0;         // the session's keyframes up to and including the aligning one
   double seconds = 0;        // capture time from its first keyframe to the aligning one
@@ -88,10 +105,14 @@ class RobotAligner {
   // an unknown session is an error, as are images the features cannot be read from.
   // With match = false the keyframe is only indexed (rebuilding the index after a restart).
   // Calls are serialised (the mapping worker and the re-indexing after a restart).
-  StatusOr<std::optional<SessionAlignment>> AddKeyframe(const AlignKeyframe& kf,
-                                                        const cv::Mat& bgr, const cv::Mat& depth_m,
-                                                        const PinholeCamera& camera,
-                                                        bool match = true);
+  // With options.loops.enabled, every keyframe of an aligned session is matched too (against
+  // the older keyframes of its own session and the other aligned sessions), and the outcome
+  // lists every verified match; placements are then not refined here (the pose graph does it).
+  StatusOr<AlignOutcome> AddKeyframe(const AlignKeyframe& kf, const cv::Mat& bgr,
+                                     const cv::Mat& depth_m, const PinholeCamera& camera,
+                                     bool match = true);
+  // Places an aligned session anew (after a pose-graph solve moved its keyframes).
+  void SetAlignment(int64_t session_row, const SE3d& T_base_odom);
   bool Indexed(int64_t keyframe_id) const;
   // For a session aligned by place recognition since the start: how long it waited.
   std::optional<AlignmentDelay> Delay(int64_t session_row) const;
@@ -114,12 +135,16 @@ class RobotAligner {
   };
   struct IndexedKeyframe {
     int64_t session_row = 0;
+    int64_t t_ns = 0;
     SE3d T_odom_kf = SE3d::Identity();
     place::KeyframeFeatures features;
   };
-  // Verifies the best candidates; the estimates of T_base_odom(kf's session), one per match.
-  std::vector<SE3d> Match(const AlignKeyframe& kf, const place::KeyframeFeatures& features,
-                          const place::BowVector& bow);
+  // Verifies the best candidates among the keyframes of aligned sessions (and, with loops,
+  // the older ones of kf's own session).
+  std::vector<VerifiedMatch> Match(const AlignKeyframe& kf, const place::KeyframeFeatures& features,
+                                   const place::BowVector& bow, bool loops);
+  // The estimates of T_base_odom(kf's session), one per merge match.
+  std::vector<SE3d> Estimates(const AlignKeyframe& kf, const std::vector<VerifiedMatch>& matches) const;
   std::optional<SessionAlignment> Gate(const AlignKeyframe& kf, const std::vector<SE3d>& estimates);
   // For an aligned session: keeps the estimates that agree with its placement; a refined
   // placement when their count reached the next refinement.

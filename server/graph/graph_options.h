@@ -89,9 +89,9 @@ struct GraphOptions {
   // first moved there rigidly, so the solver starts near the answer, m and rad (0.5, 0.17).
   double place_trans_m = 0.5;
   double place_rot_rad = 0.17;
-  // A keyframe whose pose changed by more than this is reported as moved, m and rad (1e-4, 1e-4).
-  double moved_trans_m = 1e-4;
-  double moved_rot_rad = 1e-4;
+  // A keyframe whose pose changed by more than this is reported as moved, m and rad (0.002, 0.001).
+  double moved_trans_m = 0.002;
+  double moved_rot_rad = 0.001;
 
   Status FromYaml(const YAML::Node& node);
   Status Validate() const;

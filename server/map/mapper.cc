@@ -417,6 +417,14 @@ std::map<std::string, Trajectory> Mapper::Trajectories() const {
   return out;
 }
 
+std::vector<Mapper::KeyframePoseUpdate> Mapper::KeyframePoses() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  std::vector<KeyframePoseUpdate> out;
+  out.reserve(keyframe_poses_.size());
+  for (const KeyframePose& k : keyframe_poses_) out.push_back({k.keyframe_id, k.T_base_kf});
+  return out;
+}
+
 std::map<std::string, RobotPose> Mapper::LatestPoses() const {
   std::lock_guard<std::mutex> lock(mu_);
   return latest_poses_;

@@ -45,6 +45,7 @@ struct MapperKeyframe {
   // it into the map frame.
   SE3d T_base_kf = SE3d::Identity();
   SE3d T_odom_kf = SE3d::Identity();  // the pose the robot sent, in its odometry frame
+  int segment = 0;  // the client's odometry segment (a tracking loss starts a new one)
   PinholeCamera camera;
   cv::Mat bgr;      // CV_8UC3
   cv::Mat depth_m;  // CV_32FC1, metres, 0 = invalid
@@ -149,6 +150,8 @@ class Mapper {
   SE3d MapFromBaseFrame() const;
   // Every integrated keyframe's camera pose in the map frame, per robot, in time order.
   std::map<std::string, Trajectory> Trajectories() const;
+  // Every integrated keyframe's id and camera pose in the base frame, in id order.
+  std::vector<KeyframePoseUpdate> KeyframePoses() const;
   std::map<std::string, RobotPose> LatestPoses() const;
   MapperStats Stats() const;
   const MapOptions& options() const { return options_; }

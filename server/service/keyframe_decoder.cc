@@ -136,6 +136,7 @@ StatusOr<KeyframeRecord> ValidateKeyframe(const loci::v1::Keyframe& kf,
     decoded->t_ns = rec.t_ns;
     decoded->T_base_kf = session.T_base_odom * rec.T_odom_cam;
     decoded->T_odom_kf = rec.T_odom_cam;
+    decoded->segment = rec.segment;
     decoded->camera = rec.camera;
     decoded->bgr = std::move(*bgr);
     decoded->depth_m = DepthToMetres(*depth, rec.depth_scale);
@@ -154,6 +155,7 @@ MapperKeyframe KeyframeMeta(const KeyframeRecord& rec, const SessionRecord& sess
   kf.t_ns = rec.t_ns;
   kf.T_base_kf = BaseFromKeyframe(rec, session);
   kf.T_odom_kf = rec.T_odom_cam;
+  kf.segment = rec.segment;
   kf.camera = rec.camera;
   kf.has_gravity = rec.has_gravity;
   kf.gravity_cam = rec.gravity_cam;

@@ -37,6 +37,9 @@ MapServer::MapServer(const ServerOptions& options, std::shared_ptr<MapStore> sto
       aligner_(options.align.enabled
                    ? std::make_unique<RobotAligner>(options.place, options.align)
                    : nullptr),
+      closer_(options.align.enabled && options.align.loops.enabled
+                  ? std::make_unique<LoopCloser>(options.graph, options.align.loops)
+                  : nullptr),
       decode_slots_(options.decode_slots),
       queue_(static_cast<size_t>(options.queue_capacity)) {}
 
@@ -47,6 +50,7 @@ StatusOr<std::unique_ptr<MapServer>> MapServer::OpenAsync(
   LOCI_RETURN_IF_ERROR(options.ValidateLimits());
   LOCI_RETURN_IF_ERROR(options.place.Validate());
   LOCI_RETURN_IF_ERROR(options.align.Validate());
+  LOCI_RETURN_IF_ERROR(options.graph.Validate());
   if (!store) {
     LOCI_ASSIGN_OR_RETURN(std::unique_ptr<SqliteStore> sqlite, SqliteStore::Open(options.db_path));
     store = std::move(sqlite);
@@ -442,6 +446,11 @@ void MapServer::WorkerLoop() {
 void MapServer::Flush() {
   std::unique_lock<std::mutex> lock(progress_mu_);
   progress_cv_.wait(lock, [&] { return mapped_ >= enqueued_; });
+}
+
+std::optional<LoopStats> MapServer::loop_stats() const {
+  if (!closer_) return std::nullopt;
+  return closer_->Stats();
 }
 
 std::optional<AlignStats> MapServer::align_stats() const {

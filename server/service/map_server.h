@@ -18,6 +18,7 @@
 #include "common/status.h"
 #include "detection/detector.h"
 #include "loci/v1/mapping.pb.h"
+#include "server/align/loop_closer.h"
 #include "server/align/robot_aligner.h"
 #include "server/map/bounded_queue.h"
 #include "server/map/mapper.h"
@@ -92,6 +93,10 @@ class MapServer {
   std::optional<AlignmentDelay> alignment_delay(int64_t session_row) const {
     return aligner_ ? aligner_->Delay(session_row) : std::nullopt;
   }
+  // Loop closure (nullptr when align.loops.enabled or align.enabled is false): its statistics.
+  std::optional<LoopStats> loop_stats() const;
+  // Whether the stored keyframes are back in place recognition after a start (Reindex).
+  bool reindexed() const { return reindexed_; }
   // Keyframes of robots that were held back and entered the map when their robot was aligned.
   uint64_t merged_keyframes() const { return merged_keyframes_; }
   // Mean mapping time per keyframe mapped by the worker since start (replay excluded), ms.
@@ -120,6 +125,15 @@ class MapServer {
   void Reindex();
   // Moves a session's mapped keyframes to its refined placement.
   void MoveSession(const SessionAlignment& alignment);
+  // Loop closure (map_server_loops.cc), worker thread with mapping_mu_ held: records the
+  // keyframe and its verified matches (stored), and solves the pose graph when due.
+  void RecordForLoops(const MapperKeyframe& kf, bool mapped, const std::vector<VerifiedMatch>& matches);
+  void MaybeCloseLoops();
+  // After a solve: each moved session's placement follows its newest mapped keyframe, so the
+  // keyframes it sends next continue from the corrected pose.
+  void FollowCorrections(const std::vector<Mapper::KeyframePoseUpdate>& moved);
+  // Stored matches into the loop closer (loading thread, before re-indexing).
+  void LoadPlaceMatches();
   std::optional<SessionRecord> SessionByRow(int64_t session_row);
   void SetSessionCache(const SessionRecord& session);
   void LoadLoop();
@@ -142,6 +156,8 @@ class MapServer {
   std::shared_ptr<detection::Detector> detector_;
   std::unique_ptr<Mapper> mapper_;
   std::unique_ptr<RobotAligner> aligner_;  // used by the worker thread only (Stats: any)
+  std::unique_ptr<LoopCloser> closer_;     // with aligner_ and align.loops.enabled
+  std::atomic<bool> reindexed_{false};
   std::atomic<uint64_t> merged_keyframes_{0};
   uint64_t replayed_ = 0;
 

@@ -17,7 +17,8 @@ void MapServer::MapQueued(MapperKeyframe& kf) {
     return;
   }
   DeclareSession(kf.session_row);
-  if (const std::optional<SE3d> T_base_odom = aligner_->Alignment(kf.session_row)) {
+  const std::optional<SE3d> T_base_odom = aligner_->Alignment(kf.session_row);
+  if (T_base_odom) {
     kf.T_base_kf = *T_base_odom * kf.T_odom_kf;  // the session may have been aligned since
     MapAndStoreProducts(*mapper_, kf, detector_.get(), store_.get());
   } else {
@@ -25,18 +26,20 @@ void MapServer::MapQueued(MapperKeyframe& kf) {
   }
   AlignKeyframe in{kf.keyframe_id, kf.session_row, kf.t_ns, kf.T_odom_kf, std::nullopt};
   if (kf.has_gravity) in.gravity_cam = kf.gravity_cam;
-  StatusOr<std::optional<SessionAlignment>> aligned = std::nullopt;
+  StatusOr<AlignOutcome> outcome = AlignOutcome();
   try {  // OpenCV asserts by throwing; a keyframe's place recognition must not end the server
-    aligned = aligner_->AddKeyframe(in, kf.bgr, kf.depth_m, kf.camera);
+    outcome = aligner_->AddKeyframe(in, kf.bgr, kf.depth_m, kf.camera);
   } catch (const std::exception& e) {
-    aligned = absl::InternalError(e.what());
+    outcome = absl::InternalError(e.what());
   }
-  if (!aligned.ok()) {
+  if (!outcome.ok()) {
     spdlog::warn("place recognition skipped keyframe {}: {}", kf.keyframe_id,
-                 aligned.status().ToString());
-  } else if (*aligned) {
-    ApplyAlignment(**aligned, kf.keyframe_id);
+                 outcome.status().ToString());
+    outcome = AlignOutcome();
   }
+  RecordForLoops(kf, T_base_odom.has_value(), outcome->matches);
+  if (outcome->alignment) ApplyAlignment(*outcome->alignment, kf.keyframe_id);
+  MaybeCloseLoops();
 }
 
 std::optional<SessionRecord> MapServer::SessionByRow(int64_t session_row) {
@@ -128,7 +131,11 @@ void MapServer::ApplyAlignment(const SessionAlignment& a, int64_t upto_keyframe_
 }
 
 void MapServer::Reindex() {
-  if (!aligner_) return;
+  if (!aligner_) {
+    reindexed_ = true;
+    return;
+  }
+  LoadPlaceMatches();
   const auto t0 = std::chrono::steady_clock::now();
   uint64_t indexed = 0, without_images = 0;
   KeyframeScan scan;  // images, no products
@@ -136,6 +143,9 @@ void MapServer::Reindex() {
       0,
       [&](KeyframeRecord rec) -> Status {
         if (stop_loading_) return absl::CancelledError("the server is stopping");
+        if (closer_) {
+          closer_->AddKeyframe({rec.id, rec.session_row, rec.segment, rec.t_ns, rec.T_odom_cam});
+        }
         if (aligner_->Indexed(rec.id)) return absl::OkStatus();  // mapped since the start
         if (rec.rgb_jpeg.empty()) {
           ++without_images;  // retention dropped them
@@ -158,6 +168,7 @@ void MapServer::Reindex() {
         return absl::OkStatus();
       },
       scan);
+  reindexed_ = st.ok();
   spdlog::info("place recognition: {} stored keyframes re-indexed in {:.1f} s ({} without images){}",
                indexed,
                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),

@@ -10,7 +10,6 @@ namespace loci::server {
 Status ServerOptions::FromYamlFile(const std::string& path) {
   LOCI_ASSIGN_OR_RETURN(YAML::Node root, LoadYamlFile(path));
   const ConfigFileScope scope(path);
-  // `graph` is the pose graph's section (server/graph/GraphOptions), not read here yet.
   LOCI_RETURN_IF_ERROR(
       CheckKnownKeys(root, "", {"server", "detector", "map", "place", "align", "sessions", "graph"}));
   if (const YAML::Node s = root["server"]) {
@@ -56,6 +55,7 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
   LOCI_RETURN_IF_ERROR(map.FromYaml(root["map"]));
   LOCI_RETURN_IF_ERROR(place.FromYaml(root["place"]));
   LOCI_RETURN_IF_ERROR(align.FromYaml(root["align"]));
+  LOCI_RETURN_IF_ERROR(graph.FromYaml(root["graph"]));
   if (const YAML::Node sessions = root["sessions"]) {
     for (const auto& kv : sessions) {
       const std::string robot = kv.first.as<std::string>();

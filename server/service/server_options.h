@@ -10,6 +10,7 @@
 #include "common/status.h"
 #include "server/map/map_options.h"
 #include "server/align/align_options.h"
+#include "server/graph/graph_options.h"
 #include "server/place/place_options.h"
 
 namespace loci::server {
@@ -55,10 +56,12 @@ struct ServerOptions {
   MapOptions map;
   // Place recognition and geometric verification (section `place`), used to align robots.
   ::loci::place::PlaceOptions place;
-  // Robots that start anywhere (section `align`, server/align/).
+  // Robots that start anywhere and loop closure (section `align`, server/align/).
   AlignOptions align;
+  // The keyframe pose graph loop closure solves (section `graph`, server/graph/).
+  GraphOptions graph;
 
-  // Reads config/server.yaml (sections server, detector, map, place, align, sessions); then the classes
+  // Reads config/server.yaml (sections server, detector, map, place, align, sessions, graph); then the classes
   // file.
   Status FromYamlFile(const std::string& path);
   // Checks the keyframe limits above (called by FromYamlFile and MapServer::Open).

@@ -328,7 +328,30 @@ grpc::Status QueryService::FillAlignment(const std::vector<SessionRecord>& sessi
   a->set_merged_keyframes(server_->merged_keyframes());
   a->set_place_ms_mean(st->keyframes == 0 ? 0.0 : st->place_ms_total / double(st->keyframes));
   a->set_vocabulary_words(st->vocabulary_words);
+  FillPoseGraph(resp->mutable_pose_graph());
   return grpc::Status::OK;
+}
+
+void QueryService::FillPoseGraph(loci::v1::PoseGraphStats* out) {
+  const std::optional<LoopStats> st = server_->loop_stats();
+  out->set_enabled(st.has_value());
+  if (!st) return;
+  out->set_loop_matches(st->loop_matches);
+  out->set_merge_matches(st->merge_matches);
+  out->set_optimizations(st->optimizations);
+  out->set_keyframes_moved(st->keyframes_moved);
+  out->set_solve_ms_mean(st->optimizations == 0 ? 0.0
+                                                : st->solve_ms_total / double(st->optimizations));
+  const GraphStats& g = st->last;
+  out->set_nodes(g.nodes);
+  out->set_edges(g.odometry_edges + g.loop_edges + g.merge_edges);
+  out->set_loops_accepted(g.loops_accepted);
+  out->set_loops_rejected(g.loops_rejected);
+  out->set_merges_accepted(g.merges_accepted);
+  out->set_merges_rejected(g.merges_rejected);
+  out->set_islands(g.islands);
+  out->set_four_dof(g.four_dof);
+  out->set_last_solve_ms(g.pcm_ms + g.solve_ms);
 }
 
 grpc::Status QueryService::GetTrajectories(grpc::ServerContext* ctx,

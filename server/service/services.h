@@ -81,6 +81,7 @@ class QueryService final : public loci::v1::Query::Service {
   // GetStats' sessions and alignment figures.
   grpc::Status FillAlignment(const std::vector<SessionRecord>& sessions,
                              loci::v1::GetStatsResponse* resp);
+  void FillPoseGraph(loci::v1::PoseGraphStats* out);
 
   MapServer* const server_;
   const std::shared_ptr<QueryEngine> engine_;

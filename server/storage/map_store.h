@@ -67,6 +67,15 @@ struct KeyframePoseRecord {
   SE3d T_base_kf = SE3d::Identity();
 };
 
+// A verified place-recognition match between two stored keyframes (p_a = T_a_b * p_b).
+struct PlaceMatchRecord {
+  int64_t a_keyframe_id = 0;
+  int64_t b_keyframe_id = 0;
+  SE3d T_a_b = SE3d::Identity();
+  int inliers = 0;
+  double rms_m = 0;
+};
+
 // What ForEachKeyframe reads besides the pose and metadata.
 struct KeyframeScan {
   bool images = true;  // rgb_jpeg, depth_png, detections
@@ -148,6 +157,9 @@ class MapStore {
   // Corrected poses, all in one transaction (a later one for the same keyframe replaces it).
   virtual Status PutKeyframePoses(const std::vector<KeyframePoseRecord>& poses) = 0;
   // Stores a checkpoint and drops the older ones.
+  // Verified matches (loop closure, merges); a pair stored again is replaced.
+  virtual Status PutPlaceMatch(const PlaceMatchRecord& match) = 0;
+  virtual StatusOr<std::vector<PlaceMatchRecord>> ListPlaceMatches() = 0;
   virtual Status PutCheckpoint(const CheckpointRecord& checkpoint) = 0;
   virtual StatusOr<std::optional<CheckpointRecord>> LatestCheckpoint() = 0;
   virtual Status DeleteCheckpoints() = 0;

@@ -59,6 +59,8 @@ class SqliteStore final : public MapStore {
                                                    const std::string& fingerprint) override;
   Status DeleteAllProducts() override;
   Status PutKeyframePoses(const std::vector<KeyframePoseRecord>& poses) override;
+  Status PutPlaceMatch(const PlaceMatchRecord& match) override;
+  StatusOr<std::vector<PlaceMatchRecord>> ListPlaceMatches() override;
   Status PutCheckpoint(const CheckpointRecord& checkpoint) override;
   StatusOr<std::optional<CheckpointRecord>> LatestCheckpoint() override;
   Status DeleteCheckpoints() override;

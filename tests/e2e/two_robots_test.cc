@@ -8,6 +8,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
@@ -16,9 +17,11 @@
 #include <thread>
 
 #include "common/time.h"
+#include "common/trajectory_eval.h"
 #include "common/tum_io.h"
 #include "loci/v1/query.grpc.pb.h"
 #include "proto/convert.h"
+#include "tests/e2e/robot_runs.h"
 #include "tests/support/server_process.h"
 #include "tests/support/tum_data.h"
 
@@ -28,99 +31,13 @@ namespace {
 namespace fs = std::filesystem;
 const std::string kRoot = LOCI_SOURCE_DIR;
 
-struct RobotRun {
-  std::string name;
-  int start_frame = 0;
-  int max_frames = 0;  // 0 = to the end
-  std::string keyframes_path;
-  std::string trajectory_path;  // every frame's pose; "" = not written
-  std::string source_args = "--model " + kRoot + "/models/yolox_nano/yolox_nano.onnx";
-};
-
-std::string TrackCommand(const std::string& tum, const std::string& addr, const RobotRun& r) {
-  std::string cmd = std::string(LOCI_TRACK_BIN) + " --tum " + tum + " --server " + addr +
-                    " --robot " + r.name + " --no-progress --log-level warn " + r.source_args +
-                    " --keyframes " + r.keyframes_path + " --start-frame " +
-                    std::to_string(r.start_frame);
-  if (r.max_frames > 0) cmd += " --max-frames " + std::to_string(r.max_frames);
-  if (!r.trajectory_path.empty()) cmd += " --trajectory " + r.trajectory_path;
-  return cmd;
-}
-
-StatusOr<v1::GetStatsResponse> Stats(v1::Query::Stub& query) {
-  grpc::ClientContext ctx;
-  ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
-  v1::GetStatsResponse resp;
-  const grpc::Status s = query.GetStats(&ctx, v1::GetStatsRequest(), &resp);
-  if (!s.ok()) return absl::UnavailableError(s.error_message());
-  return resp;
-}
-
-struct PoseError {
-  double t_m = 0, r_deg = 0;
-};
-PoseError Error(const SE3d& truth, const SE3d& estimate) {
-  const SE3d d = truth.inverse() * estimate;
-  return {d.translation().norm(),
-          Eigen::AngleAxisd(d.linear()).angle() * 180.0 / M_PI};
-}
-
-struct RobotsResult {
-  v1::GetStatsResponse stats;
-  std::vector<v1::Object> objects;           // confirmed
-  std::map<std::string, Trajectory> keyframes;  // by robot
-  std::map<std::string, Trajectory> frames;     // every frame's pose, robots with a trajectory_path
-};
-
-// Starts the first robot, then, once the server has stored its first keyframe (so its session
-// is the map's origin), all the others; they stream at once.
-RobotsResult RunRobots(const std::string& tum, const std::vector<RobotRun>& robots,
-                       const std::string& dir) {
-  RobotsResult out;
-  testing::ServerProcess server(testing::ServerProcessOptions{
-      .db = dir + "/loci.db", .config = kRoot + "/config/server.yaml",
-      .stderr_path = dir + "/server.log"});
-  EXPECT_GT(server.port(), 0) << "loci-server did not print its port";
-  if (server.port() == 0) return out;
-  auto query = v1::Query::NewStub(
-      grpc::CreateChannel(server.address(), grpc::InsecureChannelCredentials()));
-  std::vector<int> rc(robots.size(), -1);
-  std::vector<std::thread> threads;
-  auto start = [&](size_t i) {
-    threads.emplace_back(
-        [&, i] { rc[i] = std::system(TrackCommand(tum, server.address(), robots[i]).c_str()); });
-  };
-  start(0);
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  bool first_started = false;
-  while (!first_started && std::chrono::steady_clock::now() < deadline) {
-    auto s = Stats(*query);
-    first_started = s.ok() && s->keyframes() > 0;
-    if (!first_started) std::this_thread::sleep_for(std::chrono::milliseconds(100));  // poll
-  }
-  EXPECT_TRUE(first_started) << robots[0].name << " stored no keyframe within 120 s";
-  for (size_t i = 1; i < robots.size(); ++i) start(i);
-  for (std::thread& t : threads) t.join();
-  for (size_t i = 0; i < robots.size(); ++i) EXPECT_EQ(rc[i], 0) << robots[i].name;
-  auto stats = Stats(*query);
-  EXPECT_TRUE(stats.ok());
-  if (stats.ok()) out.stats = *stats;
-  grpc::ClientContext ctx;
-  v1::FindObjectsRequest find;
-  find.set_confirmed_only(true);
-  v1::FindObjectsResponse found;
-  EXPECT_TRUE(query->FindObjects(&ctx, find, &found).ok());
-  out.objects.assign(found.objects().begin(), found.objects().end());
-  for (const RobotRun& r : robots) {
-    auto k = ReadTumTrajectory(r.keyframes_path);
-    if (k.ok()) out.keyframes[r.name] = *k;
-  }
-  for (const RobotRun& r : robots) {
-    auto f = ReadTumTrajectory(r.trajectory_path);
-    if (!r.trajectory_path.empty() && f.ok()) out.frames[r.name] = *f;
-  }
-  return out;
-}
+using testing::Error;
+using testing::PoseError;
+using testing::RobotRun;
+using testing::RobotsResult;
+using testing::RunRobots;
+using testing::Stats;
+using testing::TrackCommand;
 
 // T_map_odom of every aligned session, by robot.
 std::map<std::string, SE3d> Placements(const v1::GetStatsResponse& stats) {
@@ -198,6 +115,39 @@ int CrossRobotDuplicates(const std::vector<v1::Object>& objects, double radius_m
   return n;
 }
 
+struct MappedCheck {
+  PoseError start;          // B's first keyframe from A's first, against the ground truth
+  double joint_ate_m = 0;   // A's and B's keyframes in one rigid alignment to the ground truth
+  double a_ate_m = 0;       // A's alone
+};
+
+MappedCheck CheckMapped(const std::string& tum, const RobotsResult& r) {
+  MappedCheck out;
+  auto gt = ReadTumTrajectory(tum + "/groundtruth.txt");
+  EXPECT_TRUE(gt.ok());
+  if (!gt.ok() || !r.mapped.count("A") || !r.mapped.count("B")) {
+    ADD_FAILURE() << "the server's trajectories lack A or B";
+    return out;
+  }
+  const Trajectory& a = r.mapped.at("A");
+  const Trajectory& b = r.mapped.at("B");
+  const auto* ga = NearestByTime<StampedPose>(*gt, a.front().t_ns, 20'000'000);
+  const auto* gb = NearestByTime<StampedPose>(*gt, b.front().t_ns, 20'000'000);
+  if (ga != nullptr && gb != nullptr) {
+    out.start = Error(ga->T_world_cam.inverse() * gb->T_world_cam,
+                      a.front().T_world_cam.inverse() * b.front().T_world_cam);
+  }
+  Trajectory joint = a;
+  joint.insert(joint.end(), b.begin(), b.end());
+  std::sort(joint.begin(), joint.end(),
+            [](const StampedPose& x, const StampedPose& y) { return x.t_ns < y.t_ns; });
+  auto ate_joint = ComputeAte(*gt, joint);
+  auto ate_a = ComputeAte(*gt, a);
+  if (ate_joint.ok()) out.joint_ate_m = ate_joint->trans_m.rmse;
+  if (ate_a.ok()) out.a_ate_m = ate_a->trans_m.rmse;
+  return out;
+}
+
 void CheckTwoRobots(const std::string& tum, const RobotRun& a, const RobotRun& b,
                     double max_gt_t_m, double max_gt_r_deg, double max_same_t_m,
                     double max_same_r_deg, bool check_duplicates) {
@@ -244,6 +194,16 @@ void CheckTwoRobots(const std::string& tum, const RobotRun& a, const RobotRun& b
               static_cast<unsigned long long>(r.stats.alignment().verified()),
               static_cast<unsigned long long>(r.stats.alignment().rejected()),
               static_cast<unsigned long long>(r.stats.alignment().merged_keyframes()));
+  // The same from the server's keyframe poses (after its pose graph moved them): B's first
+  // keyframe seen from A's first, and both robots' keyframes against the ground truth at once.
+  const MappedCheck mapped = CheckMapped(tum, r);
+  std::printf("server's keyframes: B's first from A's first %.4f m, %.3f deg from the ground truth; "
+              "joint keyframe ATE %.4f m (A alone %.4f m); %llu graph solves, %llu merges kept, "
+              "%llu loops kept\n",
+              mapped.start.t_m, mapped.start.r_deg, mapped.joint_ate_m, mapped.a_ate_m,
+              static_cast<unsigned long long>(r.stats.pose_graph().optimizations()),
+              static_cast<unsigned long long>(r.stats.pose_graph().merges_accepted()),
+              static_cast<unsigned long long>(r.stats.pose_graph().loops_accepted()));
   EXPECT_LT(gt.t_m, max_gt_t_m);
   EXPECT_LT(gt.r_deg, max_gt_r_deg);
   EXPECT_GT(pairs, 0);

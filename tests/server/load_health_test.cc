@@ -63,6 +63,10 @@ class GatedStore final : public MapStore {
   Status PutKeyframePoses(const std::vector<KeyframePoseRecord>& p) override {
     return inner_->PutKeyframePoses(p);
   }
+  Status PutPlaceMatch(const PlaceMatchRecord& m) override { return inner_->PutPlaceMatch(m); }
+  StatusOr<std::vector<PlaceMatchRecord>> ListPlaceMatches() override {
+    return inner_->ListPlaceMatches();
+  }
   Status PutCheckpoint(const CheckpointRecord& c) override { return inner_->PutCheckpoint(c); }
   StatusOr<std::optional<CheckpointRecord>> LatestCheckpoint() override {
     return inner_->LatestCheckpoint();

@@ -187,6 +187,44 @@ TEST(SqliteStore, SessionAlignmentIsStoredAndScansFilterBySession) {
   EXPECT_EQ(seqs, std::vector<int64_t>({1}));
 }
 
+// Verified place matches (loop closure) survive a reopen, a pair stored again replaces the
+// first, and a match naming an unknown keyframe is refused (foreign key).
+TEST(SqliteStore, PlaceMatchesAreStoredReplacedAndReadBackAfterAReopen) {
+  const std::string path = FreshDb("place_matches");
+  const SE3d T1 = MakeSE3(Vec3d(0.1, 0.2, -0.3), Quatd(Eigen::AngleAxisd(0.2, Vec3d::UnitY())));
+  const SE3d T2 = MakeSE3(Vec3d(-1, 0, 0.5), Quatd(Eigen::AngleAxisd(-0.4, Vec3d::UnitZ())));
+  std::vector<int64_t> ids;
+  {
+    auto store = SqliteStore::Open(path);
+    ASSERT_TRUE(store.ok()) << store.status();
+    SessionRecord s;
+    s.robot_name = "r";
+    s.camera = PinholeCamera::TumFr1();
+    auto session = (*store)->CreateSession(s);
+    ASSERT_TRUE(session.ok());
+    for (int seq = 0; seq < 3; ++seq) {
+      auto r = (*store)->InsertKeyframe(MakeKeyframe(session->row_id, seq));
+      ASSERT_TRUE(r.ok());
+      ids.push_back(r->keyframe_id);
+    }
+    ASSERT_TRUE((*store)->PutPlaceMatch({ids[0], ids[2], T1, 40, 0.012}).ok());
+    ASSERT_TRUE((*store)->PutPlaceMatch({ids[1], ids[2], T1, 35, 0.02}).ok());
+    ASSERT_TRUE((*store)->PutPlaceMatch({ids[0], ids[2], T2, 90, 0.008}).ok());  // replaces
+    EXPECT_FALSE((*store)->PutPlaceMatch({ids[0], 12345, T1, 40, 0.01}).ok());
+  }
+  auto store = SqliteStore::Open(path);
+  ASSERT_TRUE(store.ok()) << store.status();
+  auto matches = (*store)->ListPlaceMatches();
+  ASSERT_TRUE(matches.ok()) << matches.status();
+  ASSERT_EQ(matches->size(), 2u);
+  EXPECT_EQ((*matches)[0].a_keyframe_id, ids[0]);
+  EXPECT_EQ((*matches)[0].b_keyframe_id, ids[2]);
+  EXPECT_TRUE((*matches)[0].T_a_b.isApprox(T2, 1e-12));
+  EXPECT_EQ((*matches)[0].inliers, 90);
+  EXPECT_DOUBLE_EQ((*matches)[0].rms_m, 0.008);
+  EXPECT_EQ((*matches)[1].a_keyframe_id, ids[1]);
+}
+
 TEST(SqliteStore, ManyReaderThreadsKeepTheConnectionCountBounded) {
   SqliteStoreOptions o;
   o.max_idle_readers = 2;

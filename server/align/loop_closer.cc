@@ -1,0 +1,99 @@
+#include "server/align/loop_closer.h"
+
+#include <absl/strings/str_cat.h>
+
+#include <chrono>
+
+#include "server/graph/pose_graph.h"
+
+namespace loci::server {
+namespace {
+
+std::string ChainName(int64_t session_row) { return absl::StrCat("s", session_row); }
+
+}  // namespace
+
+LoopCloser::LoopCloser(const GraphOptions& graph, const LoopOptions& options)
+    : graph_(graph), options_(options) {}
+
+void LoopCloser::AddKeyframe(const LoopKeyframe& keyframe) {
+  std::lock_guard<std::mutex> lock(mu_);
+  keyframes_.try_emplace(keyframe.keyframe_id, keyframe);
+}
+
+void LoopCloser::AddMatch(const VerifiedMatch& match, bool fresh) {
+  std::lock_guard<std::mutex> lock(mu_);
+  matches_[{match.a_id, match.b_id}] = {match.T_a_b, match.loop};
+  if (!fresh) return;
+  ++(match.loop ? stats_.loop_matches : stats_.merge_matches);
+  ++new_matches_;
+}
+
+void LoopCloser::NoteMapped() {
+  std::lock_guard<std::mutex> lock(mu_);
+  ++mapped_since_;
+}
+
+bool LoopCloser::Due() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return new_matches_ >= options_.optimize_every_edges &&
+         mapped_since_ >= options_.optimize_min_keyframes;
+}
+
+std::optional<LoopKeyframe> LoopCloser::Keyframe(int64_t keyframe_id) const {
+  std::lock_guard<std::mutex> lock(mu_);
+  auto it = keyframes_.find(keyframe_id);
+  if (it == keyframes_.end()) return std::nullopt;
+  return it->second;
+}
+
+LoopStats LoopCloser::Stats() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return stats_;
+}
+
+StatusOr<GraphResult> LoopCloser::Optimize(const std::vector<MappedKeyframe>& mapped,
+                                           bool gravity_aligned) {
+  const auto t0 = std::chrono::steady_clock::now();
+  std::lock_guard<std::mutex> lock(mu_);
+  new_matches_ = 0;
+  mapped_since_ = 0;
+  PoseGraph graph(graph_);
+  // Nodes in id order: the first is the map's first keyframe (the gauge's reference chain).
+  std::map<int64_t, const LoopKeyframe*> last_of_chain;  // by session row: the previous node
+  std::map<int64_t, int64_t> session_of;                 // node id -> session row
+  for (const MappedKeyframe& m : mapped) {
+    auto it = keyframes_.find(m.keyframe_id);
+    if (it == keyframes_.end()) continue;  // not recorded (its images could not be read)
+    const LoopKeyframe& kf = it->second;
+    LOCI_RETURN_IF_ERROR(graph.AddKeyframe(
+        {kf.keyframe_id, ChainName(kf.session_row), kf.t_ns, m.T_map_kf, gravity_aligned}));
+    session_of[kf.keyframe_id] = kf.session_row;
+    const LoopKeyframe*& prev = last_of_chain[kf.session_row];
+    if (prev != nullptr && prev->segment == kf.segment) {
+      LOCI_RETURN_IF_ERROR(graph.AddOdometryEdge(prev->keyframe_id, kf.keyframe_id,
+                                                 prev->T_odom_kf.inverse() * kf.T_odom_kf,
+                                                 TrackingQuality{}));
+    }
+    prev = &kf;
+  }
+  const Information6 info = IsotropicInformation(options_.sigma_trans_m, options_.sigma_rot_rad);
+  for (const auto& [ids, match] : matches_) {
+    auto a = session_of.find(ids.first), b = session_of.find(ids.second);
+    if (a == session_of.end() || b == session_of.end()) continue;  // not both mapped
+    if (a->second == b->second) {
+      LOCI_RETURN_IF_ERROR(graph.AddLoopEdge(ids.first, ids.second, match.T_a_b, info));
+    } else {
+      LOCI_RETURN_IF_ERROR(graph.AddMergeEdge(ids.first, ids.second, match.T_a_b, info));
+    }
+  }
+  LOCI_ASSIGN_OR_RETURN(GraphResult result, graph.Optimize());
+  ++stats_.optimizations;
+  stats_.keyframes_moved += result.updates.size();
+  stats_.solve_ms_total +=
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  stats_.last = result.stats;
+  return result;
+}
+
+}  // namespace loci::server

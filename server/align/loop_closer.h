@@ -1,0 +1,93 @@
+// Loop closure and robot merges through the keyframe pose graph (issue 15, item 4): collects
+// every mapped keyframe's odometry and every verified place-recognition match (robot_aligner.h),
+// and, when enough new matches are in, builds a PoseGraph (server/graph/) over the mapped
+// keyframes and solves it. The caller moves the map to the solution (Mapper::UpdateKeyframePoses).
+//
+//   nodes     every mapped keyframe that was recorded, at its current map pose (the warm start);
+//             one odometry chain per session ("s<row>") and odometry segment;
+//   odometry  consecutive recorded keyframes of one session and segment: T_odom_a^-1 T_odom_b;
+//   loops     verified matches within a session, merges between sessions, isotropic
+//             information from align.loops.sigma_*; the graph's guard (PCM, residual check,
+//             robust loss) decides which it trusts.
+//
+// The graph is rebuilt from these records on every solve (no state in the solver), so what was
+// stored (odometry in `keyframes`, matches in `place_matches`) is all a restart needs.
+// Thread-safe: the mapping worker records and solves, GetStats reads Stats().
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include "common/status.h"
+#include "server/align/align_options.h"
+#include "server/align/robot_aligner.h"
+#include "server/graph/graph_options.h"
+#include "server/graph/graph_types.h"
+
+namespace loci::server {
+
+struct LoopKeyframe {
+  int64_t keyframe_id = 0;
+  int64_t session_row = 0;
+  int segment = 0;  // the client's odometry segment (a tracking loss starts a new one)
+  int64_t t_ns = 0;
+  SE3d T_odom_kf = SE3d::Identity();
+};
+
+// A mapped keyframe's current pose in the map frame.
+struct MappedKeyframe {
+  int64_t keyframe_id = 0;
+  SE3d T_map_kf = SE3d::Identity();
+};
+
+struct LoopStats {
+  uint64_t loop_matches = 0;   // verified matches recorded, within one session
+  uint64_t merge_matches = 0;  // between two sessions
+  uint64_t optimizations = 0;  // solves run
+  uint64_t keyframes_moved = 0;  // summed over the solves
+  double solve_ms_total = 0;   // PCM + Ceres, wall ms, summed
+  GraphStats last;             // of the latest solve
+};
+
+class LoopCloser {
+ public:
+  LoopCloser(const GraphOptions& graph, const LoopOptions& options);
+
+  // Records a keyframe's odometry (once per id; later calls are ignored).
+  void AddKeyframe(const LoopKeyframe& keyframe);
+  // Records a verified match; a pair recorded again replaces the earlier one. `fresh`: found
+  // now (counts towards Due), not reloaded from the store.
+  void AddMatch(const VerifiedMatch& match, bool fresh = true);
+  // A keyframe entered the map (counts towards optimize_min_keyframes).
+  void NoteMapped();
+  // Whether enough new matches and mapped keyframes came in since the last solve.
+  bool Due() const;
+
+  // Builds the graph over `mapped` (map frame; all z up from gravity when `gravity_aligned`)
+  // and solves it. The updates are the keyframes that moved (T_map_kf). Resets Due().
+  StatusOr<GraphResult> Optimize(const std::vector<MappedKeyframe>& mapped, bool gravity_aligned);
+
+  LoopStats Stats() const;
+  std::optional<LoopKeyframe> Keyframe(int64_t keyframe_id) const;
+
+ private:
+  struct Match {
+    SE3d T_a_b = SE3d::Identity();
+    bool loop = false;
+  };
+
+  GraphOptions graph_;
+  LoopOptions options_;
+  mutable std::mutex mu_;
+  std::map<int64_t, LoopKeyframe> keyframes_;                // by id
+  std::map<std::pair<int64_t, int64_t>, Match> matches_;    // by (a, b)
+  int new_matches_ = 0;
+  int mapped_since_ = 0;
+  LoopStats stats_;
+};
+
+}  // namespace loci::server
