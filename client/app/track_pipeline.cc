@@ -151,6 +151,7 @@ StatusOr<TrackPipelineResult> RunTrackPipeline(const TumSequence& seq, Tracker* 
     kf.depth_u16 = depth;
     if (from_file) kf.detections = std::move(dets);  // else: the stage's detector fills them
     kf.segment = fr->segment;
+    kf.tracking_inliers = fr->num_inliers;  // 0 with --poses: unknown
     if (auto g = GravityInCamAt(seq.accel, f.rgb_t_ns); g.ok()) kf.gravity_cam = *g;
     LOCI_RETURN_IF_ERROR(stage.Push(std::move(kf)));
   }

@@ -18,6 +18,7 @@ StatusOr<v1::Keyframe> EncodeKeyframe(const KeyframeData& kf, int64_t seq, int j
     ToProto(*kf.gravity_cam, out.mutable_gravity_cam());
   }
   out.set_segment(kf.segment);
+  out.set_tracking_inliers(kf.tracking_inliers);
   for (const Detection2D& d : kf.detections) {
     LOCI_RETURN_IF_ERROR(ToProto(d, out.add_detections()));
   }

@@ -54,6 +54,7 @@ struct KeyframeData {
   std::vector<Detection2D> detections;
   std::optional<Vec3d> gravity_cam;  // unit, pointing down, cam frame
   int segment = 0;
+  int tracking_inliers = 0;  // inliers of the pose estimate (tracking quality); 0 = unknown
 };
 
 struct MapClientStats {

@@ -40,7 +40,7 @@ struct AlignOptions {
   // where the robot is (true). false: every session is placed at its configured T_base_odom or
   // the identity, as if all robots started at the first robot's start.
   bool enabled = true;
-  // Place-recognition candidates verified per keyframe of an unaligned session (3).
+  // Place-recognition candidates geometrically verified per keyframe (3).
   int max_verify = 3;
   // When both robots send gravity, the merge's roll and pitch come from gravity, not from the
   // matched images: only x, y, z and yaw are estimated, so a merge cannot tilt the map (true).

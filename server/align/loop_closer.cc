@@ -11,6 +11,12 @@ namespace {
 
 std::string ChainName(int64_t session_row) { return absl::StrCat("s", session_row); }
 
+TrackingQuality Quality(const LoopKeyframe& kf) {
+  TrackingQuality q;
+  if (kf.tracking_inliers > 0) q.inliers = kf.tracking_inliers;
+  return q;
+}
+
 }  // namespace
 
 LoopCloser::LoopCloser(const GraphOptions& graph, const LoopOptions& options)
@@ -29,15 +35,17 @@ void LoopCloser::AddMatch(const VerifiedMatch& match, bool fresh) {
   ++new_matches_;
 }
 
-void LoopCloser::NoteMapped() {
+void LoopCloser::NoteRecognised() {
   std::lock_guard<std::mutex> lock(mu_);
-  ++mapped_since_;
+  ++recognised_since_;
 }
 
-bool LoopCloser::Due() const {
+bool LoopCloser::Due(bool idle) const {
   std::lock_guard<std::mutex> lock(mu_);
+  if (new_matches_ == 0) return false;
+  if (idle) return true;
   return new_matches_ >= options_.optimize_every_edges &&
-         mapped_since_ >= options_.optimize_min_keyframes;
+         recognised_since_ >= options_.optimize_min_keyframes;
 }
 
 std::optional<LoopKeyframe> LoopCloser::Keyframe(int64_t keyframe_id) const {
@@ -57,7 +65,7 @@ StatusOr<GraphResult> LoopCloser::Optimize(const std::vector<MappedKeyframe>& ma
   const auto t0 = std::chrono::steady_clock::now();
   std::lock_guard<std::mutex> lock(mu_);
   new_matches_ = 0;
-  mapped_since_ = 0;
+  recognised_since_ = 0;
   PoseGraph graph(graph_);
   // Nodes in id order: the first is the map's first keyframe (the gauge's reference chain).
   std::map<int64_t, const LoopKeyframe*> last_of_chain;  // by session row: the previous node
@@ -73,7 +81,7 @@ StatusOr<GraphResult> LoopCloser::Optimize(const std::vector<MappedKeyframe>& ma
     if (prev != nullptr && prev->segment == kf.segment) {
       LOCI_RETURN_IF_ERROR(graph.AddOdometryEdge(prev->keyframe_id, kf.keyframe_id,
                                                  prev->T_odom_kf.inverse() * kf.T_odom_kf,
-                                                 TrackingQuality{}));
+                                                 Quality(kf)));
     }
     prev = &kf;
   }

@@ -5,7 +5,8 @@
 //
 //   nodes     every mapped keyframe that was recorded, at its current map pose (the warm start);
 //             one odometry chain per session ("s<row>") and odometry segment;
-//   odometry  consecutive recorded keyframes of one session and segment: T_odom_a^-1 T_odom_b;
+//   odometry  consecutive recorded keyframes of one session and segment: T_odom_a^-1 T_odom_b,
+//             weighed by b's tracking inliers when the client sent them;
 //   loops     verified matches within a session, merges between sessions, isotropic
 //             information from align.loops.sigma_*; the graph's guard (PCM, residual check,
 //             robust loss) decides which it trusts.
@@ -36,6 +37,7 @@ struct LoopKeyframe {
   int segment = 0;  // the client's odometry segment (a tracking loss starts a new one)
   int64_t t_ns = 0;
   SE3d T_odom_kf = SE3d::Identity();
+  int tracking_inliers = 0;  // the client's tracking quality of T_odom_kf (0 = unknown)
 };
 
 // A mapped keyframe's current pose in the map frame.
@@ -62,10 +64,12 @@ class LoopCloser {
   // Records a verified match; a pair recorded again replaces the earlier one. `fresh`: found
   // now (counts towards Due), not reloaded from the store.
   void AddMatch(const VerifiedMatch& match, bool fresh = true);
-  // A keyframe entered the map (counts towards optimize_min_keyframes).
-  void NoteMapped();
-  // Whether enough new matches and mapped keyframes came in since the last solve.
-  bool Due() const;
+  // A keyframe went through place recognition (counts towards optimize_min_keyframes).
+  void NoteRecognised();
+  // Whether a solve is due: optimize_every_edges new matches and optimize_min_keyframes
+  // keyframes since the last solve, or, when `idle` (no keyframe waits for place recognition),
+  // any new match (so the map is final once the robots stop).
+  bool Due(bool idle) const;
 
   // Builds the graph over `mapped` (map frame; all z up from gravity when `gravity_aligned`)
   // and solves it. The updates are the keyframes that moved (T_map_kf). Resets Due().
@@ -86,7 +90,7 @@ class LoopCloser {
   std::map<int64_t, LoopKeyframe> keyframes_;                // by id
   std::map<std::pair<int64_t, int64_t>, Match> matches_;    // by (a, b)
   int new_matches_ = 0;
-  int mapped_since_ = 0;
+  int recognised_since_ = 0;
   LoopStats stats_;
 };
 

@@ -177,15 +177,6 @@ bool RobotAligner::Indexed(int64_t keyframe_id) const {
   return indexed_.count(keyframe_id) > 0;
 }
 
-std::vector<std::pair<int64_t, SE3d>> RobotAligner::SessionKeyframes(int64_t session_row) const {
-  std::lock_guard<std::mutex> work(work_mu_);
-  std::vector<std::pair<int64_t, SE3d>> out;
-  for (const auto& [id, k] : indexed_) {
-    if (k.session_row == session_row) out.emplace_back(id, k.T_odom_kf);
-  }
-  return out;
-}
-
 bool RobotAligner::Refining(int64_t session_row) const {
   std::lock_guard<std::mutex> lock(sessions_mu_);
   auto it = sessions_.find(session_row);

@@ -117,8 +117,6 @@ class RobotAligner {
   // For a session aligned by place recognition since the start: how long it waited.
   std::optional<AlignmentDelay> Delay(int64_t session_row) const;
   AlignStats Stats() const;  // any thread
-  // The indexed keyframes of a session, with the poses the robot sent, in id order.
-  std::vector<std::pair<int64_t, SE3d>> SessionKeyframes(int64_t session_row) const;
 
  private:
   struct Session {
@@ -139,8 +137,8 @@ class RobotAligner {
     SE3d T_odom_kf = SE3d::Identity();
     place::KeyframeFeatures features;
   };
-  // Verifies the best candidates among the keyframes of aligned sessions (and, with loops,
-  // the older ones of kf's own session).
+  // Verifies the best candidates (max_verify, in rank order) among the keyframes of aligned
+  // sessions and, with loops, the older ones of kf's own session; every match that verifies.
   std::vector<VerifiedMatch> Match(const AlignKeyframe& kf, const place::KeyframeFeatures& features,
                                    const place::BowVector& bow, bool loops);
   // The estimates of T_base_odom(kf's session), one per merge match.

@@ -425,6 +425,14 @@ std::vector<Mapper::KeyframePoseUpdate> Mapper::KeyframePoses() const {
   return out;
 }
 
+bool Mapper::HasKeyframe(int64_t keyframe_id) const {
+  std::lock_guard<std::mutex> lock(mu_);
+  const auto it = std::lower_bound(
+      keyframe_poses_.begin(), keyframe_poses_.end(), keyframe_id,
+      [](const KeyframePose& k, int64_t id) { return k.keyframe_id < id; });
+  return it != keyframe_poses_.end() && it->keyframe_id == keyframe_id;
+}
+
 std::map<std::string, RobotPose> Mapper::LatestPoses() const {
   std::lock_guard<std::mutex> lock(mu_);
   return latest_poses_;

@@ -46,6 +46,7 @@ struct MapperKeyframe {
   SE3d T_base_kf = SE3d::Identity();
   SE3d T_odom_kf = SE3d::Identity();  // the pose the robot sent, in its odometry frame
   int segment = 0;  // the client's odometry segment (a tracking loss starts a new one)
+  int tracking_inliers = 0;  // the client's tracking quality (0 = unknown)
   PinholeCamera camera;
   cv::Mat bgr;      // CV_8UC3
   cv::Mat depth_m;  // CV_32FC1, metres, 0 = invalid
@@ -152,6 +153,8 @@ class Mapper {
   std::map<std::string, Trajectory> Trajectories() const;
   // Every integrated keyframe's id and camera pose in the base frame, in id order.
   std::vector<KeyframePoseUpdate> KeyframePoses() const;
+  // Whether the keyframe is in the map.
+  bool HasKeyframe(int64_t keyframe_id) const;
   std::map<std::string, RobotPose> LatestPoses() const;
   MapperStats Stats() const;
   const MapOptions& options() const { return options_; }

@@ -112,6 +112,11 @@ StatusOr<KeyframeRecord> ValidateKeyframe(const loci::v1::Keyframe& kf,
     }
   }
   rec.segment = kf.segment();
+  if (kf.tracking_inliers() < 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("tracking_inliers must be >= 0 (0 = unknown), got ", kf.tracking_inliers()));
+  }
+  rec.tracking_inliers = kf.tracking_inliers();
 
   const int w = rec.camera.width_px, h = rec.camera.height_px;
   auto bgr = DecodeJpeg(kf.rgb_jpeg(), w, h);
@@ -137,6 +142,7 @@ StatusOr<KeyframeRecord> ValidateKeyframe(const loci::v1::Keyframe& kf,
     decoded->T_base_kf = session.T_base_odom * rec.T_odom_cam;
     decoded->T_odom_kf = rec.T_odom_cam;
     decoded->segment = rec.segment;
+    decoded->tracking_inliers = rec.tracking_inliers;
     decoded->camera = rec.camera;
     decoded->bgr = std::move(*bgr);
     decoded->depth_m = DepthToMetres(*depth, rec.depth_scale);
@@ -156,6 +162,7 @@ MapperKeyframe KeyframeMeta(const KeyframeRecord& rec, const SessionRecord& sess
   kf.T_base_kf = BaseFromKeyframe(rec, session);
   kf.T_odom_kf = rec.T_odom_cam;
   kf.segment = rec.segment;
+  kf.tracking_inliers = rec.tracking_inliers;
   kf.camera = rec.camera;
   kf.has_gravity = rec.has_gravity;
   kf.gravity_cam = rec.gravity_cam;

@@ -41,7 +41,8 @@ MapServer::MapServer(const ServerOptions& options, std::shared_ptr<MapStore> sto
                   ? std::make_unique<LoopCloser>(options.graph, options.align.loops)
                   : nullptr),
       decode_slots_(options.decode_slots),
-      queue_(static_cast<size_t>(options.queue_capacity)) {}
+      queue_(static_cast<size_t>(options.queue_capacity)),
+      align_queue_(static_cast<size_t>(options.queue_capacity)) {}
 
 StatusOr<std::unique_ptr<MapServer>> MapServer::OpenAsync(
     const ServerOptions& options, std::shared_ptr<MapStore> store,
@@ -94,6 +95,7 @@ void MapServer::LoadLoop() {
     mapper_->SetEventListener(
         [this](const std::vector<ObjectEventOut>& events) { Publish(events); });
     worker_ = std::thread([this] { WorkerLoop(); });
+    if (aligner_) align_thread_ = std::thread([this] { AlignLoop(); });
   } else {
     spdlog::error("the map failed to load: {}", report.status().ToString());
   }
@@ -217,6 +219,8 @@ MapServer::~MapServer() {
   if (loader_.joinable()) loader_.join();
   queue_.Close();
   if (worker_.joinable()) worker_.join();
+  align_queue_.Close();  // after the worker: it drains what the worker handed over
+  if (align_thread_.joinable()) align_thread_.join();
   if (ready_ && since_checkpoint_ > 0) {
     if (Status s = Checkpoint(); !s.ok()) spdlog::warn("checkpoint at shutdown: {}", s.ToString());
   }
@@ -428,14 +432,27 @@ StatusOr<loci::v1::CloseSessionResponse> MapServer::CloseSession(
 void MapServer::WorkerLoop() {
   while (std::optional<MapperKeyframe> kf = queue_.Pop()) {
     const auto t0 = std::chrono::steady_clock::now();
+    bool recognise = false;
     {
       std::lock_guard<std::mutex> mapping(mapping_mu_);
-      MapQueued(*kf);
+      recognise = MapQueued(*kf);
       mapping_ms_total_.fetch_add(
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
               .count());
       ++mapping_count_;
       MaybeCheckpoint();
+    }
+    if (recognise) {  // outside mapping_mu_: the aligning thread takes it after each keyframe
+      {
+        std::lock_guard<std::mutex> lock(progress_mu_);
+        ++align_enqueued_;
+      }
+      ++align_pending_;
+      if (!align_queue_.Push(std::move(*kf))) {  // closed: shutting down
+        --align_pending_;
+        std::lock_guard<std::mutex> lock(progress_mu_);
+        --align_enqueued_;
+      }
     }
     std::lock_guard<std::mutex> lock(progress_mu_);
     ++mapped_;
@@ -443,9 +460,20 @@ void MapServer::WorkerLoop() {
   }
 }
 
+void MapServer::AlignLoop() {
+  while (std::optional<MapperKeyframe> kf = align_queue_.Pop()) {
+    RecognisePlace(*kf);
+    --align_pending_;
+    std::lock_guard<std::mutex> lock(progress_mu_);
+    ++aligned_through_;
+    progress_cv_.notify_all();
+  }
+}
+
 void MapServer::Flush() {
   std::unique_lock<std::mutex> lock(progress_mu_);
-  progress_cv_.wait(lock, [&] { return mapped_ >= enqueued_; });
+  progress_cv_.wait(lock,
+                    [&] { return mapped_ >= enqueued_ && aligned_through_ >= align_enqueued_; });
 }
 
 std::optional<LoopStats> MapServer::loop_stats() const {

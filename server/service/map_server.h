@@ -85,7 +85,8 @@ class MapServer {
   const Mapper& mapper() const { return *mapper_; }
   MapStore& store() { return *store_; }
   const ServerOptions& options() const { return options_; }
-  size_t queue_depth() const { return queue_.size(); }
+  // Keyframes waiting for the mapping worker or for place recognition.
+  size_t queue_depth() const { return queue_.size() + align_pending_; }
   uint64_t replayed_keyframes() const { return replayed_; }
   // Robot alignment (nullptr when align.enabled is false): its statistics.
   std::optional<AlignStats> align_stats() const;
@@ -112,14 +113,19 @@ class MapServer {
   void WorkerLoop();
   // UpdateKeyframePoses with mapping_mu_ held by the caller.
   StatusOr<size_t> UpdateKeyframePosesLocked(const std::vector<Mapper::KeyframePoseUpdate>& updates);
-  // Maps (or, for an unaligned session, holds back) one queued keyframe and gives it to the
-  // aligner (map_server_align.cc); worker thread, mapping_mu_ held.
-  void MapQueued(MapperKeyframe& kf);
+  // Maps (or, for an unaligned session, holds back) one queued keyframe (map_server_align.cc);
+  // worker thread, mapping_mu_ held. True when the keyframe goes on to place recognition.
+  bool MapQueued(MapperKeyframe& kf);
+  // The aligning thread: place recognition of every mapped or held keyframe, off the mapping
+  // worker; then, with mapping_mu_, its matches, an alignment it completes, a graph solve.
+  void AlignLoop();
+  void RecognisePlace(const MapperKeyframe& kf);
   // Tells the aligner about a session on its first keyframe; the map's first keyframe makes its
   // session the origin.
   void DeclareSession(int64_t session_row);
-  // Stores the session's placement and maps its held keyframes (ids up to upto_keyframe_id).
-  void ApplyAlignment(const SessionAlignment& alignment, int64_t upto_keyframe_id);
+  // Stores the session's placement and maps its held keyframes (those the worker has seen and
+  // not mapped).
+  void ApplyAlignment(const SessionAlignment& alignment);
   // After a restart: indexes every stored keyframe for place recognition from its images, on
   // the loading thread once the map is ready (new keyframes are indexed meanwhile).
   void Reindex();
@@ -127,7 +133,8 @@ class MapServer {
   void MoveSession(const SessionAlignment& alignment);
   // Loop closure (map_server_loops.cc), worker thread with mapping_mu_ held: records the
   // keyframe and its verified matches (stored), and solves the pose graph when due.
-  void RecordForLoops(const MapperKeyframe& kf, bool mapped, const std::vector<VerifiedMatch>& matches);
+  void RecordForLoops(const MapperKeyframe& kf);
+  void RecordMatches(const std::vector<VerifiedMatch>& matches);
   void MaybeCloseLoops();
   // After a solve: each moved session's placement follows its newest mapped keyframe, so the
   // keyframes it sends next continue from the corrected pose.
@@ -189,10 +196,17 @@ class MapServer {
 
   BoundedQueue<MapperKeyframe> queue_;
   std::thread worker_;
+  BoundedQueue<MapperKeyframe> align_queue_;  // mapped or held keyframes, with their images
+  std::thread align_thread_;
+  std::atomic<uint64_t> align_pending_{0};    // pushed, not yet through RecognisePlace
+  std::atomic<int64_t> worker_last_id_{0};    // the last keyframe the worker mapped or held
+  std::atomic<int64_t> first_live_id_{0};     // the first keyframe ingested since the start
   std::mutex progress_mu_;
   std::condition_variable progress_cv_;
   uint64_t enqueued_ = 0;  // guarded by progress_mu_
   uint64_t mapped_ = 0;    // guarded by progress_mu_
+  uint64_t aligned_through_ = 0;  // keyframes through place recognition; guarded by progress_mu_
+  uint64_t align_enqueued_ = 0;   // guarded by progress_mu_
   // Stage time sums (ms), added with fetch_add by every ingest stream and the worker.
   std::atomic<double> mapping_ms_total_{0};
   std::atomic<uint64_t> mapping_count_{0};

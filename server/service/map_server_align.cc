@@ -1,8 +1,9 @@
 // MapServer: robots that start anywhere (server/align/). The mapping worker maps a keyframe of
 // an aligned session as before; a keyframe of an unaligned session only gets its products
-// made and stored. Every keyframe then goes to the RobotAligner; when it aligns a session, the
-// session's placement is stored and its held keyframes enter the map at their new poses, in id
-// order, from their stored products.
+// made and stored. Every keyframe then goes to the aligning thread, whose RobotAligner does
+// place recognition off the mapping worker; when it aligns a session, the session's placement
+// is stored and its held keyframes enter the map at their new poses, in id order, from their
+// stored products (under mapping_mu_, between two keyframes of the worker).
 #include <spdlog/spdlog.h>
 
 #include "server/service/keyframe_decoder.h"
@@ -11,10 +12,10 @@
 
 namespace loci::server {
 
-void MapServer::MapQueued(MapperKeyframe& kf) {
+bool MapServer::MapQueued(MapperKeyframe& kf) {
   if (!aligner_) {
     MapAndStoreProducts(*mapper_, kf, detector_.get(), store_.get());
-    return;
+    return false;
   }
   DeclareSession(kf.session_row);
   const std::optional<SE3d> T_base_odom = aligner_->Alignment(kf.session_row);
@@ -24,6 +25,14 @@ void MapServer::MapQueued(MapperKeyframe& kf) {
   } else {
     BuildAndStoreProducts(*mapper_, kf, detector_.get(), store_.get());  // held back
   }
+  RecordForLoops(kf);
+  worker_last_id_ = kf.keyframe_id;
+  int64_t none = 0;
+  first_live_id_.compare_exchange_strong(none, kf.keyframe_id);
+  return true;
+}
+
+void MapServer::RecognisePlace(const MapperKeyframe& kf) {
   AlignKeyframe in{kf.keyframe_id, kf.session_row, kf.t_ns, kf.T_odom_kf, std::nullopt};
   if (kf.has_gravity) in.gravity_cam = kf.gravity_cam;
   StatusOr<AlignOutcome> outcome = AlignOutcome();
@@ -37,8 +46,9 @@ void MapServer::MapQueued(MapperKeyframe& kf) {
                  outcome.status().ToString());
     outcome = AlignOutcome();
   }
-  RecordForLoops(kf, T_base_odom.has_value(), outcome->matches);
-  if (outcome->alignment) ApplyAlignment(*outcome->alignment, kf.keyframe_id);
+  std::lock_guard<std::mutex> mapping(mapping_mu_);
+  RecordMatches(outcome->matches);
+  if (outcome->alignment) ApplyAlignment(*outcome->alignment);
   MaybeCloseLoops();
 }
 
@@ -84,7 +94,7 @@ void MapServer::DeclareSession(int64_t session_row) {
                                                : std::nullopt);
 }
 
-void MapServer::ApplyAlignment(const SessionAlignment& a, int64_t upto_keyframe_id) {
+void MapServer::ApplyAlignment(const SessionAlignment& a) {
   std::optional<SessionRecord> s = SessionByRow(a.session_row);
   if (!s) return;
   s->T_base_odom = a.T_base_odom;
@@ -98,8 +108,10 @@ void MapServer::ApplyAlignment(const SessionAlignment& a, int64_t upto_keyframe_
     MoveSession(a);
     return;
   }
-  // The held keyframes, up to the one being mapped (later ones are still queued and are mapped
-  // at the new placement when the worker reaches them).
+  // The held keyframes: those the worker has seen and not mapped (later ones are still queued
+  // and are mapped at the new placement when the worker reaches them; the worker may also have
+  // mapped some directly since the aligner set the placement).
+  const int64_t upto_keyframe_id = worker_last_id_;
   KeyframeScan scan;
   scan.products_fingerprint = mapper_->options().ProductsFingerprint();
   scan.session_row = s->row_id;
@@ -107,7 +119,7 @@ void MapServer::ApplyAlignment(const SessionAlignment& a, int64_t upto_keyframe_
   Status st = store_->ForEachKeyframe(
       0,
       [&](KeyframeRecord rec) -> Status {
-        if (rec.id > upto_keyframe_id) return absl::OkStatus();
+        if (rec.id > upto_keyframe_id || mapper_->HasKeyframe(rec.id)) return absl::OkStatus();
         if (!LoadKeyframe(rec, *s, *mapper_, detector_.get(), store_.get(), &report)) {
           ++report.skipped;
         }
@@ -144,9 +156,12 @@ void MapServer::Reindex() {
       [&](KeyframeRecord rec) -> Status {
         if (stop_loading_) return absl::CancelledError("the server is stopping");
         if (closer_) {
-          closer_->AddKeyframe({rec.id, rec.session_row, rec.segment, rec.t_ns, rec.T_odom_cam});
+          closer_->AddKeyframe({rec.id, rec.session_row, rec.segment, rec.t_ns, rec.T_odom_cam,
+                                rec.tracking_inliers});
         }
-        if (aligner_->Indexed(rec.id)) return absl::OkStatus();  // mapped since the start
+        const int64_t first_live = first_live_id_;
+        if (first_live != 0 && rec.id >= first_live) return absl::OkStatus();  // the aligning thread's
+        if (aligner_->Indexed(rec.id)) return absl::OkStatus();
         if (rec.rgb_jpeg.empty()) {
           ++without_images;  // retention dropped them
           return absl::OkStatus();
@@ -176,9 +191,22 @@ void MapServer::Reindex() {
 }
 
 void MapServer::MoveSession(const SessionAlignment& a) {
+  // The session's mapped keyframes (place recognition may not have indexed the newest yet).
   std::vector<Mapper::KeyframePoseUpdate> updates;
-  for (const auto& [id, T_odom_kf] : aligner_->SessionKeyframes(a.session_row)) {
-    updates.push_back({id, a.T_base_odom * T_odom_kf});
+  KeyframeScan scan;
+  scan.images = false;
+  scan.session_row = a.session_row;
+  const Status st = store_->ForEachKeyframe(
+      0,
+      [&](KeyframeRecord rec) -> Status {
+        if (mapper_->HasKeyframe(rec.id)) updates.push_back({rec.id, a.T_base_odom * rec.T_odom_cam});
+        return absl::OkStatus();
+      },
+      scan);
+  if (!st.ok()) {
+    spdlog::warn("refined placement of session row {} not applied: {}", a.session_row,
+                 st.ToString());
+    return;
   }
   auto moved = UpdateKeyframePosesLocked(updates);
   if (!moved.ok()) {

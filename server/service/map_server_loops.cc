@@ -1,6 +1,7 @@
 // MapServer: loop closure and robot merges through the keyframe pose graph (server/align/
-// loop_closer.h). The mapping worker records every keyframe's odometry and every verified
-// place-recognition match (stored in `place_matches`); when enough new matches are in, the
+// loop_closer.h). The mapping worker records every keyframe's odometry, the aligning thread
+// every verified place-recognition match (stored in `place_matches`); when enough new matches
+// are in, the
 // graph over the mapped keyframes is solved in the map frame (z up: 4-DoF when gravity fixed
 // it), the moved keyframes are re-derived (Mapper::UpdateKeyframePoses, which emits the object
 // events), and each moved session's placement follows its newest keyframe, so the robot's own
@@ -14,11 +15,15 @@
 
 namespace loci::server {
 
-void MapServer::RecordForLoops(const MapperKeyframe& kf, bool mapped,
-                               const std::vector<VerifiedMatch>& matches) {
+void MapServer::RecordForLoops(const MapperKeyframe& kf) {
   if (!closer_) return;
-  closer_->AddKeyframe({kf.keyframe_id, kf.session_row, kf.segment, kf.t_ns, kf.T_odom_kf});
-  if (mapped) closer_->NoteMapped();
+  closer_->AddKeyframe(
+      {kf.keyframe_id, kf.session_row, kf.segment, kf.t_ns, kf.T_odom_kf, kf.tracking_inliers});
+}
+
+void MapServer::RecordMatches(const std::vector<VerifiedMatch>& matches) {
+  if (!closer_) return;
+  closer_->NoteRecognised();
   for (const VerifiedMatch& m : matches) {
     closer_->AddMatch(m);
     const Status st = store_->PutPlaceMatch({m.a_id, m.b_id, m.T_a_b, m.inliers, m.rms_m});
@@ -47,7 +52,8 @@ void MapServer::LoadPlaceMatches() {
 void MapServer::MaybeCloseLoops() {
   // After a start the graph waits for every stored keyframe's odometry (Reindex), and for the
   // map frame, whose z the 4-DoF solve holds.
-  if (!closer_ || !reindexed_ || !closer_->Due() || !mapper_->FrameSettled()) return;
+  if (!closer_ || !reindexed_ || !mapper_->FrameSettled()) return;
+  if (!closer_->Due(/*idle=*/align_queue_.size() == 0)) return;
   const SE3d T_map_base = mapper_->MapFromBaseFrame();
   const std::vector<Mapper::KeyframePoseUpdate> poses = mapper_->KeyframePoses();
   std::vector<MappedKeyframe> mapped;

@@ -45,6 +45,7 @@ struct KeyframeRecord {
   bool has_gravity = false;
   Vec3d gravity_cam = Vec3d::Zero();  // unit, pointing down, cam frame
   int segment = 0;
+  int tracking_inliers = 0;  // the client's tracking quality (0 = unknown)
   std::string rgb_jpeg;
   std::string depth_png;  // 16-bit PNG
   std::vector<Detection2D> detections;

@@ -30,7 +30,7 @@ std::string ScanSql(const KeyframeScan& scan) {
       " k.fy, k.cx, k.cy, k.width_px, k.height_px, k.depth_scale, k.has_gravity, k.gx, k.gy,"
       " k.gz, k.segment, ",
       images, ", ", products ? "p.data" : "NULL",
-      ", c.tx, c.ty, c.tz, c.qw, c.qx, c.qy, c.qz FROM keyframes k",
+      ", c.tx, c.ty, c.tz, c.qw, c.qx, c.qy, c.qz, k.tracking_inliers FROM keyframes k",
       " LEFT JOIN keyframe_poses c ON c.keyframe_id = k.id",
       products ? " LEFT JOIN keyframe_products p ON p.keyframe_id = k.id AND p.fingerprint = ?2"
                : "",
@@ -57,6 +57,7 @@ StatusOr<KeyframeRecord> RecordFrom(const Stmt& q) {
   }
   if (!q.IsNull(26)) kf.products = q.Text(26);
   if (!q.IsNull(27)) kf.T_base_kf_corrected = PoseFrom(q, 27);
+  kf.tracking_inliers = static_cast<int>(q.Int(34));
   return kf;
 }
 

@@ -278,8 +278,8 @@ StatusOr<InsertResult> SqliteStore::InsertKeyframe(const KeyframeRecord& kf) {
     Stmt ins(db,
              "INSERT OR IGNORE INTO keyframes(session, seq, t_ns, tx, ty, tz, qw, qx, qy, qz, fx,"
              " fy, cx, cy, width_px, height_px, depth_scale, has_gravity, gx, gy, gz, segment,"
-             " rgb_jpeg, depth_png, detections, stored_ns)"
-             " VALUES(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
+             " rgb_jpeg, depth_png, detections, stored_ns, tracking_inliers)"
+             " VALUES(?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
     if (!ins.status().ok()) return fail("prepare insert keyframe");
     ins.Bind(1, kf.session_row).Bind(2, kf.seq).Bind(3, kf.t_ns);
     BindPose(ins, 4, kf.T_odom_cam);
@@ -288,7 +288,7 @@ StatusOr<InsertResult> SqliteStore::InsertKeyframe(const KeyframeRecord& kf) {
     ins.Bind(19, kf.gravity_cam.x()).Bind(20, kf.gravity_cam.y()).Bind(21, kf.gravity_cam.z());
     ins.Bind(22, static_cast<int64_t>(kf.segment));
     ins.BindBlob(23, kf.rgb_jpeg).BindBlob(24, kf.depth_png).BindText(25, detections_json);
-    ins.Bind(26, NowNs());
+    ins.Bind(26, NowNs()).Bind(27, static_cast<int64_t>(kf.tracking_inliers));
     if (ins.Step() != SQLITE_DONE) return fail("insert keyframe");
   }
   if (sqlite3_changes(db) == 1) {

@@ -46,7 +46,7 @@ void Record(const SyntheticRobot& r, int64_t row, LoopCloser* closer, int segmen
     const KeyframeNode& n = r.nodes[k];
     const int segment = (segment_break_at > 0 && static_cast<int>(k) >= segment_break_at) ? 1 : 0;
     closer->AddKeyframe({n.keyframe_id, row, segment, n.t_ns, n.T_map_kf});
-    closer->NoteMapped();
+    closer->NoteRecognised();
   }
 }
 
@@ -80,9 +80,10 @@ TEST(LoopCloser, RecordedLoopsCutTheDriftToAThirdAndStatsSaySo) {
   const Scene s = MakeScene();
   LoopCloser closer(GraphOptions{}, Options());
   Record(s.robot, 1, &closer);
-  EXPECT_FALSE(closer.Due());  // no match yet
+  EXPECT_FALSE(closer.Due(false));  // no match yet
+  EXPECT_FALSE(closer.Due(true));
   AddMatches(s.loops, true, &closer);
-  ASSERT_TRUE(closer.Due());
+  ASSERT_TRUE(closer.Due(false));
   const std::vector<MappedKeyframe> mapped = Mapped(s.robot);
   std::map<int64_t, SE3d> before;
   for (const MappedKeyframe& m : mapped) before[m.keyframe_id] = m.T_map_kf;
@@ -95,9 +96,13 @@ TEST(LoopCloser, RecordedLoopsCutTheDriftToAThirdAndStatsSaySo) {
   EXPECT_LE(ate_after, ate_before / 3);
   EXPECT_TRUE(r->stats.four_dof);
   EXPECT_EQ(r->stats.odometry_edges, s.robot.nodes.size() - 1);
-  EXPECT_FALSE(closer.Due());  // reset by the solve
+  EXPECT_FALSE(closer.Due(true));  // reset by the solve
+  // One new match: due only once nothing waits for place recognition.
+  closer.AddMatch({s.loops[0].from_id, s.loops[0].to_id, s.loops[0].T_a_b, 100, 0.01, true});
+  EXPECT_FALSE(closer.Due(false));
+  EXPECT_TRUE(closer.Due(true));
   const LoopStats st = closer.Stats();
-  EXPECT_EQ(st.loop_matches, s.loops.size());
+  EXPECT_EQ(st.loop_matches, s.loops.size() + 1);  // the one added after the solve
   EXPECT_EQ(st.optimizations, 1u);
   EXPECT_EQ(st.keyframes_moved, r->updates.size());
 }

@@ -244,12 +244,15 @@ TEST_F(ServiceTest, MalformedKeyframesAreRejectedAndChangeNothing) {
   Keyframe bad_mask = Frame(session, 5);
   bad_mask.mutable_detections(0)->set_mask_png("not a png");
   frames.push_back(bad_mask);
-  frames.push_back(Frame(session, 6));  // the stream still works
+  Keyframe bad_quality = Frame(session, 6);
+  bad_quality.set_tracking_inliers(-3);
+  frames.push_back(bad_quality);
+  frames.push_back(Frame(session, 7));  // the stream still works
 
   grpc::Status st;
   const auto acks = Send(frames, &st);
   ASSERT_TRUE(st.ok());
-  ASSERT_EQ(acks.size(), 7u);
+  ASSERT_EQ(acks.size(), 8u);
   EXPECT_EQ(acks[0].status().code(), 0);
   const int kInvalid = static_cast<int>(absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(acks[1].status().code(), kInvalid);
@@ -261,8 +264,10 @@ TEST_F(ServiceTest, MalformedKeyframesAreRejectedAndChangeNothing) {
   EXPECT_EQ(acks[4].status().code(), static_cast<int>(absl::StatusCode::kNotFound));
   EXPECT_EQ(acks[5].status().code(), kInvalid);
   EXPECT_NE(acks[5].status().message().find("mask"), std::string::npos);
-  for (int i = 1; i <= 5; ++i) EXPECT_EQ(acks[i].keyframe_id(), 0);
-  EXPECT_EQ(acks[6].status().code(), 0);
+  EXPECT_EQ(acks[6].status().code(), kInvalid);
+  EXPECT_NE(acks[6].status().message().find("tracking_inliers"), std::string::npos);
+  for (int i = 1; i <= 6; ++i) EXPECT_EQ(acks[i].keyframe_id(), 0);
+  EXPECT_EQ(acks[7].status().code(), 0);
   EXPECT_EQ(StoredKeyframes(), 2u);
 
   // 200 MB in one message: refused by gRPC's receive limit; the server lives on.

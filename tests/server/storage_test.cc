@@ -31,6 +31,7 @@ KeyframeRecord MakeKeyframe(int64_t session_row, int64_t seq) {
   kf.has_gravity = true;
   kf.gravity_cam = Vec3d(0, 1, 0);
   kf.segment = 2;
+  kf.tracking_inliers = 150 + static_cast<int>(seq);
   kf.rgb_jpeg = std::string("\xff\xd8 jpeg bytes \0 with a zero", 26);
   kf.depth_png = "png bytes";
   Detection2D d;
@@ -131,6 +132,7 @@ TEST(SqliteStore, KeyframeRoundTripAndDuplicates) {
   EXPECT_DOUBLE_EQ(r.camera.fx, 517.3);
   EXPECT_TRUE(r.has_gravity);
   EXPECT_EQ(r.segment, 2);
+  EXPECT_EQ(r.tracking_inliers, 157);
   EXPECT_EQ(r.rgb_jpeg, kf.rgb_jpeg);  // binary-safe, embedded zero kept
   EXPECT_EQ(r.depth_png, kf.depth_png);
   ASSERT_EQ(r.detections.size(), 1u);
