@@ -1,6 +1,7 @@
 #include "server/map/map_options.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <limits>
 
@@ -17,7 +18,7 @@ constexpr const char* kFusionKeys[] = {
     "merge_centroid_m",        "merge_containment", "merge_across_classes", "assoc_containment",
     "max_size_ratio",          "label_universe",    "min_likelihood",       "existence_p_real",
     "existence_p_false",       "confirm_llr",       "remove_llr",           "visibility",
-    "centroid_min_part"};
+    "centroid_min_part",       "class_size_slack",  "merge_box_containment"};
 
 Status CheckMapKeys(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
@@ -125,6 +126,9 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "support_cell_m", &fusion.support_cell_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_support_fraction", &fusion.min_support_fraction));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "centroid_min_part", &fusion.centroid_min_part));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "class_size_slack", &fusion.class_size_slack));
+    LOCI_RETURN_IF_ERROR(
+        ReadOptional(n, "merge_box_containment", &fusion.merge_box_containment));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "overlap_voxel_m", &fusion.overlap_voxel_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "weight_track", &fusion.weight_track));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "weight_centroid", &fusion.weight_centroid));
@@ -225,6 +229,8 @@ Status MapOptions::Validate() const {
     return bad("fusion.support_cell_m > 0.001 and fusion.min_support_fraction in [0, 1]");
   }
   if (fusion.label_universe < 2) return bad("fusion.label_universe >= 2");
+  if (!(fusion.merge_box_containment > 0)) return bad("fusion.merge_box_containment > 0");
+  if (!std::isfinite(fusion.class_size_slack)) return bad("fusion.class_size_slack finite");
   if (!(fusion.centroid_min_part >= 0 && fusion.centroid_min_part < 0.5)) {
     return bad("fusion.centroid_min_part in [0, 0.5)");
   }

@@ -107,6 +107,18 @@ struct FusionOptions {
   // stands on it. Empty = none.
   std::vector<std::string> flat_top_classes;
   double flat_top_margin_m = 0.03;
+  // Class size priors across classes (Mapper sets max_size_m from MapOptions::max_size_m): an
+  // observation is not associated with an object of another class, and objects of other classes
+  // do not merge, when either one is longer than class_size_slack x the other's class limit (a
+  // 1.6 m desk is no "laptop", whatever a blurred view said). A fused box is the union of many
+  // views, longer than one view's 5-95 % box; <= 0 = off (1.5).
+  std::map<std::string, double> max_size_m;
+  double class_size_slack = 1.5;
+  // Two objects of the same class whose axis-aligned boxes (map frame) overlap by more than this
+  // share of the smaller box's volume are one object: two solid things do not interpenetrate.
+  // Far objects (3 m and more: depth noise ~z^2, a degree of pose error moves them 5 cm) come back
+  // as several smeared boxes whose voxels no longer overlap; >= 1 = off (0.75).
+  double merge_box_containment = 0.75;
 };
 
 struct OctomapOptions {
@@ -159,6 +171,6 @@ struct MapOptions {
 
 // Version of the product and fusion code; bump it when a change alters products or the map
 // for the same options (stored products and checkpoints of another version are recomputed).
-inline constexpr int kMapCodeVersion = 2;
+inline constexpr int kMapCodeVersion = 3;
 
 }  // namespace loci::server

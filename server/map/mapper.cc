@@ -12,9 +12,11 @@ namespace {
 
 double MsSince(double t0_cpu_ms) { return ThreadCpuMs() - t0_cpu_ms; }
 
-// The fusion options with the flat-topped furniture of the observation masks.
+// The fusion options with the flat-topped furniture of the observation masks and the class size
+// limits.
 FusionOptions FusionWithFlatTops(const MapOptions& options) {
   FusionOptions f = options.fusion;
+  f.max_size_m = options.max_size_m;
   f.flat_top_classes = options.observation.mask.flat_top_classes;
   f.flat_top_margin_m = options.observation.mask.flat_top_margin_m;
   return f;

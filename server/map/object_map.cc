@@ -1,6 +1,7 @@
 #include "server/map/object_map.h"
 
 #include <algorithm>
+#include <optional>
 #include <set>
 
 namespace loci::server {
@@ -45,7 +46,28 @@ double Within(const VoxelSet& a, const VoxelSet& b) {
   return static_cast<double>(inter) / static_cast<double>(a.size());
 }
 
+// Volume of the intersection of two boxes over the smaller box's volume (0 when either is flat).
+double BoxContainment(const MapObject& a, const MapObject& b) {
+  const Eigen::Vector3d lo = a.aabb_min_m.cwiseMax(b.aabb_min_m);
+  const Eigen::Vector3d hi = a.aabb_max_m.cwiseMin(b.aabb_max_m);
+  if ((hi.array() <= lo.array()).any()) return 0.0;
+  const double smaller = std::min((a.aabb_max_m - a.aabb_min_m).prod(),
+                                  (b.aabb_max_m - b.aabb_min_m).prod());
+  return smaller > 0 ? (hi - lo).prod() / smaller : 0.0;
+}
+
 }  // namespace
+
+bool ObjectMap::FitsClass(const std::string& class_name, double size_m) const {
+  if (options_.class_size_slack <= 0) return true;
+  const auto it = options_.max_size_m.find(class_name);
+  return it == options_.max_size_m.end() || size_m <= options_.class_size_slack * it->second;
+}
+
+bool ObjectMap::ClassesFit(const std::string& class_a, double size_a_m, const std::string& class_b,
+                           double size_b_m) const {
+  return class_a == class_b || (FitsClass(class_a, size_b_m) && FitsClass(class_b, size_a_m));
+}
 
 double ObjectMap::AssociationScore(const FusedObject& object, const MapObservation& obs,
                                    const VoxelSet& obs_keys) const {
@@ -89,6 +111,10 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
     int64_t best_id = 0;
     double best_score = 0, best_d = 0;
     for (const auto& [id, object] : objects_) {
+      if (!ClassesFit(object.labels().Argmax(), 2 * object.half_size_m(), obs.class_name,
+                      2 * obs.half_size_m)) {
+        continue;
+      }
       const double s = AssociationScore(object, obs, keys);
       const double d = (object.centroid_m() - obs.centroid_m).norm();
       if (s >= options_.score_threshold && (s > best_score || (s == best_score && d < best_d))) {
@@ -115,31 +141,42 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
   return ids;
 }
 
+bool ObjectMap::Duplicates(const FusedObject& self, const FusedObject& other,
+                           VoxelSet* self_keys, std::optional<MapObject>* self_box) const {
+  // Other classes merge only with an object of a compatible size (a monitor labelled "laptop"
+  // on blurred frames), never a keyboard with the desk it lies on; the label distributions then
+  // settle the class.
+  const std::string cls = self.labels().Argmax(), other_cls = other.labels().Argmax();
+  const bool same_class = other_cls == cls;
+  if (!same_class && (!options_.merge_across_classes ||
+                      !SizeCompatible(self.half_size_m(), other.half_size_m()) ||
+                      !ClassesFit(cls, 2 * self.half_size_m(), other_cls,
+                                  2 * other.half_size_m()))) {
+    return false;
+  }
+  const double d = (other.centroid_m() - self.centroid_m()).norm();
+  if (d < options_.merge_centroid_m) return true;
+  if (d >= options_.track_gate_m + 1.0) return false;
+  if (self_keys->empty()) *self_keys = self.KeysAt(options_.overlap_voxel_m);
+  if (VoxelContainment(*self_keys, other.KeysAt(options_.overlap_voxel_m)) >
+      options_.merge_containment) {
+    return true;
+  }
+  if (!same_class || options_.merge_box_containment >= 1) return false;
+  if (!*self_box) *self_box = self.Snapshot();
+  return BoxContainment(**self_box, other.Snapshot()) > options_.merge_box_containment;
+}
+
 int64_t ObjectMap::MergeDuplicates(int64_t id, std::vector<ObjectChange>* changes) {
   bool merged = true;
   while (merged) {
     merged = false;
     const FusedObject& self = objects_.at(id);
-    const std::string cls = self.labels().Argmax();
     VoxelSet self_keys;
+    std::optional<MapObject> self_box;
     for (const auto& [other_id, other] : objects_) {
       if (other_id == id) continue;
-      // Other classes merge only with an object of a compatible size (a monitor labelled
-      // "laptop" on blurred frames), never a keyboard with the desk it lies on; the label
-      // distributions then settle the class.
-      const bool same_class = other.labels().Argmax() == cls;
-      if (!same_class && (!options_.merge_across_classes ||
-                          !SizeCompatible(self.half_size_m(), other.half_size_m()))) {
-        continue;
-      }
-      const double d = (other.centroid_m() - self.centroid_m()).norm();
-      bool duplicate = d < options_.merge_centroid_m;
-      if (!duplicate && d < options_.track_gate_m + 1.0) {
-        if (self_keys.empty()) self_keys = self.KeysAt(options_.overlap_voxel_m);
-        duplicate = VoxelContainment(self_keys, other.KeysAt(options_.overlap_voxel_m)) >
-                    options_.merge_containment;
-      }
-      if (!duplicate) continue;
+      if (!Duplicates(self, other, &self_keys, &self_box)) continue;
       // The older object survives, so ids handed out earlier stay valid where possible.
       const int64_t keep = std::min(id, other_id), drop = std::max(id, other_id);
       objects_.at(keep).Absorb(objects_.at(drop));

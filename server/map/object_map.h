@@ -104,6 +104,14 @@ class ObjectMap {
   FusedObject::ExistenceModel Existence() const {
     return {options_.existence_p_real, options_.existence_p_false};
   }
+  // Duplicates (MergeDuplicates' rules); self_keys and self_box cache self's voxel keys and box.
+  bool Duplicates(const FusedObject& self, const FusedObject& other, VoxelSet* self_keys,
+                  std::optional<MapObject>* self_box) const;
+  // An object of size_m (longest side) can be of the class (FusionOptions::class_size_slack).
+  bool FitsClass(const std::string& class_name, double size_m) const;
+  // Same class, or each one's size fits the other's class.
+  bool ClassesFit(const std::string& class_a, double size_a_m, const std::string& class_b,
+                  double size_b_m) const;
   // Largest half extents within FusionOptions::max_size_ratio of each other.
   bool SizeCompatible(double half_a_m, double half_b_m) const;
   // Merges duplicates of `id` into the older object (a kMerged change for the survivor, then a
