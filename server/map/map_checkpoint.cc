@@ -147,7 +147,7 @@ Status SemanticCloud::LoadState(const loci::store::v1::SemanticCloudState& in) {
 
 std::string Mapper::SaveCheckpoint() const {
   if (!frame_settled_) return {};
-  if (octomap_) FlushOctomap();
+  if (options_.octomap.enabled) FlushOctomap();
   loci::store::v1::MapperCheckpoint out;
   out.set_fingerprint(options_.MapFingerprint());
   {
@@ -176,7 +176,7 @@ std::string Mapper::SaveCheckpoint() const {
     }
     out.set_keyframe_count(stats_.keyframes);
   }
-  if (octomap_) {
+  if (options_.octomap.enabled) {
     std::lock_guard<std::mutex> lock(octo_mu_);
     out.set_octomap_ot(octomap_->SerializeState());
   }
@@ -191,7 +191,7 @@ Status Mapper::LoadCheckpoint(const std::string& bytes) {
                                                       in.fingerprint(), ", not ",
                                                       options_.MapFingerprint()));
   }
-  if (octomap_ && !in.octomap_ot().empty()) {
+  if (options_.octomap.enabled && !in.octomap_ot().empty()) {
     std::lock_guard<std::mutex> lock(octo_mu_);
     LOCI_RETURN_IF_ERROR(octomap_->LoadState(in.octomap_ot()));
   }

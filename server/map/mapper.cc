@@ -30,7 +30,10 @@ Mapper::Mapper(const MapOptions& options)
       cloud_(options.cloud.voxel_m),
       octomap_(options.octomap.enabled ? std::make_unique<OccupancyMap>(options.octomap)
                                        : nullptr) {
-  if (octomap_) octomap_thread_ = std::thread([this] { OctomapLoop(); });
+  // octomap_ is non-null exactly when options_.octomap.enabled, but the OctoMap thread replaces
+  // it (RebuildOctomap), as does SettleFrame: read the pointer only under octo_mu_, and test
+  // options_.octomap.enabled instead of the pointer.
+  if (options_.octomap.enabled) octomap_thread_ = std::thread([this] { OctomapLoop(); });
 }
 
 Mapper::~Mapper() {
@@ -216,7 +219,7 @@ std::vector<Mapper::KeyframePose>::iterator Mapper::FindKeyframePose(int64_t key
 
 void Mapper::SettleFrame(std::vector<ObjectEventOut>* events) {
   const UpEstimate up = EstimateUp(evidence_, options_.frame);
-  if (octomap_) FlushOctomap();
+  if (options_.octomap.enabled) FlushOctomap();
   {
     std::lock_guard<std::mutex> lock(mu_);
     T_map_base_ = MapFromBase(evidence_.T_base_first_cam, up.up_base);
@@ -236,7 +239,7 @@ void Mapper::SettleFrame(std::vector<ObjectEventOut>* events) {
     latest_poses_.clear();
     stats_.keyframes = 0;
   }
-  if (octomap_) {
+  if (options_.octomap.enabled) {
     std::lock_guard<std::mutex> lock(octo_mu_);
     octomap_ = std::make_unique<OccupancyMap>(options_.octomap);
   }
@@ -294,7 +297,7 @@ std::vector<int64_t> Mapper::IntegrateProducts(const MapperKeyframe& kf,
     if (kf.t_ns >= pose.t_ns) pose = {kf.t_ns, T_map_kf};
     ++stats_.keyframes;
   }
-  if (octomap_) {
+  if (options_.octomap.enabled) {
     OctomapJob job;
     job.scan = ThinScan(points, T_map_kf.translation(), options_.octomap.resolution_m);
     PushOctomap(std::move(job));
@@ -372,14 +375,14 @@ std::vector<SemanticPoint> Mapper::Cloud(double voxel_m,
 }
 
 std::string Mapper::OctomapBt() const {
-  if (!octomap_) return {};
+  if (!options_.octomap.enabled) return {};
   FlushOctomap();
   std::lock_guard<std::mutex> lock(octo_mu_);
   return octomap_->SerializeBt();
 }
 
 std::vector<Eigen::Vector3d> Mapper::OccupiedCenters() const {
-  if (!octomap_) return {};
+  if (!options_.octomap.enabled) return {};
   FlushOctomap();
   std::lock_guard<std::mutex> lock(octo_mu_);
   return octomap_->OccupiedCenters();
@@ -442,7 +445,8 @@ std::map<std::string, RobotPose> Mapper::LatestPoses() const {
 
 MapperStats Mapper::Stats() const {
   MapperStats s;
-  if (octomap_) FlushOctomap();  // so the OctoMap figures cover every integrated keyframe
+  // So the OctoMap figures cover every integrated keyframe.
+  if (options_.octomap.enabled) FlushOctomap();
   {
     std::lock_guard<std::mutex> lock(mu_);
     s = stats_;
@@ -450,7 +454,7 @@ MapperStats Mapper::Stats() const {
     s.confirmed_objects = objects_.confirmed_count();
     s.cloud_points = cloud_.size();
   }
-  if (octomap_) {
+  if (options_.octomap.enabled) {
     std::lock_guard<std::mutex> lock(octo_mu_);
     s.octomap_nodes = octomap_->node_count();
   }

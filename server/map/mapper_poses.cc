@@ -52,7 +52,7 @@ StatusOr<size_t> Mapper::UpdateKeyframePoses(const std::vector<KeyframePoseUpdat
     std::lock_guard<std::mutex> lock(mu_);
     objects_.MergeMoved(moved_objects, &changes);
     AppendEvents(changes, &events);
-    if (octomap_ && moved > 0) {
+    if (options_.octomap.enabled && moved > 0) {
       OctomapRebuild rebuild{{}, source, ++octomap_generation_};
       rebuild.T_map_kf.reserve(keyframe_poses_.size());
       for (const KeyframePose& k : keyframe_poses_) {

@@ -333,7 +333,8 @@ TEST_F(Integration, SigkillMidStreamThenRestartLosesNothing) {
     grpc::ClientContext ctx;
     ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
     loci::v1::GetStatsResponse stats;
-    ASSERT_TRUE(query->GetStats(&ctx, {}, &stats).ok());
+    const grpc::Status got = query->GetStats(&ctx, {}, &stats);
+    ASSERT_TRUE(got.ok()) << got.error_code() << ": " << got.error_message();
     EXPECT_EQ(stats.keyframes(), static_cast<uint64_t>(n));
     const int status = server.Stop(SIGTERM);  // graceful: drains the queue, then exits 0
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "wait status " << status;
