@@ -40,10 +40,8 @@ void LoopCloser::NoteRecognised() {
   ++recognised_since_;
 }
 
-bool LoopCloser::Due(bool idle) const {
+bool LoopCloser::Due() const {
   std::lock_guard<std::mutex> lock(mu_);
-  if (new_matches_ == 0) return false;
-  if (idle) return true;
   return new_matches_ >= options_.optimize_every_edges &&
          recognised_since_ >= options_.optimize_min_keyframes;
 }

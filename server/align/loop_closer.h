@@ -67,9 +67,9 @@ class LoopCloser {
   // A keyframe went through place recognition (counts towards optimize_min_keyframes).
   void NoteRecognised();
   // Whether a solve is due: optimize_every_edges new matches and optimize_min_keyframes
-  // keyframes since the last solve, or, when `idle` (no keyframe waits for place recognition),
-  // any new match (so the map is final once the robots stop).
-  bool Due(bool idle) const;
+  // keyframes through place recognition since the last solve. Counted in keyframes, not time,
+  // so the same data gives the same solves and the same map.
+  bool Due() const;
 
   // Builds the graph over `mapped` (map frame; all z up from gravity when `gravity_aligned`)
   // and solves it. The updates are the keyframes that moved (T_map_kf). Resets Due().

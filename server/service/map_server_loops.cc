@@ -52,8 +52,7 @@ void MapServer::LoadPlaceMatches() {
 void MapServer::MaybeCloseLoops() {
   // After a start the graph waits for every stored keyframe's odometry (Reindex), and for the
   // map frame, whose z the 4-DoF solve holds.
-  if (!closer_ || !reindexed_ || !mapper_->FrameSettled()) return;
-  if (!closer_->Due(/*idle=*/align_queue_.size() == 0)) return;
+  if (!closer_ || !reindexed_ || !closer_->Due() || !mapper_->FrameSettled()) return;
   const SE3d T_map_base = mapper_->MapFromBaseFrame();
   const std::vector<Mapper::KeyframePoseUpdate> poses = mapper_->KeyframePoses();
   std::vector<MappedKeyframe> mapped;
