@@ -29,7 +29,7 @@ void LoopCloser::AddKeyframe(const LoopKeyframe& keyframe) {
 
 void LoopCloser::AddMatch(const VerifiedMatch& match, bool fresh) {
   std::lock_guard<std::mutex> lock(mu_);
-  matches_[{match.a_id, match.b_id}] = {match.T_a_b, match.loop};
+  matches_[{match.a_id, match.b_id}] = match.T_a_b;
   if (!fresh) return;
   ++(match.loop ? stats_.loop_matches : stats_.merge_matches);
   ++new_matches_;
@@ -84,13 +84,13 @@ StatusOr<GraphResult> LoopCloser::Optimize(const std::vector<MappedKeyframe>& ma
     prev = &kf;
   }
   const Information6 info = IsotropicInformation(options_.sigma_trans_m, options_.sigma_rot_rad);
-  for (const auto& [ids, match] : matches_) {
+  for (const auto& [ids, T_a_b] : matches_) {
     auto a = session_of.find(ids.first), b = session_of.find(ids.second);
     if (a == session_of.end() || b == session_of.end()) continue;  // not both mapped
     if (a->second == b->second) {
-      LOCI_RETURN_IF_ERROR(graph.AddLoopEdge(ids.first, ids.second, match.T_a_b, info));
+      LOCI_RETURN_IF_ERROR(graph.AddLoopEdge(ids.first, ids.second, T_a_b, info));
     } else {
-      LOCI_RETURN_IF_ERROR(graph.AddMergeEdge(ids.first, ids.second, match.T_a_b, info));
+      LOCI_RETURN_IF_ERROR(graph.AddMergeEdge(ids.first, ids.second, T_a_b, info));
     }
   }
   LOCI_ASSIGN_OR_RETURN(GraphResult result, graph.Optimize());

@@ -79,16 +79,12 @@ class LoopCloser {
   std::optional<LoopKeyframe> Keyframe(int64_t keyframe_id) const;
 
  private:
-  struct Match {
-    SE3d T_a_b = SE3d::Identity();
-    bool loop = false;
-  };
-
   GraphOptions graph_;
   LoopOptions options_;
   mutable std::mutex mu_;
   std::map<int64_t, LoopKeyframe> keyframes_;                // by id
-  std::map<std::pair<int64_t, int64_t>, Match> matches_;    // by (a, b)
+  // T_a_b by (a, b); loop or merge is decided by the keyframes' sessions when solving.
+  std::map<std::pair<int64_t, int64_t>, SE3d> matches_;
   int new_matches_ = 0;
   int recognised_since_ = 0;
   LoopStats stats_;

@@ -138,7 +138,9 @@ class MapServer {
   void MaybeCloseLoops();
   // After a solve: each moved session's placement follows its newest mapped keyframe, so the
   // keyframes it sends next continue from the corrected pose.
-  void FollowCorrections(const std::vector<Mapper::KeyframePoseUpdate>& moved);
+  // `mapped`: the keyframes the solve saw (id order); `moved`: their corrected poses.
+  void FollowCorrections(const std::vector<Mapper::KeyframePoseUpdate>& mapped,
+                         const std::vector<Mapper::KeyframePoseUpdate>& moved);
   // Stored matches into the loop closer (loading thread, before re-indexing).
   void LoadPlaceMatches();
   std::optional<SessionRecord> SessionByRow(int64_t session_row);

@@ -86,15 +86,16 @@ void MapServer::MaybeCloseLoops() {
     spdlog::warn("pose graph solution not applied: {}", moved.status().ToString());
     return;
   }
-  FollowCorrections(updates);
+  FollowCorrections(poses, updates);
 }
 
-void MapServer::FollowCorrections(const std::vector<Mapper::KeyframePoseUpdate>& moved) {
+void MapServer::FollowCorrections(const std::vector<Mapper::KeyframePoseUpdate>& mapped,
+                                  const std::vector<Mapper::KeyframePoseUpdate>& moved) {
   std::map<int64_t, SE3d> moved_by_id;
   for (const Mapper::KeyframePoseUpdate& u : moved) moved_by_id[u.keyframe_id] = u.T_base_kf;
-  // The newest mapped keyframe of every session (poses are in id order).
+  // The newest mapped keyframe of every session (`mapped` is in id order).
   std::map<int64_t, std::pair<int64_t, SE3d>> newest;  // session row -> (id, T_odom_kf)
-  for (const Mapper::KeyframePoseUpdate& p : mapper_->KeyframePoses()) {
+  for (const Mapper::KeyframePoseUpdate& p : mapped) {
     const std::optional<LoopKeyframe> kf = closer_->Keyframe(p.keyframe_id);
     if (kf) newest[kf->session_row] = {kf->keyframe_id, kf->T_odom_kf};
   }
