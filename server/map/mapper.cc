@@ -63,8 +63,11 @@ void Mapper::OctomapLoop() {
 }
 
 void Mapper::FlushOctomap() const {
+  // Waits for the scans pushed before this call only: a reader must not wait for keyframes the
+  // worker maps meanwhile (under a steady stream that wait would never end).
   std::unique_lock<std::mutex> lock(octomap_progress_mu_);
-  octomap_progress_cv_.wait(lock, [&] { return octomap_done_ >= octomap_pushed_; });
+  const uint64_t target = octomap_pushed_;
+  octomap_progress_cv_.wait(lock, [&] { return octomap_done_ >= target; });
 }
 
 void Mapper::SetEventListener(std::function<void(const std::vector<ObjectEventOut>&)> listener) {
