@@ -136,6 +136,8 @@ nlohmann::json ToJson(const report::GroundTruthEval& e) {
           {"alignment_ate_rmse_m", e.alignment.trans_m.rmse},
           {"alignment_pairs", e.alignment.pairs},
           {"up_error_deg", e.up_error_deg},
+          {"up_error_orientation_deg", e.up_error_orientation_deg},
+          {"alignment_disagreement_deg", e.alignment_disagreement_deg},
           {"precision", r.precision},
           {"recall", r.recall},
           {"f1", r.f1},

@@ -84,6 +84,24 @@ StatusOr<AteResult> ComputeAte(const Trajectory& gt_in, const Trajectory& est_in
   return r;
 }
 
+StatusOr<Mat3d> OrientationAlignment(const Trajectory& gt_in, const Trajectory& est_in,
+                                     const AteOptions& opt) {
+  const Trajectory gt = Sorted(gt_in), est = Sorted(est_in);
+  std::vector<int64_t> tg = Stamps(gt), te = Stamps(est);
+  for (auto& t : te) t += opt.offset_ns;
+  const auto pairs = AssociateStamps(tg, te, opt.max_dt_ns);
+  if (pairs.empty()) return absl::InvalidArgumentError("no stamp pairs within the window");
+  Mat3d sum = Mat3d::Zero();
+  for (const auto& [g, e] : pairs) {
+    sum += gt[g].T_world_cam.linear() * est[e].T_world_cam.linear().transpose();
+  }
+  // The rotation nearest the sum (Frobenius): U diag(1, 1, det(U V^T)) V^T.
+  const Eigen::JacobiSVD<Mat3d> svd(sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Mat3d d = Mat3d::Identity();
+  d(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
+  return Mat3d(svd.matrixU() * d * svd.matrixV().transpose());
+}
+
 StatusOr<RpeResult> ComputeRpe(const Trajectory& gt_in, const Trajectory& est_in,
                                const RpeOptions& opt) {
   const Trajectory gt = Sorted(gt_in), est = Sorted(est_in);

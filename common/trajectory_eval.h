@@ -32,6 +32,13 @@ struct AteOptions {
 StatusOr<AteResult> ComputeAte(const Trajectory& gt, const Trajectory& est,
                                const AteOptions& opt = {});
 
+// The rotation that best carries the estimate's camera orientations onto the ground truth's:
+// the chordal mean of R_gt_i * R_est_i^T over the stamps ComputeAte associates. A check on
+// ComputeAte's alignment, which uses positions only and so is ill-conditioned in rotation when
+// the camera barely translates (fr1_rpy: its keyframes lie within about 7 cm of their mean).
+StatusOr<Mat3d> OrientationAlignment(const Trajectory& gt, const Trajectory& est,
+                                     const AteOptions& opt = {});
+
 struct RpeResult {
   ErrorStats trans_m;     // per delta: m over delta_s (delta 1 s: m/s)
   ErrorStats rot_rad;     // per delta: rad over delta_s

@@ -49,6 +49,13 @@ std::vector<OnPairCheck> CheckOnPairs(const GroundTruthEvalInput& in,
   return out;
 }
 
+// Angle between the map's +z carried into the world by R_world_map and the world's up (deg).
+double UpErrorDeg(const Mat3d& R_world_map, const Vec3d& up_world) {
+  const Vec3d map_up_world = R_world_map * Vec3d::UnitZ();
+  return std::acos(std::clamp(map_up_world.dot(up_world.normalized()), -1.0, 1.0)) * 180.0 /
+         M_PI;
+}
+
 }  // namespace
 
 StatusOr<GroundTruthEval> EvaluateAgainstGroundTruth(const GroundTruthEvalInput& in) {
@@ -63,9 +70,12 @@ StatusOr<GroundTruthEval> EvaluateAgainstGroundTruth(const GroundTruthEvalInput&
   e.objects = server::EvaluateObjects(in_world, in.gt, in.options);
   e.objects_world = in_world;
   e.radius_m = in.options.max_match_m;
-  const Vec3d map_up_world = e.alignment.T_gt_est.linear() * Vec3d::UnitZ();
-  e.up_error_deg =
-      std::acos(std::clamp(map_up_world.dot(in.gt.up.normalized()), -1.0, 1.0)) * 180.0 / M_PI;
+  e.up_error_deg = UpErrorDeg(e.alignment.T_gt_est.linear(), in.gt.up);
+  LOCI_ASSIGN_OR_RETURN(const Mat3d R_gt_map, OrientationAlignment(in.groundtruth, stacked));
+  e.up_error_orientation_deg = UpErrorDeg(R_gt_map, in.gt.up);
+  e.alignment_disagreement_deg =
+      Eigen::AngleAxisd(R_gt_map.transpose() * e.alignment.T_gt_est.linear()).angle() * 180.0 /
+      M_PI;
   if (in.ask) {
     e.on_pairs = CheckOnPairs(in, e.objects);
     for (const OnPairCheck& c : e.on_pairs) e.on_right += c.right;
@@ -78,8 +88,11 @@ std::string FormatGroundTruthEval(const GroundTruthEval& e) {
   const server::ObjectEvalResult& r = e.objects;
   std::string s = absl::StrFormat(
       "alignment: keyframe trajectory vs ground truth, %zu pairs, ATE rmse %.4f m; map +z is "
-      "%.1f deg from the ground truth's up\n",
-      e.alignment.pairs, e.alignment.trans_m.rmse, e.up_error_deg);
+      "%.1f deg from the ground truth's up\n"
+      "  check: aligned by the camera orientations instead, map +z is %.1f deg from up; the two "
+      "alignments differ by %.1f deg\n",
+      e.alignment.pairs, e.alignment.trans_m.rmse, e.up_error_deg, e.up_error_orientation_deg,
+      e.alignment_disagreement_deg);
   absl::StrAppendFormat(&s, "%-14s %4s %4s %5s %4s %4s %4s %7s\n", "class", "gt", "low", "map",
                         "tp", "fp", "fn", "neutral");
   for (const server::ClassEval& c : r.classes) {

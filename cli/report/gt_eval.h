@@ -39,6 +39,12 @@ struct GroundTruthEval {
   // Angle between the map's +z, carried into the world by the alignment, and the ground
   // truth's up (deg): how level the map frame is.
   double up_error_deg = 0;
+  // The same angle with the rotation taken from the camera orientations instead
+  // (OrientationAlignment), and the angle between the two alignments' rotations. A large
+  // disagreement means the trajectory barely translates and the position alignment turns the
+  // map by itself: centroid errors then include that turn.
+  double up_error_orientation_deg = 0;
+  double alignment_disagreement_deg = 0;
 };
 
 struct GroundTruthEvalInput {

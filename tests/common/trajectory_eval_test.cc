@@ -54,6 +54,31 @@ TEST(TrajectoryEval, AteRecoversKnownNoise) {
   EXPECT_GT(r->trans_m.max, r->trans_m.median);
 }
 
+// A camera that only turns in place, with 1 cm of position noise: the positions say nothing
+// about the frame's rotation, the orientations do.
+TEST(TrajectoryEval, OrientationAlignmentRecoversRotationWherePositionsCannot) {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise_m(0.0, 0.01);
+  const SE3d T_est_gt = SE3FromTum(0.3, -0.2, 0.1, 0.1, -0.2, 0.3, 0.92);
+  Trajectory gt, est;
+  for (int i = 0; i < 300; ++i) {
+    const Quatd q(Eigen::AngleAxisd(0.5 * std::sin(0.05 * i), Vec3d::UnitZ()) *
+                  Eigen::AngleAxisd(0.3 * std::cos(0.07 * i), Vec3d::UnitX()));
+    const SE3d T_world_cam = MakeSE3(Vec3d(1.0, 2.0, 1.5), q);
+    gt.push_back({i * 30'000'000LL, T_world_cam});
+    SE3d T_est_cam = T_est_gt * T_world_cam;
+    T_est_cam.translation() += Vec3d(noise_m(rng), noise_m(rng), noise_m(rng));
+    est.push_back({i * 30'000'000LL, T_est_cam});
+  }
+  auto R_gt_est = OrientationAlignment(gt, est);
+  ASSERT_TRUE(R_gt_est.ok()) << R_gt_est.status();
+  EXPECT_LT(Eigen::AngleAxisd(*R_gt_est * T_est_gt.linear()).angle(), 1e-9);
+  auto ate = ComputeAte(gt, est);
+  ASSERT_TRUE(ate.ok());
+  EXPECT_GT(Eigen::AngleAxisd(ate->T_gt_est.linear() * T_est_gt.linear()).angle(), 0.05)
+      << "positions alone should not pin the rotation here";
+}
+
 TEST(TrajectoryEval, AteRejectsDisjointStamps) {
   const Trajectory gt = MakeGroundTruth();
   Trajectory est = gt;
