@@ -51,6 +51,20 @@ struct SupportOptions {
   double flat_top_margin_m = 0.03;
 };
 
+// A FusedObject's voxel and support cell (at namespace scope: a nested struct with member
+// initializers is not default-constructible until its class is complete, and the voxel tables
+// need that inside the class).
+struct FusedObjectVoxel {
+  Eigen::Vector3d sum_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d rgb_sum = Eigen::Vector3d::Zero();
+  uint32_t count = 0;
+};
+struct FusedObjectCell {
+  uint32_t observations = 0;  // observations with points in the cell
+  uint32_t last = 0;          // index of the last observation counted
+  uint32_t moved = 0;         // stamp of the last MovePoints pass that counted it (not saved)
+};
+
 class FusedObject {
  public:
   // centroid_from_box: see FusionOptions::centroid_from_box.
@@ -118,21 +132,13 @@ class FusedObject {
   Status LoadState(const loci::store::v1::FusedObjectState& in);
 
  private:
-  struct Voxel {
-    Eigen::Vector3d sum_m = Eigen::Vector3d::Zero();
-    Eigen::Vector3d rgb_sum = Eigen::Vector3d::Zero();
-    uint32_t count = 0;
-  };
+  using Voxel = FusedObjectVoxel;
   // Whether a voxel (mean point p) lies in a cell with enough observations.
   bool Supported(const Eigen::Vector3d& p) const;
   // Its most likely class is flat-topped furniture (SupportOptions::flat_top_classes).
   bool IsFlatTop() const;
   uint32_t MinSupport() const;
-  struct Cell {
-    uint32_t observations = 0;  // observations with points in the cell
-    uint32_t last = 0;          // index of the last observation counted
-    uint32_t moved = 0;         // stamp of the last MovePoints pass that counted it (not saved)
-  };
+  using Cell = FusedObjectCell;
 
   int64_t id_;
   double voxel_m_;

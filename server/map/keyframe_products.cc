@@ -9,6 +9,7 @@
 #include <numeric>
 #include <opencv2/imgproc.hpp>
 
+#include "common/task_pool.h"
 #include "detection/depth_mask.h"
 #include "server/map/grid_outlier_filter.h"
 #include "server/map/visibility.h"
@@ -290,13 +291,13 @@ KeyframeProducts BuildKeyframeProducts(const cv::Mat& bgr, const cv::Mat& depth_
   products.excluded_pixels = static_cast<uint64_t>(cv::countNonZero(labels < 0));
   products.labels_ms = ThreadCpuMs() - t;
 
-  // The dense cloud (labels = 1 + detection index for now) runs on a second core while this
+  // The dense cloud (labels = 1 + detection index for now) runs on a pool thread while this
   // thread builds the object observations.
   struct Dense {
     pcl::PointCloud<pcl::PointXYZRGBL> cloud;
     double backproject_ms = 0, voxel_ms = 0, outlier_ms = 0;
   };
-  std::future<Dense> dense_future = std::async(std::launch::async, [&] {
+  std::future<Dense> dense_future = TaskPool::Shared().Submit([&] {
     Dense d;
     double t0 = ThreadCpuMs();
     d.cloud = BackProject(bgr, depth_m, labels, camera, options.cloud.pixel_stride,

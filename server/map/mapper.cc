@@ -314,15 +314,18 @@ Mapper::OctomapScan Mapper::ThinScan(const std::vector<SemanticPoint>& static_po
   // One ray per OctoMap leaf is enough: thin the cloud to the OctoMap resolution first.
   OctomapScan scan;
   scan.origin_m = origin_m;
-  VoxelMap<std::pair<Eigen::Vector3f, int>> leaves;
+  struct LeafSum {
+    Eigen::Vector3f sum_m = Eigen::Vector3f::Zero();
+    int n = 0;
+  };
+  VoxelMap<LeafSum> leaves;
   for (const SemanticPoint& sp : static_points_m) {
-    auto& [sum, n] = leaves[KeyOf(sp.p_m.cast<double>(), resolution_m)];
-    if (n == 0) sum.setZero();
-    sum += sp.p_m;
-    ++n;
+    LeafSum& leaf = leaves[KeyOf(sp.p_m.cast<double>(), resolution_m)];
+    leaf.sum_m += sp.p_m;
+    ++leaf.n;
   }
   scan.points_m.reserve(leaves.size());
-  for (const auto& [key, sn] : leaves) scan.points_m.push_back(sn.first / sn.second);
+  for (const auto& [key, leaf] : leaves) scan.points_m.push_back(leaf.sum_m / leaf.n);
   return scan;
 }
 

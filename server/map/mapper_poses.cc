@@ -5,7 +5,9 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <future>
 
+#include "common/task_pool.h"
 #include "server/map/map_points.h"
 #include "server/map/mapper.h"
 
@@ -36,12 +38,19 @@ StatusOr<size_t> Mapper::UpdateKeyframePoses(const std::vector<KeyframePoseUpdat
   std::vector<int64_t> moved_objects;
   Status status;
   size_t moved = 0;
+  // The next keyframe's products are read on a pool thread while this one moves.
+  auto read = [&source](int64_t id) {
+    return TaskPool::Shared().Submit([&source, id] { return source(id); });
+  };
+  std::future<StatusOr<KeyframeProducts>> next;
+  if (!updates.empty()) next = read(updates.front().keyframe_id);
   for (size_t i = 0; i < updates.size(); ++i) {
-    StatusOr<KeyframeProducts> products = source(updates[i].keyframe_id);
+    StatusOr<KeyframeProducts> products = next.get();
     if (!products.ok()) {
       status = products.status();  // the keyframes before it moved; this one and the rest not
       break;
     }
+    if (i + 1 < updates.size()) next = read(updates[i + 1].keyframe_id);
     std::lock_guard<std::mutex> lock(mu_);
     MoveKeyframe(index[i], updates[i].T_base_kf, *products, &moved_objects);
     ++moved;
@@ -73,6 +82,12 @@ void Mapper::MoveKeyframe(size_t index, const SE3d& T_base_kf, const KeyframePro
   const Eigen::Isometry3f T_old = (T_map_base_ * k.T_base_kf).cast<float>();
   const SE3d T_map_kf_new = T_map_base_ * T_base_kf;
   const Eigen::Isometry3f T_new = T_map_kf_new.cast<float>();
+  // The cloud half moves on a pool thread beside the object half: they touch different
+  // structures (cloud_, objects_) and only read the keyframe's ids.
+  std::future<void> cloud_moved = TaskPool::Shared().Submit([&] {
+    cloud_.Remove(StaticPointsMap(products, T_old, k.observation_object_ids));
+    cloud_.Add(StaticPointsMap(products, T_new, k.observation_object_ids));
+  });
   const size_t n = std::min(products.observations.size(), k.observation_object_ids.size());
   for (size_t i = 0; i < n; ++i) {
     const ObjectObservation& o = products.observations[i];
@@ -81,8 +96,7 @@ void Mapper::MoveKeyframe(size_t index, const SE3d& T_base_kf, const KeyframePro
       moved_objects->push_back(k.observation_object_ids[i]);
     }
   }
-  cloud_.Remove(StaticPointsMap(products, T_old, k.observation_object_ids));
-  cloud_.Add(StaticPointsMap(products, T_new, k.observation_object_ids));
+  cloud_moved.get();
   k.T_base_kf = T_base_kf;
   RobotPose& latest = latest_poses_[k.robot];
   if (latest.t_ns == k.t_ns) latest.T_map_cam = T_map_kf_new;

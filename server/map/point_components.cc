@@ -10,7 +10,7 @@ namespace loci::server {
 namespace {
 
 struct CellPart {
-  Eigen::Vector3i ijk;
+  Eigen::Vector3i ijk = Eigen::Vector3i::Zero();
   int part = -1;
   int points = 0;
 };

@@ -23,6 +23,15 @@ struct SemanticPoint {
   int64_t object_id = 0;  // 0 = background
 };
 
+// A SemanticCloud voxel (at namespace scope for the same reason as FusedObjectVoxel).
+struct SemanticCloudVoxel {
+  Eigen::Vector3f sum_m = Eigen::Vector3f::Zero();
+  Eigen::Vector3f rgb_sum = Eigen::Vector3f::Zero();
+  uint32_t count = 0;
+  int64_t object_id = 0;  // Boyer-Moore majority candidate over the points' ids
+  int32_t votes = 0;
+};
+
 class SemanticCloud {
  public:
   explicit SemanticCloud(double voxel_m) : voxel_m_(voxel_m) {}
@@ -45,13 +54,7 @@ class SemanticCloud {
   Status LoadState(const loci::store::v1::SemanticCloudState& in);
 
  private:
-  struct Voxel {
-    Eigen::Vector3f sum_m = Eigen::Vector3f::Zero();
-    Eigen::Vector3f rgb_sum = Eigen::Vector3f::Zero();
-    uint32_t count = 0;
-    int64_t object_id = 0;  // Boyer-Moore majority candidate over the points' ids
-    int32_t votes = 0;
-  };
+  using Voxel = SemanticCloudVoxel;
   double voxel_m_;
   VoxelMap<Voxel> voxels_;
 };
