@@ -30,6 +30,8 @@ void RegisterExportCommand(CLI::App& app);
 void RegisterEvalObjectsCommand(CLI::App& app);
 void RegisterBenchIngestCommand(CLI::App& app);
 void RegisterBenchLoadCommand(CLI::App& app);
+// `loci bench merge`: time for a robot that starts anywhere to join the map (server/align/).
+void RegisterBenchMergeCommand(CLI::App& app);
 // `loci reprocess` and `loci bench restart` (server/: products, checkpoints, restart).
 void RegisterReprocessCommand(CLI::App& app);
 void RegisterBenchRestartCommand(CLI::App& app);

@@ -33,6 +33,7 @@ int main(int argc, char** argv) {
   loci::cli::RegisterEvalObjectsCommand(app);
   loci::cli::RegisterBenchIngestCommand(app);
   loci::cli::RegisterBenchLoadCommand(app);
+  loci::cli::RegisterBenchMergeCommand(app);
   loci::cli::RegisterReprocessCommand(app);
   loci::cli::RegisterBenchRestartCommand(app);
   loci::cli::RegisterBenchGraphCommand(app);
