@@ -39,6 +39,7 @@ struct BenchMergeArgs {
   int start = 30;         // B's first view
   double robot_hz = 5.0;  // B's keyframes per second (0 = as fast as acknowledged)
   std::string config;  // "" = config/server.yaml
+  uint64_t other_room = 0;  // B streams a room rendered with this seed instead (0 = A's room)
 };
 
 // A session streaming `views` (from `first`) with poses re-based on view `first`'s pose when
@@ -108,19 +109,20 @@ void PrintFigures(const loci::v1::GetStatsResponse& stats, const SE3d& T_map_odo
   if (b == nullptr || !b->aligned()) {
     std::printf("  B was NOT aligned (%llu keyframes stored)\n",
                 b ? static_cast<unsigned long long>(b->keyframes()) : 0ULL);
-    return;
+  } else {
+    const SE3d T_err = T_map_odomB_true.inverse() * PoseFromProto(b->t_map_odom());
+    std::printf("  server: aligned after %u keyframes of B, %.2f s of capture time\n",
+                b->aligned_after_keyframes(), b->aligned_after_s());
+    std::printf("  alignment error against the truth: %.1f mm, %.2f deg\n",
+                1000 * T_err.translation().norm(), RotationAngleRad(T_err) * 180 / M_PI);
   }
-  const SE3d T_err = T_map_odomB_true.inverse() * PoseFromProto(b->t_map_odom());
-  std::printf("  server: aligned after %u keyframes of B, %.2f s of capture time\n",
-              b->aligned_after_keyframes(), b->aligned_after_s());
-  std::printf("  alignment error against the truth: %.1f mm, %.2f deg\n",
-              1000 * T_err.translation().norm(), RotationAngleRad(T_err) * 180 / M_PI);
   const auto& a = stats.alignment();
   std::printf("  place recognition: %.1f ms per keyframe, %llu keyframes indexed; %llu verified, "
-              "%llu rejected candidates\n",
+              "%llu rejected candidates; %llu merges accepted\n",
               a.place_ms_mean(), static_cast<unsigned long long>(a.keyframes_indexed()),
               static_cast<unsigned long long>(a.verified()),
-              static_cast<unsigned long long>(a.rejected()));
+              static_cast<unsigned long long>(a.rejected()),
+              static_cast<unsigned long long>(a.merges_accepted()));
   const auto& g = stats.pose_graph();
   std::printf("  pose graph: %llu solves, last %.0f ms over %llu keyframes, %llu islands\n",
               static_cast<unsigned long long>(g.optimizations()), g.last_solve_ms(),
@@ -133,7 +135,12 @@ Status RunMerge(const BenchMergeArgs& a, const std::string& dir) {
   so.num_frames = a.views;
   so.num_objects = a.objects;
   so.seed = 7;
-  LOCI_ASSIGN_OR_RETURN(auto views, RenderViews(so, dir));
+  LOCI_ASSIGN_OR_RETURN(auto views, RenderViews(so, dir + "/a"));
+  auto views_b = views;
+  if (a.other_room != 0) {
+    so.seed = a.other_room;
+    LOCI_ASSIGN_OR_RETURN(views_b, RenderViews(so, dir + "/b"));
+  }
   if (a.start < 0 || static_cast<size_t>(a.start) + 3 > views.size()) {
     return absl::InvalidArgumentError("--start must leave B at least 3 views");
   }
@@ -155,8 +162,11 @@ Status RunMerge(const BenchMergeArgs& a, const std::string& dir) {
   auto mapping = loci::v1::Mapping::NewStub(channel);
   auto query = loci::v1::Query::NewStub(channel);
   std::printf("loci bench merge: %zu synthetic views; A streams all, then B streams views %d-%zu "
-              "at %.1f keyframes/s with its own odometry\n",
-              views.size(), a.start, views.size() - 1, a.robot_hz);
+              "of %s at %.1f keyframes/s with its own odometry\n",
+              views.size(), a.start, views.size() - 1,
+              a.other_room != 0 ? "ANOTHER room (a different place: B must stay an island)"
+                                : "the same room",
+              a.robot_hz);
 
   LOCI_RETURN_IF_ERROR(Stream(*mapping, {"A", 0, false, 0}, views, [](size_t) {}).status());
   srv->Flush();
@@ -165,7 +175,7 @@ Status RunMerge(const BenchMergeArgs& a, const std::string& dir) {
   std::atomic<size_t> sent{0};
   std::atomic<bool> streaming{true};
   std::thread b([&] {
-    auto id = Stream(*mapping, {"B", static_cast<size_t>(a.start), true, a.robot_hz}, views,
+    auto id = Stream(*mapping, {"B", static_cast<size_t>(a.start), true, a.robot_hz}, views_b,
                      [&](size_t i) {
                        if (i == 0) first_sent = Clock::now();
                        sent = i + 1;
@@ -198,7 +208,8 @@ Status RunMerge(const BenchMergeArgs& a, const std::string& dir) {
   }
   const loci::v1::SessionAlignment* sa = SessionOf(stats, "A");
   const SE3d T_map_odomA = sa != nullptr ? PoseFromProto(sa->t_map_odom()) : SE3d::Identity();
-  PrintFigures(stats, T_map_odomA * PoseFromProto(views[static_cast<size_t>(a.start)].t_odom_cam()));
+  PrintFigures(stats,
+               T_map_odomA * PoseFromProto(views_b[static_cast<size_t>(a.start)].t_odom_cam()));
   grpc_server.reset();
   srv.reset();
   return absl::OkStatus();
@@ -216,7 +227,9 @@ void RegisterBenchMergeCommand(CLI::App& app) {
   c->add_option("--start", args->start, "robot B's first view")->capture_default_str();
   c->add_option("--robot-hz", args->robot_hz, "B's keyframes per second (0 = unpaced)")
       ->capture_default_str();
-  c->add_option("--config", args->config, "server YAML (default: built-in defaults)");
+  c->add_option("--config", args->config, "server YAML (default: config/server.yaml)");
+  c->add_option("--other-room", args->other_room,
+                "B streams a room rendered with this seed: a different place that must not merge");
   c->callback([args] {
     const std::string dir =
         (std::filesystem::temp_directory_path() / ("loci_bench_merge_" + std::to_string(getpid())))
