@@ -22,13 +22,15 @@ Status LoopOptions::FromYaml(const YAML::Node& node) {
   if (!node) return absl::OkStatus();
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node, "align.loops",
                                       {"enabled", "min_gap_s", "sigma_trans_m", "sigma_rot_rad",
-                                       "optimize_every_edges", "optimize_min_keyframes"}));
+                                       "optimize_every_edges", "optimize_min_keyframes",
+                                       "optimize_growth"}));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "enabled", &enabled));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "min_gap_s", &min_gap_s));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "sigma_trans_m", &sigma_trans_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "sigma_rot_rad", &sigma_rot_rad));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "optimize_every_edges", &optimize_every_edges));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "optimize_min_keyframes", &optimize_min_keyframes));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "optimize_growth", &optimize_growth));
   return Validate();
 }
 
@@ -40,6 +42,9 @@ Status LoopOptions::Validate() const {
   if (optimize_every_edges < 1 || optimize_min_keyframes < 0) {
     return absl::InvalidArgumentError(
         "align.loops.optimize_every_edges must be >= 1 and optimize_min_keyframes >= 0");
+  }
+  if (!(optimize_growth >= 0 && optimize_growth <= 1)) {
+    return absl::InvalidArgumentError("align.loops.optimize_growth must be in [0, 1]");
   }
   return absl::OkStatus();
 }

@@ -27,6 +27,10 @@ struct LoopOptions {
   int optimize_every_edges = 3;
   // ... and at least this many keyframes were mapped since the last solve (10).
   int optimize_min_keyframes = 10;
+  // ... and at least this share of the keyframes already in the graph (0.05): a solve rebuilds
+  // the whole graph, so spacing solves in proportion to its size keeps the cost per keyframe
+  // flat (1000 keyframes: a solve every 50, not every 10).
+  double optimize_growth = 0.05;
 
   int64_t min_gap_ns() const { return static_cast<int64_t>(min_gap_s * 1e9); }
   Status FromYaml(const YAML::Node& node);

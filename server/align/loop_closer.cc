@@ -42,8 +42,11 @@ void LoopCloser::NoteRecognised() {
 
 bool LoopCloser::Due() const {
   std::lock_guard<std::mutex> lock(mu_);
+  const double min_keyframes =
+      std::max<double>(options_.optimize_min_keyframes,
+                       options_.optimize_growth * static_cast<double>(keyframes_.size()));
   return new_matches_ >= options_.optimize_every_edges &&
-         recognised_since_ >= options_.optimize_min_keyframes;
+         static_cast<double>(recognised_since_) >= min_keyframes;
 }
 
 std::optional<LoopKeyframe> LoopCloser::Keyframe(int64_t keyframe_id) const {
