@@ -55,14 +55,21 @@ Trajectory Sorted(Trajectory t) {
   return t;
 }
 
+// Index pairs (gt, est) of sorted trajectories whose stamps (est shifted by offset_ns) lie within
+// max_dt_ns, as the TUM associate.py pairs them.
+std::vector<std::pair<size_t, size_t>> Associate(const Trajectory& gt, const Trajectory& est,
+                                                 const AteOptions& opt) {
+  std::vector<int64_t> te = Stamps(est);
+  for (auto& t : te) t += opt.offset_ns;
+  return AssociateStamps(Stamps(gt), te, opt.max_dt_ns);
+}
+
 }  // namespace
 
 StatusOr<AteResult> ComputeAte(const Trajectory& gt_in, const Trajectory& est_in,
                                const AteOptions& opt) {
   const Trajectory gt = Sorted(gt_in), est = Sorted(est_in);
-  std::vector<int64_t> tg = Stamps(gt), te = Stamps(est);
-  for (auto& t : te) t += opt.offset_ns;
-  const auto pairs = AssociateStamps(tg, te, opt.max_dt_ns);
+  const auto pairs = Associate(gt, est, opt);
   if (pairs.size() < 3) {
     return absl::InvalidArgumentError(absl::StrCat(
         "ATE: only ", pairs.size(),
@@ -87,9 +94,7 @@ StatusOr<AteResult> ComputeAte(const Trajectory& gt_in, const Trajectory& est_in
 StatusOr<Mat3d> OrientationAlignment(const Trajectory& gt_in, const Trajectory& est_in,
                                      const AteOptions& opt) {
   const Trajectory gt = Sorted(gt_in), est = Sorted(est_in);
-  std::vector<int64_t> tg = Stamps(gt), te = Stamps(est);
-  for (auto& t : te) t += opt.offset_ns;
-  const auto pairs = AssociateStamps(tg, te, opt.max_dt_ns);
+  const auto pairs = Associate(gt, est, opt);
   if (pairs.empty()) return absl::InvalidArgumentError("no stamp pairs within the window");
   Mat3d sum = Mat3d::Zero();
   for (const auto& [g, e] : pairs) {
