@@ -13,25 +13,26 @@ KeyframeStage::KeyframeStage(std::unique_ptr<detection::Detector> detector,
       mot_(std::move(mot)),
       masking_(std::move(masking)),
       sink_(std::move(sink)),
-      capacity_(capacity),
-      synchronous_(capacity == 0) {
+      synchronous_(capacity == 0),
+      queue_(capacity) {
   if (!synchronous_) thread_ = std::thread([this] { Loop(); });
 }
 
 KeyframeStage::~KeyframeStage() { (void)Finish(); }
 
 Status KeyframeStage::Push(KeyframeData kf) {
-  std::unique_lock<std::mutex> lock(mu_);
-  if (done_) return absl::FailedPreconditionError("keyframe stage already finished");
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (done_) return absl::FailedPreconditionError("keyframe stage already finished");
+  }
   if (synchronous_) {
-    lock.unlock();
     Process(std::move(kf));
     return absl::OkStatus();
   }
-  cv_.wait(lock, [&] { return queue_.size() < capacity_ || done_; });
-  if (done_) return absl::FailedPreconditionError("keyframe stage finished while waiting");
-  queue_.push_back(std::move(kf));
-  cv_.notify_all();
+  // Blocks while the queue is full; false once Finish closed it (the keyframe is not taken).
+  if (!queue_.Push(std::move(kf))) {
+    return absl::FailedPreconditionError("keyframe stage finished while waiting");
+  }
   return absl::OkStatus();
 }
 
@@ -39,8 +40,8 @@ Status KeyframeStage::Finish() {
   {
     std::lock_guard<std::mutex> lock(mu_);
     done_ = true;
-    cv_.notify_all();
   }
+  queue_.Close();  // the thread drains what is queued, then ends
   if (thread_.joinable()) thread_.join();
   return first_error_;
 }
@@ -51,18 +52,7 @@ FrameDetections KeyframeStage::LatestDetections() const {
 }
 
 void KeyframeStage::Loop() {
-  while (true) {
-    KeyframeData kf;
-    {
-      std::unique_lock<std::mutex> lock(mu_);
-      cv_.wait(lock, [&] { return !queue_.empty() || done_; });
-      if (queue_.empty()) return;
-      kf = std::move(queue_.front());
-      queue_.pop_front();
-      cv_.notify_all();
-    }
-    Process(std::move(kf));
-  }
+  while (std::optional<KeyframeData> kf = queue_.Pop()) Process(std::move(*kf));
 }
 
 void KeyframeStage::Process(KeyframeData kf) {

@@ -10,8 +10,6 @@
 //     benchmarks).
 #pragma once
 
-#include <condition_variable>
-#include <deque>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -19,6 +17,7 @@
 #include <thread>
 
 #include "client/streaming/map_client.h"
+#include "common/bounded_queue.h"
 #include "common/detections_io.h"
 #include "detection/depth_mask.h"
 #include "detection/detector.h"
@@ -66,13 +65,11 @@ class KeyframeStage {
   std::unique_ptr<detection::MultiObjectTracker> mot_;
   std::optional<KeyframeMasking> masking_;
   Sink sink_;
-  size_t capacity_;
+  const bool synchronous_;
+  BoundedQueue<KeyframeData> queue_;  // live mode: Push -> the stage's thread
   mutable std::mutex mu_;
-  FrameDetections latest_;
-  std::condition_variable cv_;
-  std::deque<KeyframeData> queue_;
-  bool done_ = false;
-  bool synchronous_ = false;
+  FrameDetections latest_;            // guarded by mu_
+  bool done_ = false;                 // guarded by mu_
   Status first_error_;
   double detect_ms_total_ = 0;
   double mask_ms_total_ = 0;

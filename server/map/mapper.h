@@ -25,7 +25,7 @@
 #include "common/map_object.h"
 #include "common/se3.h"
 #include "common/tum_io.h"
-#include "server/map/bounded_queue.h"
+#include "common/bounded_queue.h"
 #include "server/map/keyframe_products.h"
 #include "server/map/map_frame.h"
 #include "server/map/map_options.h"

@@ -20,7 +20,7 @@
 #include "loci/v1/mapping.pb.h"
 #include "server/align/loop_closer.h"
 #include "server/align/robot_aligner.h"
-#include "server/map/bounded_queue.h"
+#include "common/bounded_queue.h"
 #include "server/map/mapper.h"
 #include "server/service/replay.h"
 #include "server/service/server_options.h"

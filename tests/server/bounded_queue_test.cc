@@ -1,7 +1,7 @@
 // BoundedQueue: order, capacity and back-pressure, TryPush, timeouts, Close semantics, and
 // many producers with one consumer. Blocking is observed through the queue's own state and
 // thread joins, never through sleeps.
-#include "server/map/bounded_queue.h"
+#include "common/bounded_queue.h"
 
 #include <gtest/gtest.h>
 

@@ -9,7 +9,7 @@
 #include <mutex>
 #include <optional>
 
-namespace loci::server {
+namespace loci {
 
 template <typename T>
 class BoundedQueue {
@@ -74,4 +74,4 @@ class BoundedQueue {
   bool closed_ = false;
 };
 
-}  // namespace loci::server
+}  // namespace loci
