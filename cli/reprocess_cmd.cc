@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "cli/commands.h"
+#include "common/progress.h"
 #include "server/service/replay.h"
 #include "server/service/server_detector.h"
 #include "server/service/server_options.h"
@@ -19,14 +20,16 @@ struct ReprocessArgs {
   std::string db, config;
 };
 
-void ProgressBar(uint64_t done, uint64_t total) {
-  constexpr int kWidth = 40;
-  const double f = total == 0 ? 1.0 : static_cast<double>(done) / static_cast<double>(total);
-  const int fill = static_cast<int>(f * kWidth);
-  std::fprintf(stderr, "\r[%s%s] %llu / %llu keyframes", std::string(fill, '#').c_str(),
-               std::string(kWidth - fill, ' ').c_str(), static_cast<unsigned long long>(done),
-               static_cast<unsigned long long>(total));
-  if (done >= total) std::fprintf(stderr, "\n");
+// A bar on a terminal, a line every 10 % otherwise (common/progress.h).
+void ShowProgress(uint64_t done, uint64_t total) {
+  if (StderrIsTerminal()) {
+    std::fprintf(stderr, "\r%s %llu / %llu keyframes", ProgressBar(done, total, 40).c_str(),
+                 static_cast<unsigned long long>(done), static_cast<unsigned long long>(total));
+    if (done >= total) std::fprintf(stderr, "\n");
+  } else if (AtProgressStep(done, total)) {
+    std::fprintf(stderr, "%llu / %llu keyframes\n", static_cast<unsigned long long>(done),
+                 static_cast<unsigned long long>(total));
+  }
 }
 
 Status Reprocess(const ReprocessArgs& a) {
@@ -42,7 +45,7 @@ Status Reprocess(const ReprocessArgs& a) {
   auto mapper = std::make_unique<server::Mapper>(options.map);
   server::LoadOptions load;
   load.use_checkpoint = false;
-  load.progress = ProgressBar;
+  load.progress = ShowProgress;
   LOCI_ASSIGN_OR_RETURN(server::LoadReport report,
                         server::LoadMap(*store, &mapper, detector.get(), load));
   server::CheckpointRecord checkpoint{mapper->last_keyframe_id(), mapper->SaveCheckpoint()};

@@ -1,31 +1,24 @@
 #include "client/app/track_pipeline.h"
 
 #include <spdlog/spdlog.h>
-#include <unistd.h>
 
 #include <cstdio>
 #include <opencv2/imgcodecs.hpp>
 
 #include "absl/strings/match.h"
 #include "common/config.h"
+#include "common/progress.h"
 
 namespace loci {
 namespace {
 
 // A progress bar on a terminal; a line every 10 % otherwise (logs stay readable).
 void Progress(size_t i, size_t n, size_t kfs, const FrameResult& r) {
-  static const bool tty = isatty(fileno(stderr)) != 0;
-  if (tty) {
-    const int width = 30;
-    const int filled = n ? static_cast<int>(width * (i + 1) / n) : width;
-    std::fprintf(stderr, "\r[%s%s] %zu/%zu  kf %zu  inliers %d  %.1f ms   ",
-                 std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(), i + 1,
-                 n, kfs, r.num_inliers, r.track_ms);
+  if (StderrIsTerminal()) {
+    std::fprintf(stderr, "\r%s %zu/%zu  kf %zu  inliers %d  %.1f ms   ",
+                 ProgressBar(i + 1, n, 30).c_str(), i + 1, n, kfs, r.num_inliers, r.track_ms);
     if (i + 1 == n) std::fprintf(stderr, "\n");
-    return;
-  }
-  const size_t step = std::max<size_t>(1, n / 10);
-  if ((i + 1) % step == 0 || i + 1 == n) {
+  } else if (AtProgressStep(i + 1, n)) {
     std::fprintf(stderr, "frame %zu/%zu, keyframes %zu\n", i + 1, n, kfs);
   }
 }
