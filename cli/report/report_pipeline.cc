@@ -16,6 +16,7 @@
 #include "common/config.h"
 #include "common/detections_io.h"
 #include "common/objects_json.h"
+#include "common/time.h"
 #include "common/tum_io.h"
 #include "detection/detection_config.h"
 #include "detection/detector_options.h"
@@ -35,15 +36,8 @@ double MsSince(Clock::time_point t0) {
 
 // Nearest ground-truth pose within max_dt_ns (TUM ground truth is at 100 Hz).
 std::optional<SE3d> GroundTruthAt(const Trajectory& gt, int64_t t_ns, int64_t max_dt_ns) {
-  auto it = std::lower_bound(gt.begin(), gt.end(), t_ns,
-                             [](const StampedPose& p, int64_t t) { return p.t_ns < t; });
-  const StampedPose* best = nullptr;
-  if (it != gt.end()) best = &*it;
-  if (it != gt.begin()) {
-    const StampedPose& prev = *std::prev(it);
-    if (!best || t_ns - prev.t_ns < best->t_ns - t_ns) best = &prev;
-  }
-  if (!best || std::llabs(best->t_ns - t_ns) > max_dt_ns) return std::nullopt;
+  const StampedPose* best = NearestByTime<StampedPose>(gt, t_ns, max_dt_ns);
+  if (best == nullptr) return std::nullopt;
   return best->T_world_cam;
 }
 
