@@ -84,6 +84,9 @@ void PrintAlignment(const loci::v1::GetStatsResponse& resp) {
     std::printf("place recognition  %.1f ms per keyframe, %llu keyframes indexed, %llu words\n",
                 a.place_ms_mean(), static_cast<unsigned long long>(a.keyframes_indexed()),
                 static_cast<unsigned long long>(a.vocabulary_words()));
+    std::printf("features read      %llu from the database (%llu unreadable)\n",
+                static_cast<unsigned long long>(a.features_read()),
+                static_cast<unsigned long long>(a.features_missing()));
     std::printf("merges             %llu accepted, %llu disagreeing matches; %llu verified, "
                 "%llu rejected candidates\n",
                 static_cast<unsigned long long>(a.merges_accepted()),
@@ -155,6 +158,9 @@ int RunStats(const ServerArgs& a) {
   std::printf("products per kf    %.1f KB (%llu keyframes)\n",
               resp.product_bytes_per_keyframe() / 1e3,
               static_cast<unsigned long long>(resp.keyframes_with_products()));
+  std::printf("place features     %.1f KB per keyframe (%llu keyframes)\n",
+              resp.place_feature_bytes_per_keyframe() / 1e3,
+              static_cast<unsigned long long>(resp.keyframes_with_place_features()));
   std::printf("checkpoint         %.1f MB\n", resp.checkpoint_bytes() / 1e6);
   std::printf("queue depth        %llu\n", static_cast<unsigned long long>(resp.queue_depth()));
   std::printf("mapping per kf     %.1f ms\n", resp.ingest_ms_mean());

@@ -7,9 +7,13 @@
 
 namespace loci::server {
 
-RobotAligner::RobotAligner(const place::PlaceOptions& place, const AlignOptions& options)
+RobotAligner::RobotAligner(const place::PlaceOptions& place, const AlignOptions& options,
+                           place::FeatureStore* features)
     : place_(place),
       options_(options),
+      own_features_(features ? nullptr : std::make_unique<place::MemoryFeatureStore>()),
+      cache_(features ? features : own_features_.get(),
+             static_cast<size_t>(place.features.cache_keyframes)),
       db_(place.vocabulary, place.query),
       gate_(place.consistency) {}
 
@@ -53,27 +57,34 @@ void RobotAligner::SetAlignment(int64_t session_row, const SE3d& T_base_odom) {
   if (it != sessions_.end() && it->second.T_base_odom) it->second.T_base_odom = T_base_odom;
 }
 
+StatusOr<bool> RobotAligner::CountIn(const AlignKeyframe& kf) {
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  auto it = sessions_.find(kf.session_row);
+  if (it == sessions_.end()) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("keyframe ", kf.keyframe_id, ": session ", kf.session_row, " not declared"));
+  }
+  if (it->second.keyframes++ == 0) it->second.first_t_ns = kf.t_ns;
+  if (kf.gravity_cam) {
+    it->second.gravity_sum_odom += kf.T_odom_kf.linear() * *kf.gravity_cam;
+    ++it->second.gravity_count;
+  }
+  return it->second.T_base_odom.has_value();
+}
+
+Status RobotAligner::Index(const AlignKeyframe& kf, const place::BowVector& bow) {
+  LOCI_RETURN_IF_ERROR(db_.Insert(kf.keyframe_id, Key(kf.session_row), bow));
+  indexed_[kf.keyframe_id] = {kf.session_row, kf.t_ns, kf.T_odom_kf};
+  return absl::OkStatus();
+}
+
 StatusOr<AlignOutcome> RobotAligner::AddKeyframe(const AlignKeyframe& kf, const cv::Mat& bgr,
                                                  const cv::Mat& depth_m,
                                                  const PinholeCamera& camera, bool match) {
   const double t0_ms = ThreadCpuMs();
   std::lock_guard<std::mutex> work(work_mu_);
   if (indexed_.count(kf.keyframe_id)) return AlignOutcome();  // re-indexed
-  bool aligned = false;
-  {
-    std::lock_guard<std::mutex> lock(sessions_mu_);
-    auto it = sessions_.find(kf.session_row);
-    if (it == sessions_.end()) {
-      return absl::FailedPreconditionError(
-          absl::StrCat("keyframe ", kf.keyframe_id, ": session ", kf.session_row, " not declared"));
-    }
-    aligned = it->second.T_base_odom.has_value();
-    if (it->second.keyframes++ == 0) it->second.first_t_ns = kf.t_ns;
-    if (kf.gravity_cam) {
-      it->second.gravity_sum_odom += kf.T_odom_kf.linear() * *kf.gravity_cam;
-      ++it->second.gravity_count;
-    }
-  }
+  LOCI_ASSIGN_OR_RETURN(const bool aligned, CountIn(kf));
   LOCI_ASSIGN_OR_RETURN(place::KeyframeFeatures features,
                         place::ExtractFeatures(bgr, depth_m, camera, place_.features));
   const place::BowVector bow = db_.Quantise(features.descriptors, /*add_words=*/true);
@@ -88,8 +99,11 @@ StatusOr<AlignOutcome> RobotAligner::AddKeyframe(const AlignKeyframe& kf, const 
     out.matches = Match(kf, features, bow, /*loops=*/false);
     result = Refine(kf, Estimates(kf, out.matches));
   }
-  LOCI_RETURN_IF_ERROR(db_.Insert(kf.keyframe_id, Key(kf.session_row), bow));
-  indexed_[kf.keyframe_id] = {kf.session_row, kf.t_ns, kf.T_odom_kf, std::move(features)};
+  if (Status st = cache_.Put(kf.keyframe_id, std::move(features)); !st.ok()) {
+    spdlog::warn("keyframe {}: features not stored ({}); it is matched while cached",
+                 kf.keyframe_id, st.ToString());
+  }
+  LOCI_RETURN_IF_ERROR(Index(kf, bow));
   std::lock_guard<std::mutex> lock(stats_mu_);
   ++stats_.keyframes;
   stats_.place_ms_total += ThreadCpuMs() - t0_ms;
@@ -98,12 +112,30 @@ StatusOr<AlignOutcome> RobotAligner::AddKeyframe(const AlignKeyframe& kf, const 
   return out;
 }
 
+Status RobotAligner::IndexStored(const AlignKeyframe& kf, place::KeyframeFeatures features) {
+  const double t0_ms = ThreadCpuMs();
+  std::lock_guard<std::mutex> work(work_mu_);
+  if (indexed_.count(kf.keyframe_id)) return absl::OkStatus();
+  LOCI_RETURN_IF_ERROR(features.CheckConsistent());
+  LOCI_RETURN_IF_ERROR(CountIn(kf).status());
+  const place::BowVector bow = db_.Quantise(features.descriptors, /*add_words=*/true);
+  cache_.Keep(kf.keyframe_id, std::move(features));
+  LOCI_RETURN_IF_ERROR(Index(kf, bow));
+  std::lock_guard<std::mutex> lock(stats_mu_);
+  ++stats_.keyframes;
+  ++stats_.indexed_from_store;
+  stats_.place_ms_total += ThreadCpuMs() - t0_ms;
+  stats_.vocabulary_words = db_.words();
+  return absl::OkStatus();
+}
+
 std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
                                                const place::KeyframeFeatures& features,
                                                const place::BowVector& bow, bool loops) {
   std::vector<VerifiedMatch> matches;
   int tried = 0;
-  uint64_t verified = 0, rejected = 0;
+  uint64_t verified = 0, rejected = 0, missing = 0;
+  const uint64_t read_before = cache_.Stats().misses;
   for (const place::PlaceCandidate& c : db_.Query(bow, Key(kf.session_row))) {
     auto a = indexed_.find(c.keyframe_id);
     if (a == indexed_.end()) continue;
@@ -112,7 +144,14 @@ std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
     // Unaligned sessions do not align each other.
     if (!loop && !Alignment(a->second.session_row)) continue;
     if (tried++ >= options_.max_verify) break;
-    const place::Verification v = place::VerifyPair(a->second.features, features, place_.verify);
+    StatusOr<std::shared_ptr<const place::KeyframeFeatures>> stored = cache_.Get(c.keyframe_id);
+    if (!stored.ok()) {
+      spdlog::warn("place recognition: candidate keyframe {} skipped: {}", c.keyframe_id,
+                   stored.status().ToString());
+      ++missing;
+      continue;
+    }
+    const place::Verification v = place::VerifyPair(**stored, features, place_.verify);
     if (!v.accepted) {
       ++rejected;
       continue;
@@ -124,6 +163,8 @@ std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
   ++stats_.queries;
   stats_.verified += verified;
   stats_.rejected += rejected;
+  stats_.features_missing += missing;
+  stats_.features_read += cache_.Stats().misses - read_before;
   return matches;
 }
 

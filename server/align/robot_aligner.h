@@ -15,12 +15,16 @@
 // double, AddKeyframe returns a refined placement (their mean, levelled).
 //
 // Two unaligned sessions are not matched with each other: a session aligns to the shared map.
-// The index lives in memory; after a restart the server rebuilds it from the stored images
-// (MapServer's re-indexing thread) while new keyframes are indexed as they come.
+// The bag-of-words index lives in memory; each keyframe's features go to a FeatureStore (the
+// map database on the server) and only the most recently used stay in memory
+// (place/feature_cache.h). After a restart the server rebuilds the index from the stored
+// features, or the stored images where there are none (MapServer's re-indexing thread), while
+// new keyframes are indexed as they come.
 #pragma once
 
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -30,6 +34,7 @@
 #include "common/se3.h"
 #include "server/align/align_options.h"
 #include "server/place/consistency_gate.h"
+#include "server/place/feature_cache.h"
 #include "server/place/keyframe_features.h"
 #include "server/place/place_database.h"
 #include "server/place/place_options.h"
@@ -86,11 +91,16 @@ struct AlignStats {
   uint64_t merge_resets = 0;      // verified estimates that disagreed with the collected ones
   double place_ms_total = 0;      // features + words + query + verification, thread CPU ms
   uint64_t vocabulary_words = 0;
+  uint64_t features_read = 0;     // candidates' features read back from the store (cache misses)
+  uint64_t features_missing = 0;  // candidates skipped: their features could not be read
+  uint64_t indexed_from_store = 0;  // keyframes indexed from stored features (IndexStored)
 };
 
 class RobotAligner {
  public:
-  RobotAligner(const place::PlaceOptions& place, const AlignOptions& options);
+  // `features` keeps every keyframe's features (it outlives the aligner); null: in memory.
+  RobotAligner(const place::PlaceOptions& place, const AlignOptions& options,
+               place::FeatureStore* features = nullptr);
 
   // Declares a session before its first keyframe: aligned at T_base_odom, or not (nullopt).
   // A session declared again keeps its state.
@@ -111,6 +121,9 @@ class RobotAligner {
   StatusOr<AlignOutcome> AddKeyframe(const AlignKeyframe& kf, const cv::Mat& bgr,
                                      const cv::Mat& depth_m, const PinholeCamera& camera,
                                      bool match = true);
+  // Indexes a keyframe from features read back from the store (re-indexing after a restart):
+  // AddKeyframe with match = false, without extracting or storing them again.
+  Status IndexStored(const AlignKeyframe& kf, place::KeyframeFeatures features);
   // Places an aligned session anew (after a pose-graph solve moved its keyframes).
   void SetAlignment(int64_t session_row, const SE3d& T_base_odom);
   bool Indexed(int64_t keyframe_id) const;
@@ -131,12 +144,16 @@ class RobotAligner {
     int64_t first_t_ns = 0;
     std::optional<AlignmentDelay> delay;
   };
-  struct IndexedKeyframe {
+  struct IndexedKeyframe {  // the features are in cache_
     int64_t session_row = 0;
     int64_t t_ns = 0;
     SE3d T_odom_kf = SE3d::Identity();
-    place::KeyframeFeatures features;
   };
+  // Counts the keyframe into its session (an error when it is not declared); whether the
+  // session is aligned.
+  StatusOr<bool> CountIn(const AlignKeyframe& kf);
+  // Quantises and indexes the keyframe (its features are stored or kept by the caller).
+  Status Index(const AlignKeyframe& kf, const place::BowVector& bow);
   // Verifies the best candidates (max_verify, in rank order) among the keyframes of aligned
   // sessions and, with loops, the older ones of kf's own session; every match that verifies.
   std::vector<VerifiedMatch> Match(const AlignKeyframe& kf, const place::KeyframeFeatures& features,
@@ -156,7 +173,9 @@ class RobotAligner {
 
   place::PlaceOptions place_;
   AlignOptions options_;
-  mutable std::mutex work_mu_;  // db_, gate_, indexed_
+  mutable std::mutex work_mu_;  // db_, gate_, indexed_, cache_
+  std::unique_ptr<place::MemoryFeatureStore> own_features_;  // when none was given
+  place::FeatureCache cache_;
   place::PlaceDatabase db_;
   place::ConsistencyGate gate_;
   std::map<int64_t, Session> sessions_;

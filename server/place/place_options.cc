@@ -5,12 +5,16 @@
 namespace loci::place {
 namespace {
 
+// Raised whenever ExtractFeatures (keyframe_features.cc) changes what it extracts.
+constexpr int kFeaturesVersion = 1;
+
 Status CheckPlaceKeys(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(
       CheckKnownKeys(node, "place", {"features", "vocabulary", "query", "verify", "consistency"}));
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
       node["features"], "place.features",
-      {"max_features", "scale_factor", "levels", "fast_threshold", "min_depth_m", "max_depth_m"}));
+      {"max_features", "scale_factor", "levels", "fast_threshold", "min_depth_m", "max_depth_m",
+       "cache_keyframes"}));
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
       node["vocabulary"], "place.vocabulary",
       {"word_max_hamming", "branching", "max_leaf_words", "max_depth", "search_leaves"}));
@@ -31,6 +35,7 @@ Status ReadFeatures(const YAML::Node& n, FeatureOptions* o) {
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "levels", &o->levels));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "fast_threshold", &o->fast_threshold));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_depth_m", &o->min_depth_m));
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "cache_keyframes", &o->cache_keyframes));
   return ReadOptional(n, "max_depth_m", &o->max_depth_m);
 }
 
@@ -83,6 +88,9 @@ Status ValidateFeatures(const FeatureOptions& f) {
   if (!(f.min_depth_m >= 0 && f.max_depth_m > f.min_depth_m)) {
     return Bad("features: 0 <= min_depth_m < max_depth_m");
   }
+  if (f.cache_keyframes < 1 || f.cache_keyframes > 1000000) {
+    return Bad("features.cache_keyframes in [1, 1000000]");
+  }
   return absl::OkStatus();
 }
 
@@ -129,6 +137,11 @@ Status PlaceOptions::FromYaml(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(ReadVerify(node["verify"], &verify));
   LOCI_RETURN_IF_ERROR(ReadConsistency(node["consistency"], &consistency));
   return Validate();
+}
+
+std::string FeatureOptions::Fingerprint() const {
+  return absl::StrCat("orb", kFeaturesVersion, "/", max_features, "/", scale_factor, "/", levels,
+                      "/", fast_threshold, "/", min_depth_m, "/", max_depth_m);
 }
 
 Status PlaceOptions::Validate() const {

@@ -3,6 +3,8 @@
 // present and checks for unknown ones (common/config.h).
 #pragma once
 
+#include <string>
+
 #include <yaml-cpp/yaml.h>
 
 #include "common/status.h"
@@ -19,6 +21,13 @@ struct FeatureOptions {
   // count for the bag of words (0.1, 4.0 m: Kinect-class depth noise grows with z^2).
   double min_depth_m = 0.1;
   double max_depth_m = 4.0;
+  // Keyframes whose features stay in memory; the others' are read back from the map database
+  // when verification needs them (feature_cache.h; about 60 KB each) (256).
+  int cache_keyframes = 256;
+
+  // Names the options that change extracted features (not cache_keyframes): stored features of
+  // another fingerprint are extracted again.
+  std::string Fingerprint() const;
 };
 
 // The incremental vocabulary (incremental_vocabulary.h).

@@ -34,8 +34,10 @@ MapServer::MapServer(const ServerOptions& options, std::shared_ptr<MapStore> sto
       store_(std::move(store)),
       detector_(std::move(detector)),
       mapper_(std::make_unique<Mapper>(options.map)),
+      features_(std::make_unique<StoreFeatureStore>(store_.get(),
+                                                    options.place.features.Fingerprint())),
       aligner_(options.align.enabled
-                   ? std::make_unique<RobotAligner>(options.place, options.align)
+                   ? std::make_unique<RobotAligner>(options.place, options.align, features_.get())
                    : nullptr),
       closer_(options.align.enabled && options.align.loops.enabled
                   ? std::make_unique<LoopCloser>(options.graph, options.align.loops)

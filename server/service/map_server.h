@@ -24,6 +24,7 @@
 #include "server/map/mapper.h"
 #include "server/service/replay.h"
 #include "server/service/server_options.h"
+#include "server/service/store_feature_store.h"
 #include "server/storage/map_store.h"
 
 namespace loci::server {
@@ -126,9 +127,18 @@ class MapServer {
   // Stores the session's placement and maps its held keyframes (those the worker has seen and
   // not mapped).
   void ApplyAlignment(const SessionAlignment& alignment);
-  // After a restart: indexes every stored keyframe for place recognition from its images, on
-  // the loading thread once the map is ready (new keyframes are indexed meanwhile).
+  // After a restart: indexes every stored keyframe for place recognition from its stored
+  // features, or its images where it has none, on the loading thread once the map is ready
+  // (new keyframes are indexed meanwhile).
   void Reindex();
+  struct ReindexCounts {
+    uint64_t from_features = 0, from_images = 0, without_images = 0;
+  };
+  // Whether Reindex still has to index the keyframe.
+  bool ToReindex(const KeyframeRecord& rec);
+  // false when the keyframe has no usable stored features.
+  bool ReindexFromFeatures(const KeyframeRecord& rec, ReindexCounts* counts);
+  void ReindexFromImages(const KeyframeRecord& rec, ReindexCounts* counts);
   // Moves a session's mapped keyframes to its refined placement.
   void MoveSession(const SessionAlignment& alignment);
   // Loop closure (map_server_loops.cc), worker thread with mapping_mu_ held: records the
@@ -164,6 +174,7 @@ class MapServer {
   std::shared_ptr<MapStore> store_;
   std::shared_ptr<detection::Detector> detector_;
   std::unique_ptr<Mapper> mapper_;
+  std::unique_ptr<StoreFeatureStore> features_;  // aligner_'s, in store_
   std::unique_ptr<RobotAligner> aligner_;  // used by the worker thread only (Stats: any)
   std::unique_ptr<LoopCloser> closer_;     // with aligner_ and align.loops.enabled
   std::atomic<bool> reindexed_{false};

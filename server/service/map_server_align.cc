@@ -6,6 +6,8 @@
 // stored products (under mapping_mu_, between two keyframes of the worker).
 #include <spdlog/spdlog.h>
 
+#include <set>
+
 #include "server/service/keyframe_decoder.h"
 #include "server/service/map_server.h"
 #include "server/service/replay.h"
@@ -149,9 +151,12 @@ void MapServer::Reindex() {
   }
   LoadPlaceMatches();
   const auto t0 = std::chrono::steady_clock::now();
-  uint64_t indexed = 0, without_images = 0;
-  KeyframeScan scan;  // images, no products
-  const Status st = store_->ForEachKeyframe(
+  ReindexCounts counts;
+  // Pass 1: the keyframes with stored features (no images read).
+  std::set<int64_t> need_images;
+  KeyframeScan metadata;
+  metadata.images = false;
+  Status st = store_->ForEachKeyframe(
       0,
       [&](KeyframeRecord rec) -> Status {
         if (stop_loading_) return absl::CancelledError("the server is stopping");
@@ -159,35 +164,76 @@ void MapServer::Reindex() {
           closer_->AddKeyframe({rec.id, rec.session_row, rec.segment, rec.t_ns, rec.T_odom_cam,
                                 rec.tracking_inliers});
         }
-        const int64_t first_live = first_live_id_;
-        if (first_live != 0 && rec.id >= first_live) return absl::OkStatus();  // the aligning thread's
-        if (aligner_->Indexed(rec.id)) return absl::OkStatus();
-        if (rec.rgb_jpeg.empty()) {
-          ++without_images;  // retention dropped them
-          return absl::OkStatus();
-        }
-        DeclareSession(rec.session_row);
-        std::optional<SessionRecord> session = SessionByRow(rec.session_row);
-        if (!session) return absl::OkStatus();
-        auto kf = DecodeKeyframe(rec, *session);
-        if (!kf.ok()) return absl::OkStatus();  // validated on ingest; a corrupt row is skipped
-        AlignKeyframe in{rec.id, rec.session_row, rec.t_ns, rec.T_odom_cam, std::nullopt};
-        if (rec.has_gravity) in.gravity_cam = rec.gravity_cam;
-        try {
-          if (aligner_->AddKeyframe(in, kf->bgr, kf->depth_m, kf->camera, /*match=*/false).ok()) {
-            ++indexed;
-          }
-        } catch (const std::exception& e) {
-          spdlog::warn("re-indexing keyframe {}: {}", rec.id, e.what());
-        }
+        if (!ToReindex(rec)) return absl::OkStatus();
+        if (!ReindexFromFeatures(rec, &counts)) need_images.insert(rec.id);
         return absl::OkStatus();
       },
-      scan);
+      metadata);
+  // Pass 2: the others, from their images (databases written before features were stored, or
+  // features of other options).
+  if (st.ok() && !need_images.empty()) {
+    st = store_->ForEachKeyframe(
+        *need_images.begin() - 1,
+        [&](KeyframeRecord rec) -> Status {
+          if (stop_loading_) return absl::CancelledError("the server is stopping");
+          if (need_images.count(rec.id) && ToReindex(rec)) ReindexFromImages(rec, &counts);
+          return absl::OkStatus();
+        },
+        KeyframeScan());
+  }
   reindexed_ = st.ok();
-  spdlog::info("place recognition: {} stored keyframes re-indexed in {:.1f} s ({} without images){}",
-               indexed,
+  spdlog::info("place recognition: {} stored keyframes re-indexed in {:.1f} s ({} from stored "
+               "features, {} without images){}",
+               counts.from_features + counts.from_images,
                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
-               without_images, st.ok() ? "" : absl::StrCat("; stopped: ", st.ToString()));
+               counts.from_features, counts.without_images,
+               st.ok() ? "" : absl::StrCat("; stopped: ", st.ToString()));
+}
+
+bool MapServer::ToReindex(const KeyframeRecord& rec) {
+  const int64_t first_live = first_live_id_;
+  if (first_live != 0 && rec.id >= first_live) return false;  // the aligning thread's
+  return !aligner_->Indexed(rec.id);
+}
+
+bool MapServer::ReindexFromFeatures(const KeyframeRecord& rec, ReindexCounts* counts) {
+  StatusOr<std::optional<place::KeyframeFeatures>> stored = features_->Get(rec.id);
+  if (!stored.ok()) {
+    spdlog::warn("re-indexing keyframe {}: {}; extracting them again", rec.id,
+                 stored.status().ToString());
+    return false;
+  }
+  if (!*stored) return false;
+  DeclareSession(rec.session_row);
+  AlignKeyframe in{rec.id, rec.session_row, rec.t_ns, rec.T_odom_cam, std::nullopt};
+  if (rec.has_gravity) in.gravity_cam = rec.gravity_cam;
+  if (Status st = aligner_->IndexStored(in, std::move(**stored)); !st.ok()) {
+    spdlog::warn("re-indexing keyframe {}: {}", rec.id, st.ToString());
+    return true;  // the images would give the same features
+  }
+  ++counts->from_features;
+  return true;
+}
+
+void MapServer::ReindexFromImages(const KeyframeRecord& rec, ReindexCounts* counts) {
+  if (rec.rgb_jpeg.empty()) {
+    ++counts->without_images;  // retention dropped them
+    return;
+  }
+  DeclareSession(rec.session_row);
+  std::optional<SessionRecord> session = SessionByRow(rec.session_row);
+  if (!session) return;
+  auto kf = DecodeKeyframe(rec, *session);
+  if (!kf.ok()) return;  // validated on ingest; a corrupt row is skipped
+  AlignKeyframe in{rec.id, rec.session_row, rec.t_ns, rec.T_odom_cam, std::nullopt};
+  if (rec.has_gravity) in.gravity_cam = rec.gravity_cam;
+  try {
+    if (aligner_->AddKeyframe(in, kf->bgr, kf->depth_m, kf->camera, /*match=*/false).ok()) {
+      ++counts->from_images;
+    }
+  } catch (const std::exception& e) {
+    spdlog::warn("re-indexing keyframe {}: {}", rec.id, e.what());
+  }
 }
 
 void MapServer::MoveSession(const SessionAlignment& a) {

@@ -295,6 +295,8 @@ grpc::Status QueryService::GetStats(loci::v1::GetStatsResponse* resp) {
   resp->set_keyframes_with_raw(bytes->keyframes_with_raw);
   resp->set_keyframes_with_products(bytes->products);
   resp->set_checkpoint_bytes(bytes->checkpoint_bytes);
+  resp->set_place_feature_bytes_per_keyframe(per(bytes->place_feature_bytes, bytes->place_features));
+  resp->set_keyframes_with_place_features(bytes->place_features);
   return FillAlignment(*sessions, resp);
 }
 
@@ -328,6 +330,9 @@ grpc::Status QueryService::FillAlignment(const std::vector<SessionRecord>& sessi
   a->set_merged_keyframes(server_->merged_keyframes());
   a->set_place_ms_mean(st->keyframes == 0 ? 0.0 : st->place_ms_total / double(st->keyframes));
   a->set_vocabulary_words(st->vocabulary_words);
+  a->set_features_read(st->features_read);
+  a->set_features_missing(st->features_missing);
+  a->set_keyframes_from_stored_features(st->indexed_from_store);
   FillPoseGraph(resp->mutable_pose_graph());
   return grpc::Status::OK;
 }

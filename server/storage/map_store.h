@@ -100,6 +100,8 @@ struct StorageBytes {
   uint64_t products = 0;           // keyframes with products
   uint64_t product_bytes = 0;
   uint64_t checkpoint_bytes = 0;   // the latest checkpoint
+  uint64_t place_features = 0;     // keyframes with stored place-recognition features
+  uint64_t place_feature_bytes = 0;
 };
 
 // Result of storing a keyframe.
@@ -153,6 +155,13 @@ class MapStore {
   // A keyframe's stored products of `fingerprint`; nullopt when it has none of them.
   virtual StatusOr<std::optional<std::string>> GetProducts(int64_t keyframe_id,
                                                            const std::string& fingerprint) = 0;
+  // Stores (or replaces) a keyframe's place-recognition features (server/place/feature_codec.h)
+  // of `fingerprint` (FeatureOptions::Fingerprint).
+  virtual Status PutPlaceFeatures(int64_t keyframe_id, const std::string& fingerprint,
+                                  const std::string& data) = 0;
+  // nullopt when the keyframe has no stored features of `fingerprint`.
+  virtual StatusOr<std::optional<std::string>> GetPlaceFeatures(int64_t keyframe_id,
+                                                                const std::string& fingerprint) = 0;
   // Deletes every keyframe's products (`loci reprocess`).
   virtual Status DeleteAllProducts() = 0;
   // Corrected poses, all in one transaction (a later one for the same keyframe replaces it).

@@ -178,6 +178,27 @@ StatusOr<std::optional<std::string>> SqliteStore::GetProducts(int64_t keyframe_i
   return std::optional<std::string>(q.Text(0));
 }
 
+Status SqliteStore::PutPlaceFeatures(int64_t keyframe_id, const std::string& fingerprint,
+                                     const std::string& data) {
+  return WriteOne(
+      "INSERT OR REPLACE INTO place_features(keyframe_id, fingerprint, data) VALUES(?, ?, ?)",
+      [&](Stmt& s) { s.Bind(1, keyframe_id).BindText(2, fingerprint).BindBlob(3, data); },
+      "store place features");
+}
+
+StatusOr<std::optional<std::string>> SqliteStore::GetPlaceFeatures(
+    int64_t keyframe_id, const std::string& fingerprint) {
+  LOCI_ASSIGN_OR_RETURN(auto reader, readers_.Acquire());
+  Stmt q(reader.get(),
+         "SELECT data FROM place_features WHERE keyframe_id = ? AND fingerprint = ?");
+  LOCI_RETURN_IF_ERROR(q.status());
+  q.Bind(1, keyframe_id).BindText(2, fingerprint);
+  const int rc = q.Step();
+  if (rc == SQLITE_DONE) return std::optional<std::string>();
+  if (rc != SQLITE_ROW) return SqlError(reader.get(), "read place features");
+  return std::optional<std::string>(q.Text(0));
+}
+
 Status SqliteStore::DeleteAllProducts() {
   return WriteOne("DELETE FROM keyframe_products", [](Stmt&) {}, "delete products");
 }
@@ -256,6 +277,10 @@ StatusOr<StorageBytes> SqliteStore::Bytes() {
   Stmt c(reader.get(), "SELECT COALESCE(MAX(length(data)), 0) FROM checkpoints");
   if (c.Step() != SQLITE_ROW) return SqlError(reader.get(), "checkpoint bytes");
   b.checkpoint_bytes = static_cast<uint64_t>(c.Int(0));
+  Stmt f(reader.get(), "SELECT COUNT(*), COALESCE(SUM(length(data)), 0) FROM place_features");
+  if (f.Step() != SQLITE_ROW) return SqlError(reader.get(), "place feature bytes");
+  b.place_features = static_cast<uint64_t>(f.Int(0));
+  b.place_feature_bytes = static_cast<uint64_t>(f.Int(1));
   return b;
 }
 

@@ -57,6 +57,10 @@ class SqliteStore final : public MapStore {
                      const std::string& data) override;
   StatusOr<std::optional<std::string>> GetProducts(int64_t keyframe_id,
                                                    const std::string& fingerprint) override;
+  Status PutPlaceFeatures(int64_t keyframe_id, const std::string& fingerprint,
+                          const std::string& data) override;
+  StatusOr<std::optional<std::string>> GetPlaceFeatures(int64_t keyframe_id,
+                                                        const std::string& fingerprint) override;
   Status DeleteAllProducts() override;
   Status PutKeyframePoses(const std::vector<KeyframePoseRecord>& poses) override;
   Status PutPlaceMatch(const PlaceMatchRecord& match) override;

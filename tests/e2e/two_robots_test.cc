@@ -252,6 +252,13 @@ TEST(TwoRobots, RobotArrivingAfterARestartIsAligned) {
   }
   ASSERT_GT(stored, 0u);
   ASSERT_EQ(indexed, stored) << "A's stored keyframes were not re-indexed after the restart";
+  {  // from the features stored with them, not by extracting them again from the images
+    auto s = Stats(*query);
+    ASSERT_TRUE(s.ok());
+    EXPECT_EQ(s->keyframes_with_place_features(), stored);
+    EXPECT_GT(s->place_feature_bytes_per_keyframe(), 10000.0);
+    EXPECT_EQ(s->alignment().keyframes_from_stored_features(), stored);
+  }
   ASSERT_EQ(std::system(TrackCommand(tum, second.address(), b).c_str()), 0);
   auto s = Stats(*query);
   ASSERT_TRUE(s.ok());

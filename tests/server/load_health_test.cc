@@ -56,6 +56,13 @@ class GatedStore final : public MapStore {
   Status PutProducts(int64_t id, const std::string& f, const std::string& d) override {
     return inner_->PutProducts(id, f, d);
   }
+  Status PutPlaceFeatures(int64_t id, const std::string& f, const std::string& d) override {
+    return inner_->PutPlaceFeatures(id, f, d);
+  }
+  StatusOr<std::optional<std::string>> GetPlaceFeatures(int64_t id,
+                                                        const std::string& f) override {
+    return inner_->GetPlaceFeatures(id, f);
+  }
   StatusOr<std::optional<std::string>> GetProducts(int64_t id, const std::string& f) override {
     return inner_->GetProducts(id, f);
   }

@@ -1,0 +1,76 @@
+// RobotAligner with its features out of memory (issue 14): on the shipped real TUM sample, robot
+// A (frames 0-39, aligned: it defines the map) and robot B (frames 20-59, its own odometry from
+// the identity at its first frame, unaligned). B is aligned the same way, to the same transform,
+// whether every keyframe's features stay in memory or only two do and the rest are read back
+// from the store.
+#include <gtest/gtest.h>
+
+#include "common/config.h"
+#include "server/align/robot_aligner.h"
+#include "tests/place/tum_keyframes.h"
+
+namespace loci::server {
+namespace {
+
+using place::testing::TumKeyframe;
+
+const std::vector<TumKeyframe>& Sample() {
+  static const std::vector<TumKeyframe> kfs = [] {
+    auto r = place::testing::LoadTumKeyframes(SourceDir() + "/tests/data/tum_fr1_rpy_sample", 1,
+                                              0, place::FeatureOptions{}, /*keep_images=*/true);
+    EXPECT_TRUE(r.ok()) << r.status();
+    return r.ok() ? *r : std::vector<TumKeyframe>{};
+  }();
+  return kfs;
+}
+
+struct AlignRun {
+  std::optional<SessionAlignment> alignment;
+  AlignStats stats;
+};
+
+// A then B through one aligner whose features live in `store` (null: its own memory).
+AlignRun AlignBToA(int cache_keyframes, place::FeatureStore* store) {
+  const auto& kfs = Sample();
+  place::PlaceOptions place;
+  place.features.cache_keyframes = cache_keyframes;
+  AlignOptions options;
+  options.loops.enabled = false;
+  options.refine_max_matches = 0;
+  RobotAligner aligner(place, options, store);
+  aligner.AddSession(1, SE3d::Identity());
+  aligner.AddSession(2, std::nullopt);
+  const PinholeCamera camera = kfs.front().features.camera;
+  AlignRun run;
+  auto add = [&](int session, int i, int first) {
+    const SE3d T_odom_kf = kfs[first].T_world_cam.inverse() * kfs[i].T_world_cam;
+    AlignKeyframe kf{1000 * session + i, session, kfs[i].t_ns, T_odom_kf, std::nullopt};
+    auto out = aligner.AddKeyframe(kf, kfs[i].bgr, kfs[i].depth_m, camera);
+    ASSERT_TRUE(out.ok()) << out.status();
+    if (out->alignment && !run.alignment) run.alignment = out->alignment;
+  };
+  for (int i = 0; i < 40; ++i) add(1, i, 0);
+  for (int i = 20; i < 60; ++i) add(2, i, 20);
+  run.stats = aligner.Stats();
+  return run;
+}
+
+TEST(RobotAlignerTest, FeaturesReadBackFromTheStoreAlignLikeFeaturesInMemory) {
+  ASSERT_EQ(Sample().size(), 60u);
+  const AlignRun memory = AlignBToA(256, nullptr);
+  place::MemoryFeatureStore store;
+  const AlignRun stored = AlignBToA(2, &store);
+  ASSERT_TRUE(memory.alignment.has_value()) << "B not aligned with every feature in memory";
+  ASSERT_TRUE(stored.alignment.has_value()) << "B not aligned with two keyframes cached";
+  EXPECT_EQ(memory.stats.features_read, 0u);
+  EXPECT_GT(stored.stats.features_read, 0u);
+  EXPECT_EQ(stored.stats.features_missing, 0u);
+  EXPECT_EQ(stored.alignment->keyframe_id, memory.alignment->keyframe_id);
+  EXPECT_TRUE(stored.alignment->T_base_odom.isApprox(memory.alignment->T_base_odom, 1e-12));
+  // And it is where the ground truth puts B's start (the sample's truth is good to a few cm).
+  const SE3d T_a_b = place::testing::GroundTruthT_a_b(Sample()[0], Sample()[20]);
+  EXPECT_LT((stored.alignment->T_base_odom.translation() - T_a_b.translation()).norm(), 0.05);
+}
+
+}  // namespace
+}  // namespace loci::server
