@@ -84,11 +84,13 @@ int RunBenchIngest(const BenchIngestArgs& a) {
   auto stream = stub->StreamKeyframes(&ctx);
   int failed = 0, acked = 0;
   double rss_third = 0;  // RSS once a third is acknowledged: the queue is full by then
+  double rss_two_thirds = 0;
   std::thread reader([&] {
     loci::v1::KeyframeAck ack;
     while (stream->Read(&ack)) {
       failed += ack.status().code() != 0;
       if (++acked == a.keyframes / 3) rss_third = RssMb();
+      if (acked == 2 * a.keyframes / 3) rss_two_thirds = RssMb();
     }
   });
   for (int i = 0; i < a.keyframes; ++i) {
@@ -124,13 +126,14 @@ int RunBenchIngest(const BenchIngestArgs& a) {
       "%.2f, outliers %.2f ms (CPU)\n",
       stats.total.labels_ms / n, stats.total.objects_ms / n, stats.total.backproject_ms / n,
       stats.total.voxel_ms / n, stats.total.outlier_ms / n);
-  // Growth over the last two thirds: the map and the database cache, not the start-up and the
-  // filling of the ingest queue.
-  const int late = a.keyframes - a.keyframes / 3;
+  // Growth while the queues are full (between a third and two thirds acknowledged): the map,
+  // the index and the database cache, not the start-up, the filling of the ingest and aligning
+  // queues or their draining at the end.
+  const int middle = std::max(1, 2 * a.keyframes / 3 - a.keyframes / 3);
   std::printf(
-      "  memory          %.1f MB RSS growth in total; %.1f MB per 1000 keyframes after the "
-      "first third\n",
-      rss1 - rss0, late > 0 ? (rss1 - rss_third) * 1000.0 / late : 0.0);
+      "  memory          %.1f MB per 1000 keyframes with the queues full (a third to two thirds "
+      "acknowledged); %.1f MB RSS over the start at the end, queues drained\n",
+      (rss_two_thirds - rss_third) * 1000.0 / middle, rss1 - rss0);
   std::printf("  database        %.1f KB per keyframe (%.1f MB total, WAL included)\n",
               db_bytes / 1024.0 / a.keyframes, db_bytes / (1024.0 * 1024.0));
   std::printf(

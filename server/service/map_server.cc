@@ -1,5 +1,7 @@
 #include "server/service/map_server.h"
 
+#include "common/malloc_tuning.h"
+
 #include <spdlog/spdlog.h>
 
 #include <chrono>
@@ -54,6 +56,7 @@ StatusOr<std::unique_ptr<MapServer>> MapServer::OpenAsync(
   LOCI_RETURN_IF_ERROR(options.place.Validate());
   LOCI_RETURN_IF_ERROR(options.align.Validate());
   LOCI_RETURN_IF_ERROR(options.graph.Validate());
+  KeepLargeBlocksOnMmap();  // decoded images cross threads (common/malloc_tuning.h)
   if (!store) {
     LOCI_ASSIGN_OR_RETURN(std::unique_ptr<SqliteStore> sqlite, SqliteStore::Open(options.db_path));
     store = std::move(sqlite);
