@@ -15,4 +15,10 @@ void KeepLargeBlocksOnMmap(size_t bytes) {
 #endif
 }
 
+void ReleaseFreeHeapPages() {
+#if defined(__GLIBC__)
+  malloc_trim(0);
+#endif
+}
+
 }  // namespace loci

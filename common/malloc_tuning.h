@@ -16,4 +16,9 @@ namespace loci {
 // own small allocations are far below it). Idempotent; a no-op on other C libraries.
 void KeepLargeBlocksOnMmap(size_t bytes = 256 * 1024);
 
+// Gives the free pages of every heap arena back to the system (glibc malloc_trim), after work
+// whose transient peak grows with the map (a pose-graph solve builds the whole graph anew).
+// A no-op on other C libraries.
+void ReleaseFreeHeapPages();
+
 }  // namespace loci

@@ -11,6 +11,7 @@
 #include <chrono>
 #include <map>
 
+#include "common/malloc_tuning.h"
 #include "server/service/map_server.h"
 
 namespace loci::server {
@@ -87,6 +88,7 @@ void MapServer::MaybeCloseLoops() {
     return;
   }
   FollowCorrections(poses, updates);
+  ReleaseFreeHeapPages();  // the solve's graph (common/malloc_tuning.h)
 }
 
 void MapServer::FollowCorrections(const std::vector<Mapper::KeyframePoseUpdate>& mapped,
