@@ -72,6 +72,12 @@ StatusOr<bool> RobotAligner::CountIn(const AlignKeyframe& kf) {
   return it->second.T_base_odom.has_value();
 }
 
+void RobotAligner::CountIndexed(double t0_ms) {
+  ++stats_.keyframes;
+  stats_.place_ms_total += ThreadCpuMs() - t0_ms;
+  stats_.vocabulary_words = db_.words();
+}
+
 Status RobotAligner::Index(const AlignKeyframe& kf, const place::BowVector& bow) {
   LOCI_RETURN_IF_ERROR(db_.Insert(kf.keyframe_id, Key(kf.session_row), bow));
   indexed_[kf.keyframe_id] = {kf.session_row, kf.t_ns, kf.T_odom_kf};
@@ -105,9 +111,7 @@ StatusOr<AlignOutcome> RobotAligner::AddKeyframe(const AlignKeyframe& kf, const 
   }
   LOCI_RETURN_IF_ERROR(Index(kf, bow));
   std::lock_guard<std::mutex> lock(stats_mu_);
-  ++stats_.keyframes;
-  stats_.place_ms_total += ThreadCpuMs() - t0_ms;
-  stats_.vocabulary_words = db_.words();
+  CountIndexed(t0_ms);
   if (result) ++(result->refined ? stats_.refinements : stats_.merges_accepted);
   return out;
 }
@@ -122,10 +126,8 @@ Status RobotAligner::IndexStored(const AlignKeyframe& kf, place::KeyframeFeature
   cache_.Keep(kf.keyframe_id, std::move(features));
   LOCI_RETURN_IF_ERROR(Index(kf, bow));
   std::lock_guard<std::mutex> lock(stats_mu_);
-  ++stats_.keyframes;
+  CountIndexed(t0_ms);
   ++stats_.indexed_from_store;
-  stats_.place_ms_total += ThreadCpuMs() - t0_ms;
-  stats_.vocabulary_words = db_.words();
   return absl::OkStatus();
 }
 

@@ -154,6 +154,8 @@ class RobotAligner {
   StatusOr<bool> CountIn(const AlignKeyframe& kf);
   // Quantises and indexes the keyframe (its features are stored or kept by the caller).
   Status Index(const AlignKeyframe& kf, const place::BowVector& bow);
+  // Counts an indexed keyframe and its CPU time since t0_ms (stats_mu_ and work_mu_ held).
+  void CountIndexed(double t0_ms);
   // Verifies the best candidates (max_verify, in rank order) among the keyframes of aligned
   // sessions and, with loops, the older ones of kf's own session; every match that verifies.
   std::vector<VerifiedMatch> Match(const AlignKeyframe& kf, const place::KeyframeFeatures& features,

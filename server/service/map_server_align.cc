@@ -190,6 +190,17 @@ void MapServer::Reindex() {
                st.ok() ? "" : absl::StrCat("; stopped: ", st.ToString()));
 }
 
+namespace {
+
+// What the aligner needs of a stored keyframe.
+AlignKeyframe AlignInput(const KeyframeRecord& rec) {
+  AlignKeyframe in{rec.id, rec.session_row, rec.t_ns, rec.T_odom_cam, std::nullopt};
+  if (rec.has_gravity) in.gravity_cam = rec.gravity_cam;
+  return in;
+}
+
+}  // namespace
+
 bool MapServer::ToReindex(const KeyframeRecord& rec) {
   const int64_t first_live = first_live_id_;
   if (first_live != 0 && rec.id >= first_live) return false;  // the aligning thread's
@@ -205,9 +216,7 @@ bool MapServer::ReindexFromFeatures(const KeyframeRecord& rec, ReindexCounts* co
   }
   if (!*stored) return false;
   DeclareSession(rec.session_row);
-  AlignKeyframe in{rec.id, rec.session_row, rec.t_ns, rec.T_odom_cam, std::nullopt};
-  if (rec.has_gravity) in.gravity_cam = rec.gravity_cam;
-  if (Status st = aligner_->IndexStored(in, std::move(**stored)); !st.ok()) {
+  if (Status st = aligner_->IndexStored(AlignInput(rec), std::move(**stored)); !st.ok()) {
     spdlog::warn("re-indexing keyframe {}: {}", rec.id, st.ToString());
     return true;  // the images would give the same features
   }
@@ -225,10 +234,8 @@ void MapServer::ReindexFromImages(const KeyframeRecord& rec, ReindexCounts* coun
   if (!session) return;
   auto kf = DecodeKeyframe(rec, *session);
   if (!kf.ok()) return;  // validated on ingest; a corrupt row is skipped
-  AlignKeyframe in{rec.id, rec.session_row, rec.t_ns, rec.T_odom_cam, std::nullopt};
-  if (rec.has_gravity) in.gravity_cam = rec.gravity_cam;
   try {
-    if (aligner_->AddKeyframe(in, kf->bgr, kf->depth_m, kf->camera, /*match=*/false).ok()) {
+    if (aligner_->AddKeyframe(AlignInput(rec), kf->bgr, kf->depth_m, kf->camera, /*match=*/false).ok()) {
       ++counts->from_images;
     }
   } catch (const std::exception& e) {
