@@ -104,6 +104,7 @@ int RunBenchIngest(const BenchIngestArgs& a) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double rss1 = RssMb();
 
+  (*srv)->mapper().FlushOctomap();
   const auto stats = (*srv)->mapper().Stats();
   const double n = static_cast<double>(std::max<uint64_t>(1, stats.keyframes));
   const uint64_t db_bytes = (*srv)->store().DbBytes();

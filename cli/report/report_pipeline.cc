@@ -252,6 +252,7 @@ StatusOr<ReportResult> RunReport(const ReportOptions& o) {
     }
   }
   r.object_voxel_points = object_voxels.size();
+  est.mapper->FlushOctomap();
   r.octomap_nodes = est.mapper->Stats().octomap_nodes;
   r.octomap_bytes = est.mapper->OctomapBt().size();
   r.octomap_resolution_m = est.mapper->OctomapResolution();

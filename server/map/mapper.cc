@@ -451,8 +451,6 @@ std::map<std::string, RobotPose> Mapper::LatestPoses() const {
 
 MapperStats Mapper::Stats() const {
   MapperStats s;
-  // So the OctoMap figures cover every integrated keyframe.
-  if (options_.octomap.enabled) FlushOctomap();
   {
     std::lock_guard<std::mutex> lock(mu_);
     s = stats_;
@@ -463,6 +461,10 @@ MapperStats Mapper::Stats() const {
   if (options_.octomap.enabled) {
     std::lock_guard<std::mutex> lock(octo_mu_);
     s.octomap_nodes = octomap_->node_count();
+  }
+  {
+    std::lock_guard<std::mutex> lock(octomap_progress_mu_);
+    s.octomap_pending_scans = octomap_pushed_ - std::min(octomap_pushed_, octomap_done_);
   }
   return s;
 }

@@ -76,7 +76,8 @@ struct MapperStats {
   uint64_t objects = 0;
   uint64_t confirmed_objects = 0;
   uint64_t cloud_points = 0;
-  uint64_t octomap_nodes = 0;
+  uint64_t octomap_nodes = 0;          // of the scans inserted so far ...
+  uint64_t octomap_pending_scans = 0;  // ... while these still wait for the OctoMap thread
   StageTimes total;  // sums over all keyframes
 };
 
@@ -156,6 +157,8 @@ class Mapper {
   // Whether the keyframe is in the map.
   bool HasKeyframe(int64_t keyframe_id) const;
   std::map<std::string, RobotPose> LatestPoses() const;
+  // Does not wait for the OctoMap thread (a stats call must not stall behind ingestion): the
+  // OctoMap figures cover the scans inserted so far. Call FlushOctomap first to settle them.
   MapperStats Stats() const;
   const MapOptions& options() const { return options_; }
   // Blocks until the OctoMap holds every keyframe integrated so far.

@@ -214,7 +214,7 @@ grpc::Status QueryService::GetOctomap(grpc::ServerContext* ctx,
                                       loci::v1::GetOctomapResponse* resp) {
   if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
   if (Status ready = server_->CheckReady(); !ready.ok()) return ToGrpc(ready);
-  resp->set_octomap_bt(server_->mapper().OctomapBt());
+  resp->set_octomap_bt(server_->mapper().OctomapBt());  // waits for the queued scans
   resp->set_resolution_m(server_->mapper().OctomapResolution());
   resp->set_node_count(server_->mapper().Stats().octomap_nodes);
   return grpc::Status::OK;
@@ -281,6 +281,7 @@ grpc::Status QueryService::GetStats(loci::v1::GetStatsResponse* resp) {
   resp->set_confirmed_objects(s.confirmed_objects);
   resp->set_cloud_points(s.cloud_points);
   resp->set_octomap_nodes(s.octomap_nodes);
+  resp->set_octomap_pending_scans(s.octomap_pending_scans);
   resp->set_db_bytes(server_->store().DbBytes());
   resp->set_queue_depth(server_->queue_depth());
   resp->set_ingest_ms_mean(server_->ingest_ms_mean());

@@ -84,6 +84,10 @@ TEST(Mapper, FusesObjectsAndKeepsThePersonOut) {
   EXPECT_NEAR(up->z(), 1.0, 1e-6);
   EXPECT_EQ(mapper.LatestPoses().at("robot1").t_ns, 12'000'000'000LL);
   EXPECT_FALSE(mapper.OctomapBt().empty());
+  // OctomapBt waited for the OctoMap thread; Stats does not wait, and now has nothing queued.
+  const MapperStats settled = mapper.Stats();
+  EXPECT_EQ(settled.octomap_pending_scans, 0u);
+  EXPECT_GT(settled.octomap_nodes, 0u);
 }
 
 // The map frame (REP-103): origin at the first keyframe's camera, z up (world +z here, from the
