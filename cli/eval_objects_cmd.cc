@@ -28,6 +28,7 @@ namespace {
 struct EvalObjectsArgs {
   std::string gt, groundtruth, db, server, config;
   std::vector<std::string> classes;
+  std::string align = "positions";
   double max_match_m = 0.3;
   bool json = false, no_ask = false, all = false;
   ChannelSecurity security;
@@ -138,6 +139,7 @@ nlohmann::json ToJson(const report::GroundTruthEval& e) {
           {"up_error_deg", e.up_error_deg},
           {"up_error_orientation_deg", e.up_error_orientation_deg},
           {"alignment_disagreement_deg", e.alignment_disagreement_deg},
+          {"aligned_by_orientations", e.aligned_by_orientations},
           {"precision", r.precision},
           {"recall", r.recall},
           {"f1", r.f1},
@@ -187,6 +189,7 @@ int RunEvalObjects(const EvalObjectsArgs& a) {
       if (!options.map.IsDynamic(c)) in.options.classes.push_back(c);
     }
   }
+  in.align_by_orientations = a.align == "orientations";
   if (!a.no_ask) in.ask = map->ask;
   auto e = report::EvaluateAgainstGroundTruth(in);
   if (!e.ok()) return Fail(1, e.status().message());
@@ -230,6 +233,11 @@ void RegisterEvalObjectsCommand(CLI::App& app) {
   c->add_option("--classes", args->classes,
                 "classes to evaluate (default: mapped, non-dynamic classes)");
   c->add_option("--radius", args->max_match_m, "matching radius, m")->capture_default_str();
+  c->add_option("--align", args->align,
+                "how the map is aligned to the world: positions (the TUM ATE way) or orientations "
+                "(rotation from the camera orientations; for sequences that turn in place)")
+      ->check(CLI::IsMember({"positions", "orientations"}))
+      ->capture_default_str();
   c->add_flag("--no-ask", args->no_ask, "skip the X-on-Y questions");
   c->add_flag("--all", args->all, "also evaluate unconfirmed candidate objects");
   c->add_flag("--json", args->json, "print JSON");

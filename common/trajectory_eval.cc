@@ -107,6 +107,23 @@ StatusOr<Mat3d> OrientationAlignment(const Trajectory& gt_in, const Trajectory& 
   return Mat3d(svd.matrixU() * d * svd.matrixV().transpose());
 }
 
+StatusOr<SE3d> AlignByOrientations(const Trajectory& gt_in, const Trajectory& est_in,
+                                   const AteOptions& opt) {
+  LOCI_ASSIGN_OR_RETURN(const Mat3d R_gt_est, OrientationAlignment(gt_in, est_in, opt));
+  const Trajectory gt = Sorted(gt_in), est = Sorted(est_in);
+  const auto pairs = Associate(gt, est, opt);
+  Vec3d gt_sum = Vec3d::Zero(), est_sum = Vec3d::Zero();
+  for (const auto& [g, e] : pairs) {
+    gt_sum += gt[g].T_world_cam.translation();
+    est_sum += est[e].T_world_cam.translation();
+  }
+  const double n = static_cast<double>(pairs.size());
+  SE3d T_gt_est = SE3d::Identity();
+  T_gt_est.linear() = R_gt_est;
+  T_gt_est.translation() = gt_sum / n - R_gt_est * (est_sum / n);
+  return T_gt_est;
+}
+
 StatusOr<RpeResult> ComputeRpe(const Trajectory& gt_in, const Trajectory& est_in,
                                const RpeOptions& opt) {
   const Trajectory gt = Sorted(gt_in), est = Sorted(est_in);

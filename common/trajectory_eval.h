@@ -39,6 +39,13 @@ StatusOr<AteResult> ComputeAte(const Trajectory& gt, const Trajectory& est,
 StatusOr<Mat3d> OrientationAlignment(const Trajectory& gt, const Trajectory& est,
                                      const AteOptions& opt = {});
 
+// A rigid alignment from the whole poses: the rotation of OrientationAlignment, then the
+// translation that best carries the estimate's positions onto the ground truth's under it
+// (the difference of the means). For sequences that turn in place (fr1_rpy), where ComputeAte's
+// rotation is set by centimetre noise over a few centimetres of travel.
+StatusOr<SE3d> AlignByOrientations(const Trajectory& gt, const Trajectory& est,
+                                   const AteOptions& opt = {});
+
 struct RpeResult {
   ErrorStats trans_m;     // per delta: m over delta_s (delta 1 s: m/s)
   ErrorStats rot_rad;     // per delta: rad over delta_s

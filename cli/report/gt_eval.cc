@@ -65,6 +65,11 @@ StatusOr<GroundTruthEval> EvaluateAgainstGroundTruth(const GroundTruthEvalInput&
             [](const StampedPose& a, const StampedPose& b) { return a.t_ns < b.t_ns; });
   GroundTruthEval e;
   LOCI_ASSIGN_OR_RETURN(e.alignment, ComputeAte(in.groundtruth, stacked));
+  const Mat3d R_gt_map_positions = e.alignment.T_gt_est.linear();
+  if (in.align_by_orientations) {
+    LOCI_ASSIGN_OR_RETURN(e.alignment.T_gt_est, AlignByOrientations(in.groundtruth, stacked));
+    e.aligned_by_orientations = true;
+  }
   std::vector<MapObject> in_world;
   for (const MapObject& o : in.objects) in_world.push_back(Transformed(o, e.alignment.T_gt_est));
   e.objects = server::EvaluateObjects(in_world, in.gt, in.options);
@@ -74,7 +79,7 @@ StatusOr<GroundTruthEval> EvaluateAgainstGroundTruth(const GroundTruthEvalInput&
   LOCI_ASSIGN_OR_RETURN(const Mat3d R_gt_map, OrientationAlignment(in.groundtruth, stacked));
   e.up_error_orientation_deg = UpErrorDeg(R_gt_map, in.gt.up);
   e.alignment_disagreement_deg =
-      Eigen::AngleAxisd(R_gt_map.transpose() * e.alignment.T_gt_est.linear()).angle() * 180.0 /
+      Eigen::AngleAxisd(R_gt_map.transpose() * R_gt_map_positions).angle() * 180.0 /
       M_PI;
   if (in.ask) {
     e.on_pairs = CheckOnPairs(in, e.objects);
@@ -87,12 +92,14 @@ StatusOr<GroundTruthEval> EvaluateAgainstGroundTruth(const GroundTruthEvalInput&
 std::string FormatGroundTruthEval(const GroundTruthEval& e) {
   const server::ObjectEvalResult& r = e.objects;
   std::string s = absl::StrFormat(
-      "alignment: keyframe trajectory vs ground truth, %zu pairs, ATE rmse %.4f m; map +z is "
-      "%.1f deg from the ground truth's up\n"
-      "  check: aligned by the camera orientations instead, map +z is %.1f deg from up; the two "
-      "alignments differ by %.1f deg\n",
-      e.alignment.pairs, e.alignment.trans_m.rmse, e.up_error_deg, e.up_error_orientation_deg,
-      e.alignment_disagreement_deg);
+      "alignment: keyframe trajectory vs ground truth, %zu pairs, ATE rmse %.4f m; objects "
+      "aligned by %s; map +z is %.1f deg from the ground truth's up\n"
+      "  check: aligned by the camera orientations, map +z is %.1f deg from up; the positions' "
+      "and the orientations' alignments differ by %.1f deg\n",
+      e.alignment.pairs, e.alignment.trans_m.rmse,
+      e.aligned_by_orientations ? "the camera orientations (--align orientations)"
+                                : "positions (TUM)",
+      e.up_error_deg, e.up_error_orientation_deg, e.alignment_disagreement_deg);
   absl::StrAppendFormat(&s, "%-14s %4s %4s %5s %4s %4s %4s %7s\n", "class", "gt", "low", "map",
                         "tp", "fp", "fn", "neutral");
   for (const server::ClassEval& c : r.classes) {

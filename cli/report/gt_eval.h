@@ -45,6 +45,7 @@ struct GroundTruthEval {
   // map by itself: centroid errors then include that turn.
   double up_error_orientation_deg = 0;
   double alignment_disagreement_deg = 0;
+  bool aligned_by_orientations = false;  // GroundTruthEvalInput::align_by_orientations
 };
 
 struct GroundTruthEvalInput {
@@ -53,6 +54,9 @@ struct GroundTruthEvalInput {
   Trajectory groundtruth;             // world frame
   GroundTruthScene gt;
   server::ObjectEvalOptions options;
+  // false: the TUM way (ComputeAte: positions only). true: AlignByOrientations (the rotation
+  // from the camera orientations), for sequences that turn in place.
+  bool align_by_orientations = false;
   // Asks the map a question (gRPC or in process); null = no X-on-Y check.
   std::function<loci::v1::AskResponse(const std::string&)> ask;
 };

@@ -77,6 +77,12 @@ TEST(TrajectoryEval, OrientationAlignmentRecoversRotationWherePositionsCannot) {
   ASSERT_TRUE(ate.ok());
   EXPECT_GT(Eigen::AngleAxisd(ate->T_gt_est.linear() * T_est_gt.linear()).angle(), 0.05)
       << "positions alone should not pin the rotation here";
+  // The whole-pose alignment: that rotation, and the translation the noisy positions average to.
+  auto T_gt_est = AlignByOrientations(gt, est);
+  ASSERT_TRUE(T_gt_est.ok()) << T_gt_est.status();
+  const SE3d residual = *T_gt_est * T_est_gt;
+  EXPECT_LT(Eigen::AngleAxisd(residual.linear()).angle(), 1e-9);
+  EXPECT_LT(residual.translation().norm(), 0.003);  // 1 cm noise over 300 poses
 }
 
 TEST(TrajectoryEval, AteRejectsDisjointStamps) {
