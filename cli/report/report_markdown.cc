@@ -21,7 +21,16 @@ void SynthTable(std::string* md, const char* name, const server::ObjectEvalResul
                         e.mean_centroid_error_m, e.max_centroid_error_m);
 }
 
-void HandMadeSection(std::string* md, const GroundTruthEval& e) {
+void HandMadeTotals(std::string* md, const char* alignment, const GroundTruthEval& e) {
+  const server::ObjectEvalResult& r = e.objects;
+  absl::StrAppendFormat(md, "| %s | %.3f | %.3f | %.3f | %.1f %% | %.3f | %.3f | %d / %zu |\n",
+                        alignment, r.precision, r.recall, r.f1, 100 * r.count_error,
+                        r.mean_centroid_error_m, r.median_centroid_error_m, e.on_right,
+                        e.on_pairs.size());
+}
+
+void HandMadeSection(std::string* md, const GroundTruthEval& e,
+                     const std::optional<GroundTruthEval>& by_orientations) {
   const server::ObjectEvalResult& r = e.objects;
   *md += "\n### Objects against hand-made ground truth (`loci eval objects` method)\n\n";
   absl::StrAppendFormat(md,
@@ -35,12 +44,15 @@ void HandMadeSection(std::string* md, const GroundTruthEval& e) {
     absl::StrAppendFormat(md, "| %s | %d | %d | %d | %d | %d | %d | %d |\n", c.class_name, c.gt,
                           c.gt_low, c.mapped, c.tp, c.fp, c.fn, c.neutral);
   }
-  *md += "\n| precision | recall | F1 | count error | mean centroid err (m) | median (m) | "
-         "X-on-Y answers right |\n|---|---|---|---|---|---|---|\n";
-  absl::StrAppendFormat(md, "| %.3f | %.3f | %.3f | %.1f %% | %.3f | %.3f | %d / %zu |\n",
-                        r.precision, r.recall, r.f1, 100 * r.count_error,
-                        r.mean_centroid_error_m, r.median_centroid_error_m, e.on_right,
-                        e.on_pairs.size());
+  *md += "\n| map aligned by | precision | recall | F1 | count error | mean centroid err (m) | "
+         "median (m) | X-on-Y answers right |\n|---|---|---|---|---|---|---|---|\n";
+  HandMadeTotals(md, "positions (TUM)", e);
+  if (by_orientations) {
+    HandMadeTotals(md, absl::StrFormat("camera orientations (%.1f deg from the positions')",
+                                       e.alignment_disagreement_deg).c_str(),
+                   *by_orientations);
+  }
+  *md += "\nThe class rows are for the positions' alignment.\n";
   if (!r.missed_gt_names.empty()) {
     absl::StrAppendFormat(md, "\nMissed: %s.\n", absl::StrJoin(r.missed_gt_names, ", "));
   }
@@ -115,7 +127,7 @@ std::string FormatMarkdown(const ReportResult& r, const ReportOptions& o,
     SynthTable(&md, "estimated poses", *r.synth_est);
     if (r.synth_gt_poses) SynthTable(&md, "ground-truth poses", *r.synth_gt_poses);
   }
-  if (r.gt_eval) HandMadeSection(&md, *r.gt_eval);
+  if (r.gt_eval) HandMadeSection(&md, *r.gt_eval, r.gt_eval_orientations);
 
   const double reduction =
       r.cloud_points ? 100.0 * (1.0 - static_cast<double>(r.object_voxel_points) / r.cloud_points)

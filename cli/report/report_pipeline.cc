@@ -124,8 +124,10 @@ std::vector<ObjectPair> PairObjects(const std::vector<MapObject>& est,
 
 // The estimated map against hand-made ground truth, with its own Ask (as `loci eval objects`).
 StatusOr<GroundTruthEval> EvaluateHandMade(const ReportOptions& o, const server::Mapper& mapper,
-                                           const Trajectory& groundtruth) {
+                                           const Trajectory& groundtruth,
+                                           bool align_by_orientations) {
   GroundTruthEvalInput in;
+  in.align_by_orientations = align_by_orientations;
   LOCI_ASSIGN_OR_RETURN(in.gt, ReadObjectsJson(o.objects_gt));
   in.objects = mapper.Snapshot(/*confirmed_only=*/true);
   for (auto& [robot, traj] : mapper.Trajectories()) in.keyframes.push_back(traj);
@@ -263,7 +265,9 @@ StatusOr<ReportResult> RunReport(const ReportOptions& o) {
       r.objects_est, T_gt_est * est.mapper->MapFromBaseFrame().inverse());
   r.objects_est = est_in_gt;
   if (!o.objects_gt.empty()) {
-    LOCI_ASSIGN_OR_RETURN(r.gt_eval, EvaluateHandMade(o, *est.mapper, seq.groundtruth));
+    LOCI_ASSIGN_OR_RETURN(r.gt_eval, EvaluateHandMade(o, *est.mapper, seq.groundtruth, false));
+    LOCI_ASSIGN_OR_RETURN(r.gt_eval_orientations,
+                          EvaluateHandMade(o, *est.mapper, seq.groundtruth, true));
   }
   if (!seq.groundtruth.empty()) {
     if (o.progress) std::fprintf(stderr, "server: mapping again with ground-truth poses\n");

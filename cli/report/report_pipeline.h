@@ -52,6 +52,9 @@ struct ReportResult {
   std::optional<server::ObjectEvalResult> synth_est, synth_gt_poses;
   // Against hand-made ground truth (ReportOptions::objects_gt).
   std::optional<GroundTruthEval> gt_eval;
+  // The same with the map aligned by the camera orientations (--align orientations): for
+  // sequences that turn in place, where the positions barely fix the alignment's rotation.
+  std::optional<GroundTruthEval> gt_eval_orientations;
   // Map size (estimated-pose map).
   size_t cloud_points = 0;         // dense semantic cloud at the map's voxel
   size_t object_points = 0;        // ... of which labelled with an object
