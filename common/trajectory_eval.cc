@@ -91,11 +91,11 @@ StatusOr<AteResult> ComputeAte(const Trajectory& gt_in, const Trajectory& est_in
   return r;
 }
 
-StatusOr<Mat3d> OrientationAlignment(const Trajectory& gt_in, const Trajectory& est_in,
-                                     const AteOptions& opt) {
-  const Trajectory gt = Sorted(gt_in), est = Sorted(est_in);
-  const auto pairs = Associate(gt, est, opt);
-  if (pairs.empty()) return absl::InvalidArgumentError("no stamp pairs within the window");
+namespace {
+
+// The chordal mean of R_gt_i * R_est_i^T over associated pairs of sorted trajectories.
+Mat3d ChordalMeanRotation(const Trajectory& gt, const Trajectory& est,
+                          const std::vector<std::pair<size_t, size_t>>& pairs) {
   Mat3d sum = Mat3d::Zero();
   for (const auto& [g, e] : pairs) {
     sum += gt[g].T_world_cam.linear() * est[e].T_world_cam.linear().transpose();
@@ -104,14 +104,24 @@ StatusOr<Mat3d> OrientationAlignment(const Trajectory& gt_in, const Trajectory& 
   const Eigen::JacobiSVD<Mat3d> svd(sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
   Mat3d d = Mat3d::Identity();
   d(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
-  return Mat3d(svd.matrixU() * d * svd.matrixV().transpose());
+  return svd.matrixU() * d * svd.matrixV().transpose();
+}
+
+}  // namespace
+
+StatusOr<Mat3d> OrientationAlignment(const Trajectory& gt_in, const Trajectory& est_in,
+                                     const AteOptions& opt) {
+  const Trajectory gt = Sorted(gt_in), est = Sorted(est_in);
+  const auto pairs = Associate(gt, est, opt);
+  if (pairs.empty()) return absl::InvalidArgumentError("no stamp pairs within the window");
+  return ChordalMeanRotation(gt, est, pairs);
 }
 
 StatusOr<SE3d> AlignByOrientations(const Trajectory& gt_in, const Trajectory& est_in,
                                    const AteOptions& opt) {
-  LOCI_ASSIGN_OR_RETURN(const Mat3d R_gt_est, OrientationAlignment(gt_in, est_in, opt));
   const Trajectory gt = Sorted(gt_in), est = Sorted(est_in);
   const auto pairs = Associate(gt, est, opt);
+  if (pairs.empty()) return absl::InvalidArgumentError("no stamp pairs within the window");
   Vec3d gt_sum = Vec3d::Zero(), est_sum = Vec3d::Zero();
   for (const auto& [g, e] : pairs) {
     gt_sum += gt[g].T_world_cam.translation();
@@ -119,8 +129,8 @@ StatusOr<SE3d> AlignByOrientations(const Trajectory& gt_in, const Trajectory& es
   }
   const double n = static_cast<double>(pairs.size());
   SE3d T_gt_est = SE3d::Identity();
-  T_gt_est.linear() = R_gt_est;
-  T_gt_est.translation() = gt_sum / n - R_gt_est * (est_sum / n);
+  T_gt_est.linear() = ChordalMeanRotation(gt, est, pairs);
+  T_gt_est.translation() = gt_sum / n - T_gt_est.linear() * (est_sum / n);
   return T_gt_est;
 }
 

@@ -166,16 +166,24 @@ StatusOr<std::vector<PlaceMatchRecord>> SqliteStore::ListPlaceMatches() {
   return out;
 }
 
-StatusOr<std::optional<std::string>> SqliteStore::GetProducts(int64_t keyframe_id,
-                                                              const std::string& fingerprint) {
+StatusOr<std::optional<std::string>> SqliteStore::ReadKeyed(const char* sql,
+                                                            int64_t keyframe_id,
+                                                            const std::string& fingerprint,
+                                                            const char* what) {
   LOCI_ASSIGN_OR_RETURN(auto reader, readers_.Acquire());
-  Stmt q(reader.get(), "SELECT data FROM keyframe_products WHERE keyframe_id = ? AND fingerprint = ?");
+  Stmt q(reader.get(), sql);
   LOCI_RETURN_IF_ERROR(q.status());
   q.Bind(1, keyframe_id).BindText(2, fingerprint);
   const int rc = q.Step();
   if (rc == SQLITE_DONE) return std::optional<std::string>();
-  if (rc != SQLITE_ROW) return SqlError(reader.get(), "read products");
+  if (rc != SQLITE_ROW) return SqlError(reader.get(), what);
   return std::optional<std::string>(q.Text(0));
+}
+
+StatusOr<std::optional<std::string>> SqliteStore::GetProducts(int64_t keyframe_id,
+                                                              const std::string& fingerprint) {
+  return ReadKeyed("SELECT data FROM keyframe_products WHERE keyframe_id = ? AND fingerprint = ?",
+                   keyframe_id, fingerprint, "read products");
 }
 
 Status SqliteStore::PutPlaceFeatures(int64_t keyframe_id, const std::string& fingerprint,
@@ -188,15 +196,8 @@ Status SqliteStore::PutPlaceFeatures(int64_t keyframe_id, const std::string& fin
 
 StatusOr<std::optional<std::string>> SqliteStore::GetPlaceFeatures(
     int64_t keyframe_id, const std::string& fingerprint) {
-  LOCI_ASSIGN_OR_RETURN(auto reader, readers_.Acquire());
-  Stmt q(reader.get(),
-         "SELECT data FROM place_features WHERE keyframe_id = ? AND fingerprint = ?");
-  LOCI_RETURN_IF_ERROR(q.status());
-  q.Bind(1, keyframe_id).BindText(2, fingerprint);
-  const int rc = q.Step();
-  if (rc == SQLITE_DONE) return std::optional<std::string>();
-  if (rc != SQLITE_ROW) return SqlError(reader.get(), "read place features");
-  return std::optional<std::string>(q.Text(0));
+  return ReadKeyed("SELECT data FROM place_features WHERE keyframe_id = ? AND fingerprint = ?",
+                   keyframe_id, fingerprint, "read place features");
 }
 
 Status SqliteStore::DeleteAllProducts() {

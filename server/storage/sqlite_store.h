@@ -87,6 +87,11 @@ class SqliteStore final : public MapStore {
   // Runs one write statement with `bind` in its own transaction.
   Status WriteOne(const char* sql, const std::function<void(sqlite::Stmt&)>& bind,
                   const char* what);
+  // The `data` of one (keyframe_id, fingerprint) row of a per-keyframe product table; empty
+  // when the row is missing or was made with another fingerprint.
+  StatusOr<std::optional<std::string>> ReadKeyed(const char* sql, int64_t keyframe_id,
+                                                 const std::string& fingerprint,
+                                                 const char* what);
   StatusOr<std::vector<SessionRecord>> QuerySessions(const std::string& where_sql,
                                                      const std::string& arg);
 
