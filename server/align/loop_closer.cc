@@ -68,6 +68,7 @@ StatusOr<GraphResult> LoopCloser::Optimize(const std::vector<MappedKeyframe>& ma
   new_matches_ = 0;
   recognised_since_ = 0;
   PoseGraph graph(graph_);
+  graph.SetPcmCache(&pcm_cache_);
   // Nodes in id order: the first is the map's first keyframe (the gauge's reference chain).
   std::map<int64_t, const LoopKeyframe*> last_of_chain;  // by session row: the previous node
   std::map<int64_t, int64_t> session_of;                 // node id -> session row

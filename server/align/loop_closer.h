@@ -11,8 +11,10 @@
 //             information from align.loops.sigma_*; the graph's guard (PCM, residual check,
 //             robust loss) decides which it trusts.
 //
-// The graph is rebuilt from these records on every solve (no state in the solver), so what was
-// stored (odometry in `keyframes`, matches in `place_matches`) is all a restart needs.
+// The graph is rebuilt from these records on every solve, so what was stored (odometry in
+// `keyframes`, matches in `place_matches`) is all a restart needs. The only state kept between
+// solves is the guard's pairwise results (server/graph/pcm_cache.h), which gives the same
+// selection as testing every pair again; a restart tests every pair once.
 // Thread-safe: the mapping worker records and solves, GetStats reads Stats().
 #pragma once
 
@@ -28,6 +30,7 @@
 #include "server/align/robot_aligner.h"
 #include "server/graph/graph_options.h"
 #include "server/graph/graph_types.h"
+#include "server/graph/pcm_cache.h"
 
 namespace loci::server {
 
@@ -88,6 +91,7 @@ class LoopCloser {
   int new_matches_ = 0;
   int recognised_since_ = 0;
   LoopStats stats_;
+  PcmCache pcm_cache_;
 };
 
 }  // namespace loci::server

@@ -4,14 +4,18 @@
 // vertices whose degree cannot beat the best clique so far. Exact when the consistent edges
 // form one clique and the others are joined to few of them (one or a few wrong loops); in
 // general a lower bound of the maximum, which PCM accepts (the alternative is exponential).
+//
+// The graph is given by its complement: the pairs that are NOT joined (PCM's inconsistent
+// pairs, which are few), so memory and time follow the vertices and those pairs, not n^2.
 #pragma once
 
 #include <vector>
 
 namespace loci::server {
 
-// adjacency[i][j] != 0: i and j are joined (symmetric, diagonal ignored). Returns the vertex
-// indices of the clique found, ascending; empty for an empty graph.
-std::vector<int> GreedyMaxClique(const std::vector<std::vector<char>>& adjacency);
+// conflicts[i]: the vertices i is not joined to (symmetric, without i itself, no repeats);
+// every other pair is joined. Returns the vertex indices of the clique found, ascending; empty
+// for an empty graph.
+std::vector<int> GreedyMaxClique(const std::vector<std::vector<int>>& conflicts);
 
 }  // namespace loci::server

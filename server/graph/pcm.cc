@@ -1,6 +1,7 @@
 #include "server/graph/pcm.h"
 
 #include <Eigen/Cholesky>
+#include <functional>
 #include <map>
 #include <utility>
 
@@ -22,7 +23,7 @@ Covariance6 MoveRight(const SE3d& after, const Covariance6& cov) {
 PcmEdge Oriented(const OdometryChains& chains, const PcmEdge& e) {
   const int ca = chains.chain_of[e.a], cb = chains.chain_of[e.b];
   if (ca < cb || (ca == cb && chains.position[e.a] <= chains.position[e.b])) return e;
-  return {e.b, e.a, e.T_a_b.inverse(), InverseCovariance(e.T_a_b, e.cov)};
+  return {e.b, e.a, e.T_a_b.inverse(), InverseCovariance(e.T_a_b, e.cov), e.edge_ids};
 }
 
 // What one edge implies about chain B's placement in chain A (see pcm.h).
@@ -59,20 +60,34 @@ double OffsetChi2(const OdometryChains& chains, const OffsetHypothesis& hi,
   return r.dot(cov.ldlt().solve(r));
 }
 
-std::vector<int> ConsistentSet(const OdometryChains& chains, const std::vector<PcmEdge>& group,
-                               double chi2_threshold) {
-  const size_t n = group.size();
-  std::vector<OffsetHypothesis> h;
-  h.reserve(n);
-  for (const PcmEdge& e : group) h.push_back(Hypothesis(chains, e));
-  std::vector<std::vector<char>> adj(n, std::vector<char>(n, 0));
+// The inconsistent pairs of a group (max_clique.h), each pair tested once.
+std::vector<std::vector<int>> AllConflicts(size_t n,
+                                           const std::function<bool(size_t, size_t)>& consistent) {
+  std::vector<std::vector<int>> conflicts(n);
   for (size_t i = 0; i < n; ++i) {
     for (size_t j = i + 1; j < n; ++j) {
-      const bool ok = OffsetChi2(chains, h[i], h[j]) <= chi2_threshold;
-      adj[i][j] = adj[j][i] = ok ? 1 : 0;
+      if (consistent(i, j)) continue;
+      conflicts[i].push_back(static_cast<int>(j));
+      conflicts[j].push_back(static_cast<int>(i));
     }
   }
-  return GreedyMaxClique(adj);
+  return conflicts;
+}
+
+std::vector<int> ConsistentSet(const OdometryChains& chains, const std::vector<PcmEdge>& group,
+                               double chi2_threshold, std::pair<int64_t, int64_t> group_key,
+                               PcmCache* cache) {
+  std::vector<OffsetHypothesis> h;
+  h.reserve(group.size());
+  for (const PcmEdge& e : group) h.push_back(Hypothesis(chains, e));
+  auto consistent = [&](size_t i, size_t j) {
+    return OffsetChi2(chains, h[i], h[j]) <= chi2_threshold;
+  };
+  if (cache == nullptr) return GreedyMaxClique(AllConflicts(group.size(), consistent));
+  std::vector<PcmCachedEdge> cached;
+  cached.reserve(group.size());
+  for (const PcmEdge& e : group) cached.push_back({e.edge_ids, e.T_a_b, e.cov});
+  return GreedyMaxClique(cache->GroupConflicts(group_key, cached, consistent));
 }
 
 }  // namespace
@@ -97,7 +112,7 @@ double PairwiseOffsetChi2(const OdometryChains& chains, const PcmEdge& ei, const
 
 std::vector<bool> SelectConsistentEdges(const OdometryChains& chains,
                                         const std::vector<PcmEdge>& edges,
-                                        const PcmOptions& options) {
+                                        const PcmOptions& options, PcmCache* cache) {
   std::vector<bool> keep(edges.size(), !options.enabled);
   if (!options.enabled) return keep;
   std::map<std::pair<int, int>, std::vector<size_t>> groups;
@@ -108,7 +123,11 @@ std::vector<bool> SelectConsistentEdges(const OdometryChains& chains,
   for (const auto& [pair, members] : groups) {
     std::vector<PcmEdge> group;
     for (const size_t k : members) group.push_back(Oriented(chains, edges[k]));
-    const std::vector<int> set = ConsistentSet(chains, group, options.chi2_threshold);
+    const std::vector<int> set =
+        ConsistentSet(chains, group, options.chi2_threshold,
+                      cache ? cache->GroupKey(chains, pair.first, pair.second)
+                            : std::pair<int64_t, int64_t>{0, 0},
+                      cache);
     if (static_cast<int>(set.size()) < options.min_set_size) continue;
     for (const int i : set) keep[members[i]] = true;
   }

@@ -15,10 +15,13 @@
 // ai..aj and bi..bj. PairwiseCycleChi2 is the cycle form, kept as the reference.
 #pragma once
 
+#include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "server/graph/graph_chains.h"
 #include "server/graph/graph_options.h"
+#include "server/graph/pcm_cache.h"
 
 namespace loci::server {
 
@@ -28,6 +31,7 @@ struct PcmEdge {
   size_t a = 0, b = 0;
   SE3d T_a_b = SE3d::Identity();
   Covariance6 cov = Covariance6::Identity();
+  std::pair<int64_t, int64_t> edge_ids{0, 0};  // the graph edge's keyframe ids (PcmCache key)
 };
 
 // Squared Mahalanobis distance of the cycle of two edges; both must run from chain A to chain
@@ -37,9 +41,11 @@ double PairwiseCycleChi2(const OdometryChains& chains, const PcmEdge& ei, const 
 // The offset form of PairwiseCycleChi2 (same orientation requirement).
 double PairwiseOffsetChi2(const OdometryChains& chains, const PcmEdge& ei, const PcmEdge& ej);
 
-// Per edge, whether it is kept. PCM disabled: every edge is kept.
+// Per edge, whether it is kept. PCM disabled: every edge is kept. With a cache (BeginSolve
+// called with these chains), pairs it knows from earlier solves are not tested again; the
+// result is the same.
 std::vector<bool> SelectConsistentEdges(const OdometryChains& chains,
                                         const std::vector<PcmEdge>& edges,
-                                        const PcmOptions& options);
+                                        const PcmOptions& options, PcmCache* cache = nullptr);
 
 }  // namespace loci::server

@@ -157,10 +157,19 @@ std::vector<bool> PoseGraph::GuardConstraints(const OdometryChains& chains) cons
   std::vector<PcmEdge> constraints;
   for (const GraphEdge& e : edges_) {
     if (!IsConstraint(e)) continue;
-    constraints.push_back(
-        {index_.at(e.from_id), index_.at(e.to_id), e.T_a_b, e.information.inverse()});
+    constraints.push_back({index_.at(e.from_id), index_.at(e.to_id), e.T_a_b,
+                           e.information.inverse(), {e.from_id, e.to_id}});
   }
-  return SelectConsistentEdges(chains, constraints, options_.pcm);
+  if (pcm_cache_ == nullptr || !options_.pcm.enabled) {
+    return SelectConsistentEdges(chains, constraints, options_.pcm);
+  }
+  std::vector<int64_t> node_ids;
+  node_ids.reserve(nodes_.size());
+  for (const KeyframeNode& n : nodes_) node_ids.push_back(n.keyframe_id);
+  pcm_cache_->BeginSolve(chains, node_ids, options_.pcm.chi2_threshold);
+  std::vector<bool> keep = SelectConsistentEdges(chains, constraints, options_.pcm, pcm_cache_);
+  pcm_cache_->EndSolve();
+  return keep;
 }
 
 int PoseGraph::ReferenceChain(const OdometryChains& chains) const {

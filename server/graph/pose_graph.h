@@ -23,6 +23,7 @@
 #include "server/graph/graph_options.h"
 #include "server/graph/graph_problem.h"
 #include "server/graph/graph_types.h"
+#include "server/graph/pcm_cache.h"
 
 namespace loci::server {
 
@@ -42,6 +43,10 @@ class PoseGraph {
   Status AddMergeEdge(int64_t a_id, int64_t b_id, const SE3d& T_a_b, const Information6& info);
   // An object's centroid seen from a keyframe (used when options.landmarks.enabled).
   Status AddCentroidObservation(const CentroidObservation& observation);
+
+  // Pairwise guard results to reuse and extend (pcm_cache.h), for a caller that solves a
+  // growing graph again and again; it must outlive Optimize. nullptr: every pair is tested.
+  void SetPcmCache(PcmCache* cache) { pcm_cache_ = cache; }
 
   StatusOr<GraphResult> Optimize();
 
@@ -75,6 +80,7 @@ class PoseGraph {
   std::vector<GraphEdge> edges_;
   std::vector<bool> has_next_, has_prev_;
   std::vector<CentroidObservation> observations_;
+  PcmCache* pcm_cache_ = nullptr;
 };
 
 }  // namespace loci::server

@@ -2,6 +2,7 @@
 // greedy clique, the pairwise cycle test, and the graph's input checks.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include "common/config.h"
@@ -9,6 +10,7 @@
 #include "server/graph/max_clique.h"
 #include "server/graph/odometry_information.h"
 #include "server/graph/pcm.h"
+#include "server/graph/pcm_cache.h"
 #include "server/graph/pose_graph.h"
 #include "server/graph/synthetic_graph.h"
 
@@ -78,10 +80,17 @@ TEST(OdometryInformation, QualityScalesTheStandardDeviations) {
   EXPECT_EQ(EffectiveQuality({-1, 400}, o), 1.0);
 }
 
-std::vector<std::vector<char>> Graph(int n, const std::vector<std::pair<int, int>>& edges) {
+// The conflict lists (pairs not joined) of the graph with these edges.
+std::vector<std::vector<int>> Graph(int n, const std::vector<std::pair<int, int>>& edges) {
   std::vector<std::vector<char>> adj(n, std::vector<char>(n, 0));
   for (const auto& [a, b] : edges) adj[a][b] = adj[b][a] = 1;
-  return adj;
+  std::vector<std::vector<int>> conflicts(n);
+  for (int a = 0; a < n; ++a) {
+    for (int b = 0; b < n; ++b) {
+      if (a != b && !adj[a][b]) conflicts[a].push_back(b);
+    }
+  }
+  return conflicts;
 }
 
 TEST(GreedyMaxClique, FindsTheConsistentSetBesideOutliers) {
@@ -129,6 +138,69 @@ TEST(Pcm, TwoTrueLoopsAreConsistentAndAWrongOneIsNot) {
   EXPECT_EQ(keep, (std::vector<bool>{true, false, true}));
   // A lone loop is a set of one, below min_set_size 2.
   EXPECT_EQ(SelectConsistentEdges(chains, {l1}, PcmOptions{}), std::vector<bool>{false});
+}
+
+// The cache's selection equals testing every pair, solve after solve, while the graph grows
+// (keyframes appended, loops added, a loop re-measured, a chain cut short); it tests only the
+// pairs it has not seen.
+TEST(PcmCache, GrowingGraphGivesTheSameSelectionWithFewerTests) {
+  std::mt19937 rng(5);
+  SquarePathOptions path;
+  path.keyframes = 400;
+  const auto truth = SquarePath(path);
+  const SyntheticRobot r =
+      MakeSyntheticRobot("r", 1, truth, OdometryNoiseOptions{}, truth.front(), false, &rng);
+  const OdometryInformationOptions info_options;
+  auto chains_of = [&](size_t n, size_t skip) {  // the first n nodes, without `skip`'s link
+    std::vector<ChainLink> links;
+    for (size_t k = 1; k < n; ++k) {
+      if (k == skip) continue;
+      links.push_back(
+          {k - 1, k, r.T_prev_kf[k], OdometryInformation(r.T_prev_kf[k], {}, info_options)});
+    }
+    return BuildChains(n, links);
+  };
+  const Covariance6 cov = IsotropicInformation(0.01, 0.005).inverse();
+  std::vector<PcmEdge> loops;
+  for (size_t b = 100; b < truth.size(); b += 3) {  // true loops one lap back, some wrong
+    const size_t a = b - 100;
+    const bool wrong = b % 37 == 1;
+    const size_t claimed_a = wrong ? a + 8 : a;
+    loops.push_back({a, b, truth[claimed_a].inverse() * truth[b], cov,
+                     {static_cast<int64_t>(a), static_cast<int64_t>(b)}});
+  }
+  std::vector<int64_t> ids(truth.size());
+  for (size_t k = 0; k < ids.size(); ++k) ids[k] = static_cast<int64_t>(k) + 1000;
+  PcmCache cache;
+  size_t full_pairs = 0;
+  auto check = [&](size_t n, size_t skip, const std::vector<PcmEdge>& edges) {
+    const OdometryChains chains = chains_of(n, skip);
+    cache.BeginSolve(chains, std::vector<int64_t>(ids.begin(), ids.begin() + n), 16.81);
+    const std::vector<bool> cached = SelectConsistentEdges(chains, edges, PcmOptions{}, &cache);
+    cache.EndSolve();
+    EXPECT_EQ(cached, SelectConsistentEdges(chains, edges, PcmOptions{})) << n << " nodes";
+    full_pairs += edges.size() * (edges.size() - 1) / 2;
+    return std::count(cached.begin(), cached.end(), false);
+  };
+  std::vector<PcmEdge> edges;
+  int rejected = 0;
+  for (size_t n = 160; n <= truth.size(); n += 60) {
+    for (const PcmEdge& e : loops) {
+      if (e.b < n && (edges.empty() || e.b > edges.back().b)) edges.push_back(e);
+    }
+    rejected = check(n, 0, edges);
+  }
+  EXPECT_GE(rejected, 2);  // the wrong loops
+  const size_t incremental = cache.pairs_tested();
+  std::printf("pairs tested: %zu with the cache, %zu without\n", incremental, full_pairs);
+  EXPECT_EQ(incremental, edges.size() * (edges.size() - 1) / 2);  // each pair once
+  EXPECT_LT(incremental, full_pairs / 2);
+  // A re-measured loop is tested again; a chain cut in two starts the cache afresh.
+  edges[3].T_a_b = truth[edges[3].a + 8].inverse() * truth[edges[3].b];
+  check(truth.size(), 0, edges);
+  EXPECT_EQ(cache.pairs_tested(), incremental + edges.size() - 1);
+  check(truth.size(), 250, edges);
+  EXPECT_GT(cache.pairs_tested(), incremental + edges.size());
 }
 
 TEST(PoseGraph, RefusesMalformedInput) {
