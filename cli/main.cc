@@ -7,6 +7,7 @@
 #include <string>
 
 #include "cli/commands.h"
+#include "common/malloc_tuning.h"
 
 namespace loci::cli {
 int& ExitCode() {
@@ -54,6 +55,7 @@ int RequireLeafCommand(CLI::App& app) {
 }  // namespace loci::cli
 
 int main(int argc, char** argv) {
+  loci::LimitHeapArenas();  // before any thread: the benches run a server (common/malloc_tuning.h)
   CLI::App app{"loci: semantic map server tools"};
   // Logs go to stderr: stdout carries the results (--json output must parse as JSON).
   spdlog::set_default_logger(spdlog::stderr_color_mt("loci"));

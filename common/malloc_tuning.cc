@@ -15,6 +15,14 @@ void KeepLargeBlocksOnMmap(size_t bytes) {
 #endif
 }
 
+void LimitHeapArenas(int arenas) {
+#if defined(__GLIBC__)
+  mallopt(M_ARENA_MAX, arenas);
+#else
+  (void)arenas;
+#endif
+}
+
 void ReleaseFreeHeapPages() {
 #if defined(__GLIBC__)
   malloc_trim(0);

@@ -16,6 +16,16 @@ namespace loci {
 // own small allocations are far below it). Idempotent; a no-op on other C libraries.
 void KeepLargeBlocksOnMmap(size_t bytes = 256 * 1024);
 
+// Caps glibc's heap arenas at `arenas` (by default one per thread, up to 8 per core). Threads
+// that build something large and short-lived (a pose-graph solve on the place-recognition
+// thread) leave pages of their own arena resident after it is freed. `loci bench ingest
+// --keyframes 2400` with loop closure ended 94.7-99.8 MB over its start with the default
+// arenas (4 runs) and 81.9-85.0 MB with one (3 runs), at the same throughput; its growth
+// figure while the queues are full is noisy either way (docs/results.md, session 13).
+// Threads that allocated before the call keep their arenas, so main() calls it first;
+// idempotent; a no-op on other C libraries.
+void LimitHeapArenas(int arenas = 1);
+
 // Gives the free pages of every heap arena back to the system (glibc malloc_trim), after work
 // whose transient peak grows with the map (a pose-graph solve builds the whole graph anew).
 // A no-op on other C libraries.

@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "common/config.h"
+#include "common/malloc_tuning.h"
 #include "query/query_options.h"
 #include "server/http/http_api.h"
 #include "server/http/viewer_files.h"
@@ -48,6 +49,7 @@ std::string ViewerDir(const std::string& flag) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  loci::LimitHeapArenas();  // before any thread (common/malloc_tuning.h)
   CLI::App app{"loci-server: semantic map server for robot fleets"};
   std::string config_path, listen, db, http, query_config, viewer_dir, log_level = "info";
   bool strict_config = false;

@@ -57,6 +57,7 @@ StatusOr<std::unique_ptr<MapServer>> MapServer::OpenAsync(
   LOCI_RETURN_IF_ERROR(options.align.Validate());
   LOCI_RETURN_IF_ERROR(options.graph.Validate());
   KeepLargeBlocksOnMmap();  // decoded images cross threads (common/malloc_tuning.h)
+  LimitHeapArenas();  // arenas created from here on (main() calls it before any thread)
   if (!store) {
     LOCI_ASSIGN_OR_RETURN(std::unique_ptr<SqliteStore> sqlite, SqliteStore::Open(options.db_path));
     store = std::move(sqlite);
