@@ -100,6 +100,9 @@ std::string QueryOptions::Validate() const {
   if (!positive(r.on_gap_sigma_m)) return "relations.on_gap_sigma_m must be > 0";
   if (!positive(r.on_max_gap_m)) return "relations.on_max_gap_m must be > 0";
   if (!fraction(r.on_min_overlap)) return "relations.on_min_overlap must be in [0, 1]";
+  for (const auto& [cls, stand_m] : r.on_stand_m) {
+    if (!(stand_m >= 0 && stand_m <= 2)) return "relations.on_stand_m." + cls + " must be in [0, 2]";
+  }
   if (!fraction(r.under_min_overlap)) return "relations.under_min_overlap must be in [0, 1]";
   if (!fraction(r.above_min_overlap)) return "relations.above_min_overlap must be in [0, 1]";
   if (!(r.vertical_tolerance_m >= 0)) return "relations.vertical_tolerance_m must be >= 0";
@@ -148,6 +151,7 @@ constexpr const char* kQueryKeys[] = {"classes",
 constexpr const char* kRelationKeys[] = {"on_gap_sigma_m",
                                          "on_max_gap_m",
                                          "on_min_overlap",
+                                         "on_stand_m",
                                          "under_min_overlap",
                                          "above_min_overlap",
                                          "vertical_tolerance_m",
@@ -181,6 +185,7 @@ StatusOr<QueryOptions> QueryOptionsFromYaml(const YAML::Node& node, const QueryO
   LOCI_RETURN_IF_ERROR(ReadOptional(rel, "on_gap_sigma_m", &r.on_gap_sigma_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(rel, "on_max_gap_m", &r.on_max_gap_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(rel, "on_min_overlap", &r.on_min_overlap));
+  LOCI_RETURN_IF_ERROR(ReadOptional(rel, "on_stand_m", &r.on_stand_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(rel, "under_min_overlap", &r.under_min_overlap));
   LOCI_RETURN_IF_ERROR(ReadOptional(rel, "above_min_overlap", &r.above_min_overlap));
   LOCI_RETURN_IF_ERROR(ReadOptional(rel, "vertical_tolerance_m", &r.vertical_tolerance_m));

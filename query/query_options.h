@@ -25,6 +25,10 @@ struct RelationOptions {
   double on_max_gap_m = 0.08;
   // on: minimal fraction of the subject's footprint lying over the anchor's footprint. Default 0.5.
   double on_min_overlap = 0.5;
+  // on: per subject class, the height of the stand or feet it usually rests on that its points
+  // leave out (a monitor's points end at its panel, 10-25 cm above the desk): a gap of up to
+  // this much above the anchor's top counts as none (m). Default {tv: 0.25}.
+  std::map<std::string, double> on_stand_m = {{"tv", 0.25}};
   // under: minimal fraction of the subject's footprint below the anchor's footprint. Default 0.2.
   double under_min_overlap = 0.2;
   // under: only these classes have room under them (a keyboard is not "under" a monitor whose

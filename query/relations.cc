@@ -128,7 +128,11 @@ RelationResult RelationEvaluator::Evaluate(RelationKind kind, const ObjectGeom& 
 
 RelationResult RelationEvaluator::On(const ObjectGeom& s, const ObjectGeom& a, bool ev) const {
   RelationResult r;
-  const double gap = s.box.min.z() - a.top_z;
+  // A class that stands on feet its points leave out (a monitor) may hover by their height.
+  const auto stand = opt_.on_stand_m.find(s.class_name);
+  const double stand_m = stand == opt_.on_stand_m.end() ? 0.0 : stand->second;
+  const double raw_gap = s.box.min.z() - a.top_z;
+  const double gap = raw_gap > 0 ? std::max(0.0, raw_gap - stand_m) : raw_gap;
   const double overlap = FootprintFraction(s, a);
   // Penetration (negative gap) is common in fused boxes that caught a few support points, so it
   // is scored with twice the sigma.
@@ -142,7 +146,10 @@ RelationResult RelationEvaluator::On(const ObjectGeom& s, const ObjectGeom& a, b
   r.distance_m = std::abs(gap);
   if (ev) {
     r.evidence = absl::StrFormat("bottom %s the top surface (z %.2f m), footprint overlap %.2f",
-                                 AboveBelow(gap), a.top_z, overlap);
+                                 AboveBelow(raw_gap), a.top_z, overlap);
+    if (stand_m > 0 && raw_gap > 0) {
+      r.evidence += absl::StrFormat(" (a %s stands up to %.2f m above it)", s.class_name, stand_m);
+    }
   }
   return r;
 }

@@ -40,6 +40,30 @@ TEST_F(RelationsTest, BookOnTable) {
   EXPECT_FALSE(Eval(RelationKind::kOn, 5, 1).holds);
 }
 
+// A monitor's points end at its panel: 17 cm of stand lie between it and the desk. It is on the
+// desk; a book 17 cm above the desk is not, and neither is a monitor a stand's height too high.
+TEST_F(RelationsTest, MonitorOnItsStandIsOnTheTable) {
+  ObjectGeom tv = geoms_.at(2);
+  tv.class_name = "tv";
+  tv.box.min.z() = geoms_.at(1).top_z + 0.17;
+  tv.box.max.z() = tv.box.min.z() + 0.35;
+  tv.centroid_g.z() = tv.box.min.z() + 0.175;
+  const RelationResult on = eval_.Evaluate(RelationKind::kOn, tv, geoms_.at(1), nullptr, true);
+  EXPECT_TRUE(on.holds) << on.evidence;
+  EXPECT_NE(on.evidence.find("stands up to 0.25 m"), std::string::npos) << on.evidence;
+  ObjectGeom book = tv;
+  book.class_name = "book";
+  EXPECT_FALSE(eval_.Evaluate(RelationKind::kOn, book, geoms_.at(1)).holds);
+  tv.box.min.z() += 0.25;
+  tv.box.max.z() += 0.25;
+  EXPECT_FALSE(eval_.Evaluate(RelationKind::kOn, tv, geoms_.at(1)).holds);
+  RelationOptions none;
+  none.on_stand_m.clear();
+  tv.box.min.z() -= 0.25;
+  tv.box.max.z() -= 0.25;
+  EXPECT_FALSE(RelationEvaluator(none).Evaluate(RelationKind::kOn, tv, geoms_.at(1)).holds);
+}
+
 TEST_F(RelationsTest, OnToleratesSmallGapsButNotHovering) {
   ObjectGeom book = geoms_.at(2);
   book.box.min.z() += 0.02;
