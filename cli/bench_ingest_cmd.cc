@@ -9,14 +9,17 @@
 
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <mutex>
 #include <thread>
 
 #include "cli/bench_views.h"
 #include "cli/commands.h"
+#include "common/malloc_tuning.h"
 #include "loci/v1/mapping.grpc.pb.h"
 #include "server/service/grpc_server.h"
 #include "server/service/map_server.h"
@@ -30,6 +33,80 @@ struct BenchIngestArgs {
   int objects = 8;
   std::string keep_dir;
   std::string config;  // server YAML (map options); "" = defaults
+};
+
+// Acknowledgements counted by the reader thread; the writer waits on them at its pauses.
+class AckCounter {
+ public:
+  int Add(bool failed) {
+    std::lock_guard<std::mutex> lock(mu_);
+    failed_ += failed;
+    ++acked_;
+    cv_.notify_all();
+    return acked_;
+  }
+  void WaitFor(int n) {
+    std::unique_lock<std::mutex> lock(mu_);
+    cv_.wait(lock, [&] { return acked_ >= n; });
+  }
+  int failed() {
+    std::lock_guard<std::mutex> lock(mu_);
+    return failed_;
+  }
+
+ private:
+  std::mutex mu_;
+  std::condition_variable cv_;
+  int acked_ = 0, failed_ = 0;
+};
+
+// The RSS at a third and two thirds acknowledged, four ways: at that instant (the queues are
+// full), the lowest over the tenth of the run before it (transient peaks such as a pose-graph
+// solve left out), the highest so far (those peaks included), and at the writer's pause a
+// tenth later with everything drained and the heap's free pages returned (what the map
+// retains).
+struct IngestMemory {
+  double instant[2] = {0, 0};
+  double peak[2] = {0, 0};
+  double lowest[2] = {1e18, 1e18};
+  double drained[2] = {0, 0};
+  double live_heap[2] = {0, 0};  // at the pauses too
+
+  void Sample(int acked, int keyframes) {
+    const int tenth = std::max(1, keyframes / 10);
+    for (int p = 0; p < 2; ++p) {
+      const int point = (p + 1) * keyframes / 3;
+      if (acked > point - tenth && acked <= point) lowest[p] = std::min(lowest[p], RssMb());
+      if (acked == point) {
+        instant[p] = RssMb();
+        peak[p] = PeakRssMb();
+      }
+    }
+  }
+
+  void Print(int keyframes, int drained_span, double rss_end_mb) const {
+    const double per_kkf = 1000.0 / std::max(1, 2 * keyframes / 3 - keyframes / 3);
+    std::printf(
+        "  memory          %.1f MB per 1000 keyframes with the queues full (a third to two "
+        "thirds acknowledged); %.1f MB RSS over the start at the end, queues drained\n",
+        (instant[1] - instant[0]) * per_kkf, rss_end_mb);
+    std::printf(
+        "                  %.1f MB per 1000 keyframes in the lowest RSS (over the tenth of the "
+        "run before each of those two points, between transient peaks)\n",
+        (lowest[1] - lowest[0]) * per_kkf);
+    std::printf(
+        "                  %.1f MB per 1000 keyframes in the peak RSS (the highest so far at "
+        "those two points: solves and full queues included)\n",
+        (peak[1] - peak[0]) * per_kkf);
+    std::printf(
+        "                  %.1f MB per 1000 keyframes retained (RSS at two pauses a tenth "
+        "later, queues and solves drained, free heap pages returned)\n",
+        (drained[1] - drained[0]) * 1000.0 / std::max(1, drained_span));
+    std::printf(
+        "                  %.1f MB per 1000 keyframes in the live heap at those pauses "
+        "(allocated, not freed)\n",
+        (live_heap[1] - live_heap[0]) * 1000.0 / std::max(1, drained_span));
+  }
 };
 
 int RunBenchIngest(const BenchIngestArgs& a) {
@@ -80,40 +157,41 @@ int RunBenchIngest(const BenchIngestArgs& a) {
     return 1;
   }
 
+  IngestMemory mem;
+  const int tenth = std::max(1, a.keyframes / 10);
   const auto t0 = std::chrono::steady_clock::now();
   grpc::ClientContext ctx;
   auto stream = stub->StreamKeyframes(&ctx);
-  int failed = 0, acked = 0;
-  double rss_third = 0;  // RSS once a third is acknowledged: the queue is full by then
-  double rss_two_thirds = 0;
-  // The lowest RSS over the tenth of the run that ends at each of those two points: what stays
-  // between transient peaks (a pose-graph solve's grows with the graph).
-  const int tenth = std::max(1, a.keyframes / 10);
-  double low_third = 1e18, low_two_thirds = 1e18;
+  AckCounter acks;
   std::thread reader([&] {
     loci::v1::KeyframeAck ack;
-    while (stream->Read(&ack)) {
-      failed += ack.status().code() != 0;
-      ++acked;
-      if (acked > a.keyframes / 3 - tenth && acked <= a.keyframes / 3) {
-        low_third = std::min(low_third, RssMb());
-      }
-      if (acked > 2 * a.keyframes / 3 - tenth && acked <= 2 * a.keyframes / 3) {
-        low_two_thirds = std::min(low_two_thirds, RssMb());
-      }
-      if (acked == a.keyframes / 3) rss_third = RssMb();
-      if (acked == 2 * a.keyframes / 3) rss_two_thirds = RssMb();
-    }
+    while (stream->Read(&ack)) mem.Sample(acks.Add(ack.status().code() != 0), a.keyframes);
   });
+  // Two pauses, a tenth of the run after each point the stream samples: the queues and the
+  // solves drain there, and the heap's free pages go back (what the server does after a solve).
+  const int pauses[2] = {a.keyframes / 3 + tenth, 2 * a.keyframes / 3 + tenth};
+  double paused_s = 0;
   for (int i = 0; i < a.keyframes; ++i) {
     if (!stream->Write(NthKeyframe(*views, i, session.session_id()))) break;
+    for (int p = 0; p < 2; ++p) {
+      if (i + 1 != pauses[p]) continue;
+      const auto pause0 = std::chrono::steady_clock::now();
+      acks.WaitFor(i + 1);
+      (*srv)->Flush();
+      (*srv)->mapper().FlushOctomap();
+      ReleaseFreeHeapPages();
+      mem.drained[p] = RssMb();
+      mem.live_heap[p] = LiveHeapMb();
+      paused_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - pause0).count();
+    }
   }
   stream->WritesDone();
   reader.join();
+  const int failed = acks.failed();
   const grpc::Status st = stream->Finish();
   (*srv)->Flush();
   const double wall_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() - paused_s;
   const double rss1 = RssMb();
 
   (*srv)->mapper().FlushOctomap();
@@ -139,18 +217,7 @@ int RunBenchIngest(const BenchIngestArgs& a) {
       "%.2f, outliers %.2f ms (CPU)\n",
       stats.total.labels_ms / n, stats.total.objects_ms / n, stats.total.backproject_ms / n,
       stats.total.voxel_ms / n, stats.total.outlier_ms / n);
-  // Growth while the queues are full (between a third and two thirds acknowledged): the map,
-  // the index and the database cache, not the start-up, the filling of the ingest and aligning
-  // queues or their draining at the end.
-  const int middle = std::max(1, 2 * a.keyframes / 3 - a.keyframes / 3);
-  std::printf(
-      "  memory          %.1f MB per 1000 keyframes with the queues full (a third to two thirds "
-      "acknowledged); %.1f MB RSS over the start at the end, queues drained\n",
-      (rss_two_thirds - rss_third) * 1000.0 / middle, rss1 - rss0);
-  std::printf(
-      "                  %.1f MB per 1000 keyframes in the lowest RSS (over the tenth of the run "
-      "before each of those two points, between transient peaks)\n",
-      (low_two_thirds - low_third) * 1000.0 / middle);
+  mem.Print(a.keyframes, pauses[1] - pauses[0], rss1 - rss0);
   std::printf("  database        %.1f KB per keyframe (%.1f MB total, WAL included)\n",
               db_bytes / 1024.0 / a.keyframes, db_bytes / (1024.0 * 1024.0));
   std::printf(

@@ -1,5 +1,7 @@
 #include "cli/bench_views.h"
 
+#include <malloc.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <cstdlib>
@@ -20,6 +22,21 @@ double RssMb() {
   long pages_total = 0, pages_rss = 0;
   statm >> pages_total >> pages_rss;
   return static_cast<double>(pages_rss) * sysconf(_SC_PAGESIZE) / (1024.0 * 1024.0);
+}
+
+double PeakRssMb() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_maxrss) / 1024.0;  // KiB on Linux
+}
+
+double LiveHeapMb() {
+#if defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 33))
+  const struct mallinfo2 info = mallinfo2();
+  return static_cast<double>(info.uordblks + info.hblkhd) / (1024.0 * 1024.0);
+#else
+  return 0.0;
+#endif
 }
 
 StatusOr<std::vector<loci::v1::Keyframe>> RenderViews(const synth::SceneOptions& options,

@@ -26,5 +26,10 @@ loci::v1::OpenSessionRequest BenchOpenRequest(const std::string& robot, double d
 
 // Resident memory of this process, MB.
 double RssMb();
+// The process's highest RSS so far, MB (getrusage).
+double PeakRssMb();
+// Bytes allocated and not freed, MB: glibc's mallinfo2 over every arena, mmap'd blocks
+// included (0 on other C libraries). Unlike the RSS, free pages the heap keeps do not count.
+double LiveHeapMb();
 
 }  // namespace loci::cli

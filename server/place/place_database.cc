@@ -13,10 +13,10 @@ BowVector MakeBow(const std::vector<WordId>& words) {
   }
   std::sort(sorted.begin(), sorted.end());
   BowVector bow;
-  const float share = sorted.empty() ? 0.0f : 1.0f / static_cast<float>(sorted.size());
+  bow.total = static_cast<uint32_t>(sorted.size());
   for (const WordId w : sorted) {
-    if (bow.tf.empty() || bow.tf.back().first != w) bow.tf.emplace_back(w, 0.0f);
-    bow.tf.back().second += share;
+    if (bow.counts.empty() || bow.counts.back().first != w) bow.counts.emplace_back(w, 0);
+    ++bow.counts.back().second;
   }
   return bow;
 }
@@ -32,20 +32,42 @@ Status PlaceDatabase::Insert(int64_t keyframe_id, const std::string& robot, cons
   if (doc_of_keyframe_.count(keyframe_id)) {
     return absl::AlreadyExistsError(absl::StrCat("place database: keyframe ", keyframe_id));
   }
-  for (const auto& [w, tf] : bow.tf) {
+  if (docs_.size() >= kMaxKeyframes) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat("place database: full at ", kMaxKeyframes, " keyframes"));
+  }
+  uint64_t sum = 0;
+  for (const auto& [w, count] : bow.counts) {
     if (w >= vocabulary_.size()) {
       return absl::InvalidArgumentError(absl::StrCat("place database: unknown word ", w));
     }
+    sum += count;
+  }
+  if (sum != bow.total) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("place database: counts sum to ", sum, ", not the bag's total ", bow.total));
   }
   const uint32_t doc = static_cast<uint32_t>(docs_.size());
   auto robot_it = std::find(robot_names_.begin(), robot_names_.end(), robot);
   if (robot_it == robot_names_.end()) robot_it = robot_names_.insert(robot_names_.end(), robot);
-  docs_.push_back({keyframe_id, static_cast<int>(robot_it - robot_names_.begin())});
+  const float inv_total = bow.total > 0 ? 1.0f / static_cast<float>(bow.total) : 0.0f;
+  docs_.push_back({keyframe_id, static_cast<int>(robot_it - robot_names_.begin()), inv_total});
   doc_of_keyframe_[keyframe_id] = doc;
   docs_of_robot_[robot].push_back(doc);
   if (postings_.size() < vocabulary_.size()) postings_.resize(vocabulary_.size());
-  for (const auto& [w, tf] : bow.tf) postings_[w].push_back({doc, tf});
+  for (const auto& [w, count] : bow.counts) {
+    Append(&postings_[w], doc << 8 | std::min<uint32_t>(count, 255));
+  }
   return absl::OkStatus();
+}
+
+// Grows a posting list by a quarter rather than doubling it: the lists are the index's memory,
+// and doubling leaves a third of it unused on average.
+void PlaceDatabase::Append(std::vector<Posting>* postings, Posting p) {
+  if (postings->size() == postings->capacity()) {
+    postings->reserve(postings->capacity() + postings->capacity() / 4 + 2);
+  }
+  postings->push_back(p);
 }
 
 double PlaceDatabase::Idf(WordId w) const {
@@ -66,11 +88,17 @@ std::vector<PlaceCandidate> PlaceDatabase::Query(const BowVector& bow,
                                                  const std::string& robot) const {
   std::vector<float> score(docs_.size(), 0.0f);
   double query_mass = 0;
-  for (const auto& [w, tf_q] : bow.tf) {
+  for (size_t i = 0; i < bow.counts.size(); ++i) {
+    const WordId w = bow.counts[i].first;
+    const float tf_q = bow.Tf(i);
     const float idf = static_cast<float>(Idf(w));
     query_mass += idf * tf_q;
     if (w >= postings_.size()) continue;
-    for (const Posting& p : postings_[w]) score[p.doc] += idf * std::min(tf_q, p.tf);
+    for (const Posting p : postings_[w]) {
+      const uint32_t doc = p >> 8;
+      const float tf_d = static_cast<float>(p & 0xffu) * docs_[doc].inv_total;
+      score[doc] += idf * std::min(tf_q, tf_d);
+    }
   }
   if (!(query_mass > 0)) return {};
   for (const uint32_t doc : ExcludedDocs(robot)) score[doc] = 0.0f;

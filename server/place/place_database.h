@@ -23,11 +23,14 @@
 
 namespace loci::place {
 
-// A keyframe's bag of words: (word, term frequency) sorted by word id; the frequencies are the
-// shares of the keyframe's quantised descriptors (they sum to 1; descriptors without a word are
-// left out).
+// A keyframe's bag of words: (word, count) sorted by word id, out of `total` quantised
+// descriptors (descriptors without a word are left out). A word's term frequency is its share.
 struct BowVector {
-  std::vector<std::pair<WordId, float>> tf;
+  std::vector<std::pair<WordId, uint32_t>> counts;
+  uint32_t total = 0;  // the sum of the counts
+  float Tf(size_t i) const {
+    return static_cast<float>(counts[i].second) / static_cast<float>(total);
+  }
 };
 BowVector MakeBow(const std::vector<WordId>& words);
 
@@ -45,7 +48,10 @@ class PlaceDatabase {
   // descriptors that match no word found new ones (for a keyframe about to be inserted).
   BowVector Quantise(const cv::Mat& descriptors, bool add_words);
 
-  // Indexes a keyframe of `robot`; AlreadyExists when the id is indexed already.
+  // Indexes a keyframe of `robot`; AlreadyExists when the id is indexed already, InvalidArgument
+  // for a bag with a word the vocabulary lacks or counts that do not sum to its total,
+  // ResourceExhausted past kMaxKeyframes.
+  static constexpr uint32_t kMaxKeyframes = 1u << 24;
   Status Insert(int64_t keyframe_id, const std::string& robot, const BowVector& bow);
 
   // The best max_candidates keyframes for the bag `bow` of a keyframe of `robot`, best first,
@@ -58,14 +64,16 @@ class PlaceDatabase {
   const IncrementalVocabulary& vocabulary() const { return vocabulary_; }
 
  private:
-  struct Posting {
-    uint32_t doc;  // index into docs_
-    float tf;
-  };
+  // A posting packs the document (index into docs_, the high 24 bits) and the word's count in
+  // it (the low 8 bits, saturated at 255): 4 bytes a posting, the bulk of the index's memory
+  // (about 900 postings a keyframe at 1000 features).
+  using Posting = uint32_t;
   struct Doc {
     int64_t keyframe_id;
-    int robot;  // index into robot_names_
+    int robot;        // index into robot_names_
+    float inv_total;  // 1 / the bag's total: a posting's tf is its count times this
   };
+  static void Append(std::vector<Posting>* postings, Posting p);
 
   double Idf(WordId w) const;
   std::vector<uint32_t> ExcludedDocs(const std::string& robot) const;

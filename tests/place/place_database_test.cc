@@ -27,10 +27,11 @@ QueryOptions Window(int recent) {
 
 TEST(MakeBowTest, TermFrequenciesSumToOneAndSkipNoWord) {
   const BowVector bow = MakeBow({3, 1, 3, kNoWord, 3});
-  ASSERT_EQ(bow.tf.size(), 2u);
-  EXPECT_EQ(bow.tf[0].first, 1u);
-  EXPECT_FLOAT_EQ(bow.tf[0].second, 0.25f);
-  EXPECT_FLOAT_EQ(bow.tf[1].second, 0.75f);
+  ASSERT_EQ(bow.counts.size(), 2u);
+  EXPECT_EQ(bow.total, 4u);
+  EXPECT_EQ(bow.counts[0].first, 1u);
+  EXPECT_FLOAT_EQ(bow.Tf(0), 0.25f);
+  EXPECT_FLOAT_EQ(bow.Tf(1), 0.75f);
 }
 
 TEST(PlaceDatabaseTest, FindsTheKeyframeSharingWordsAndRanksByOverlap) {
@@ -94,9 +95,40 @@ TEST(PlaceDatabaseTest, RefusesDuplicateIdsAndUnknownWords) {
   ASSERT_TRUE(db.Insert(1, "a", bow).ok());
   EXPECT_EQ(db.Insert(1, "b", bow).code(), absl::StatusCode::kAlreadyExists);
   BowVector bad;
-  bad.tf.emplace_back(static_cast<WordId>(db.words() + 5), 1.0f);
+  bad.counts.emplace_back(static_cast<WordId>(db.words() + 5), 1);
+  bad.total = 1;
   EXPECT_EQ(db.Insert(2, "a", bad).code(), absl::StatusCode::kInvalidArgument);
+  BowVector wrong_total = bow;
+  wrong_total.total += 1;
+  EXPECT_EQ(db.Insert(3, "a", wrong_total).code(), absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(db.keyframes(), 1u);
+}
+
+// A posting keeps a word's count in 8 bits: a bag queried against itself scores 1, and a word
+// seen more than 255 times in one keyframe still counts, saturated.
+TEST(PlaceDatabaseTest, ABagScoresOneAgainstItselfAndSaturatedCountsStillScore) {
+  PlaceDatabase db(VocabularyOptions{}, Window(0));
+  ASSERT_TRUE(db.Insert(0, "a", db.Quantise(RandomDescriptors(200, 5), true)).ok());
+  ASSERT_GE(db.words(), 150u);
+  std::vector<WordId> plain, repeated;
+  for (WordId w = 0; w < 60; ++w) plain.insert(plain.end(), {w, w});
+  for (int i = 0; i < 300; ++i) repeated.push_back(100);
+  for (WordId w = 101; w < 120; ++w) repeated.push_back(w);
+  ASSERT_TRUE(db.Insert(1, "a", MakeBow(plain)).ok());
+  ASSERT_TRUE(db.Insert(2, "a", MakeBow(repeated)).ok());
+  // Spread the words' idf: keyframes 3.. hold other words only.
+  for (int k = 3; k < 8; ++k) {
+    ASSERT_TRUE(db.Insert(k, "a", MakeBow({static_cast<WordId>(140 + k)})).ok());
+  }
+  const std::vector<PlaceCandidate> same = db.Query(MakeBow(plain), "b");
+  ASSERT_FALSE(same.empty());
+  EXPECT_EQ(same[0].keyframe_id, 1);
+  EXPECT_NEAR(same[0].score, 1.0, 1e-5);
+  const std::vector<PlaceCandidate> saturated = db.Query(MakeBow(repeated), "b");
+  ASSERT_FALSE(saturated.empty());
+  EXPECT_EQ(saturated[0].keyframe_id, 2);
+  EXPECT_LT(saturated[0].score, 1.0);
+  EXPECT_GT(saturated[0].score, 0.8);
 }
 
 }  // namespace
