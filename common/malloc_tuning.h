@@ -27,7 +27,8 @@ void KeepLargeBlocksOnMmap(size_t bytes = 256 * 1024);
 void LimitHeapArenas(int arenas = 1);
 
 // Gives the free pages of every heap arena back to the system (glibc malloc_trim), after work
-// whose transient peak grows with the map (a pose-graph solve builds the whole graph anew).
+// whose transient peak grows with the map (a pose-graph solve builds the whole graph anew) and
+// after each checkpoint (a map without loop closure has no solves).
 // A no-op on other C libraries.
 void ReleaseFreeHeapPages();
 

@@ -56,7 +56,7 @@ void PcmCache::Forget(Group* group, Group::iterator it) {
 std::vector<std::vector<int>> PcmCache::GroupConflicts(
     std::pair<int64_t, int64_t> group_key, const std::vector<PcmCachedEdge>& edges,
     const std::function<bool(size_t, size_t)>& consistent) {
-  touched_[group_key] = true;
+  touched_.insert(group_key);
   Group& group = groups_[group_key];
   std::map<std::pair<int64_t, int64_t>, size_t> index;
   for (size_t i = 0; i < edges.size(); ++i) index[edges[i].ids] = i;

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <set>
 #include <utility>
 #include <vector>
 
@@ -58,10 +59,11 @@ class PcmCache {
   static void Forget(Group* group, Group::iterator it);
 
   double chi2_threshold_ = -1;
-  std::vector<int64_t> node_ids_;  // of the solve begun
+  std::vector<int64_t> node_ids_;                   // of the solve begun
   std::map<int64_t, std::vector<int64_t>> chains_;  // first keyframe id -> ids in chain order
   std::map<std::pair<int64_t, int64_t>, Group> groups_;
-  std::map<std::pair<int64_t, int64_t>, bool> touched_;
+  // The groups the solve begun used: EndSolve keeps these and forgets the others.
+  std::set<std::pair<int64_t, int64_t>> touched_;
   size_t pairs_tested_ = 0;
 };
 

@@ -66,7 +66,7 @@ class PlaceDatabase {
  private:
   // A posting packs the document (index into docs_, the high 24 bits) and the word's count in
   // it (the low 8 bits, saturated at 255): 4 bytes a posting, the bulk of the index's memory
-  // (about 900 postings a keyframe at 1000 features).
+  // (700-830 postings a keyframe at 1000 features).
   using Posting = uint32_t;
   struct Doc {
     int64_t keyframe_id;
