@@ -194,9 +194,9 @@ Status MapServer::Checkpoint() {
   spdlog::info("checkpoint at keyframe {}: {:.1f} MB in {:.2f} s", record.last_keyframe_id,
                static_cast<double>(record.data.size()) / 1e6,
                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  // Free the checkpoint's bytes, then give back every page freed since the last solve or
+  // checkpoint (a map without loop closure has no solves to trim after).
   record = {};
-  // The checkpoint's bytes, and the pages freed since the last solve or checkpoint (a map
-  // without loop closure has no solves to trim after): the RSS follows the live heap.
   ReleaseFreeHeapPages();
   return ApplyRetention();
 }
