@@ -107,8 +107,10 @@ const loci::v1::SessionAlignment* SessionOf(const loci::v1::GetStatsResponse& st
 void PrintFigures(const loci::v1::GetStatsResponse& stats, const SE3d& T_map_odomB_true) {
   const loci::v1::SessionAlignment* b = SessionOf(stats, "B");
   if (b == nullptr || !b->aligned()) {
-    std::printf("  B was NOT aligned (%llu keyframes stored)\n",
-                b ? static_cast<unsigned long long>(b->keyframes()) : 0ULL);
+    std::printf("  B was NOT aligned (%llu keyframes stored); its island map holds %llu confirmed "
+                "objects\n",
+                b ? static_cast<unsigned long long>(b->keyframes()) : 0ULL,
+                b ? static_cast<unsigned long long>(b->island_objects()) : 0ULL);
   } else {
     const SE3d T_err = T_map_odomB_true.inverse() * PoseFromProto(b->t_map_odom());
     std::printf("  server: aligned after %u keyframes of B, %.2f s of capture time\n",

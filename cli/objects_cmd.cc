@@ -50,6 +50,7 @@ int RunObjects(const ObjectsArgs& a) {
   for (const std::string& c : a.classes) req.add_classes(c);
   req.set_min_confidence(a.min_confidence);
   req.set_confirmed_only(a.confirmed_only);
+  req.set_include_islands(true);
   loci::v1::FindObjectsResponse resp;
   const grpc::Status s = (*stub)->FindObjects(&ctx, req, &resp);
   if (!s.ok()) return ReportFailure(a.server, s, a.json);
@@ -69,9 +70,10 @@ int RunObjects(const ObjectsArgs& a) {
                   o.centroid_m().y(), o.centroid_m().z());
     std::snprintf(extent, sizeof(extent), "%.2f x %.2f x %.2f", hi.x() - lo.x(), hi.y() - lo.y(),
                   hi.z() - lo.z());
-    std::printf("%6lld  %-16s %5.2f  %-22s %-18s %-19s %s\n", static_cast<long long>(o.id()),
+    std::printf("%6lld  %-16s %5.2f  %-22s %-18s %-19s %s%s\n", static_cast<long long>(o.id()),
                 o.class_name().c_str(), o.confidence(), centroid, extent,
-                Stamp(o.last_seen_ns()).c_str(), robots.c_str());
+                Stamp(o.last_seen_ns()).c_str(), robots.c_str(),
+                o.island().empty() ? "" : ("  [island " + o.island() + ": its own frame]").c_str());
   }
   std::printf("%d objects\n", resp.objects_size());
   return 0;
@@ -122,9 +124,11 @@ void PrintAlignment(const loci::v1::GetStatsResponse& resp) {
                   s.session_id().substr(0, 24).c_str(), s.robot().c_str(), t.x(), t.y(), t.z(),
                   static_cast<unsigned long long>(s.keyframes()));
     } else {
-      std::printf("session %-24s %-12s island (not aligned yet), %llu kf\n",
+      std::printf("session %-24s %-12s island (not aligned yet), %llu kf, %llu objects in its "
+                  "own frame\n",
                   s.session_id().substr(0, 24).c_str(), s.robot().c_str(),
-                  static_cast<unsigned long long>(s.keyframes()));
+                  static_cast<unsigned long long>(s.keyframes()),
+                  static_cast<unsigned long long>(s.island_objects()));
     }
   }
 }

@@ -40,6 +40,10 @@ struct MapObject {
   // Height (map z, z up) of the object's densest horizontal layer of points: the top of a
   // table whose box also caught a monitor foot or a chair back. NaN when unknown.
   double top_surface_z_m = std::numeric_limits<double>::quiet_NaN();
+  // "" for an object of the shared map. Otherwise the session id of the map island it is in:
+  // a robot session not aligned to the shared map yet, mapped in its own frame (its odometry
+  // frame levelled z-up), so its positions are not in the map frame.
+  std::string island;
 };
 
 // The object expressed in another frame: T_b_a maps its frame a to frame b. Centroid, oriented

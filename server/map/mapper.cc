@@ -70,6 +70,11 @@ void Mapper::FlushOctomap() const {
   octomap_progress_cv_.wait(lock, [&] { return octomap_done_ >= target; });
 }
 
+Status Mapper::SetFirstObjectId(int64_t first_id) {
+  std::lock_guard<std::mutex> lock(mu_);
+  return objects_.SetFirstId(first_id);
+}
+
 void Mapper::SetEventListener(std::function<void(const std::vector<ObjectEventOut>&)> listener) {
   listener_ = std::move(listener);
 }

@@ -130,6 +130,9 @@ class Mapper {
   StatusOr<size_t> UpdateKeyframePoses(const std::vector<KeyframePoseUpdate>& updates,
                                        const ProductSource& source);
 
+  // Ids of the map's objects start here (ObjectMap::SetFirstId): before the first keyframe.
+  Status SetFirstObjectId(int64_t first_id);
+
   // Called (on the mapping thread, outside the map's locks) for every object change.
   void SetEventListener(std::function<void(const std::vector<ObjectEventOut>&)> listener);
 

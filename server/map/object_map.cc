@@ -269,4 +269,13 @@ size_t ObjectMap::confirmed_count() const {
                        [](const auto& kv) { return kv.second.confirmed(); });
 }
 
+Status ObjectMap::SetFirstId(int64_t first_id) {
+  if (first_id < 1) return absl::InvalidArgumentError("object ids start at 1 or above");
+  if (!objects_.empty() || next_id_ != 1) {
+    return absl::FailedPreconditionError("object ids can only be set before the first object");
+  }
+  next_id_ = first_id;
+  return absl::OkStatus();
+}
+
 }  // namespace loci::server

@@ -94,6 +94,10 @@ class ObjectMap {
   size_t size() const { return objects_.size(); }
   size_t confirmed_count() const;
 
+  // Ids of new objects start here (default 1). Only before the first object: a map island's
+  // objects (server/service/island_maps.h) take ids that no shared-map object takes.
+  Status SetFirstId(int64_t first_id);
+
   // Checkpoint state (map_checkpoint.cc); LoadState replaces every object.
   void SaveState(loci::store::v1::ObjectMapState* out) const;
   Status LoadState(const loci::store::v1::ObjectMapState& in);

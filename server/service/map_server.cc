@@ -44,6 +44,13 @@ MapServer::MapServer(const ServerOptions& options, std::shared_ptr<MapStore> sto
       closer_(options.align.enabled && options.align.loops.enabled
                   ? std::make_unique<LoopCloser>(options.graph, options.align.loops)
                   : nullptr),
+      islands_(options.align.enabled
+                   ? std::make_unique<IslandMaps>(
+                         options.map,
+                         [this](const std::vector<ObjectEventOut>& events) {
+                           if (ready_) Publish(events);  // not while a restart re-derives them
+                         })
+                   : nullptr),
       decode_slots_(options.decode_slots),
       queue_(static_cast<size_t>(options.queue_capacity)),
       align_queue_(static_cast<size_t>(options.queue_capacity)) {}
@@ -98,6 +105,7 @@ void MapServer::LoadLoop() {
     if (report->keyframes() >= static_cast<uint64_t>(options_.checkpoint_keyframes)) {
       if (Status s = Checkpoint(); !s.ok()) spdlog::warn("checkpoint: {}", s.ToString());
     }
+    LoadIslands();
     mapper_->SetEventListener(
         [this](const std::vector<ObjectEventOut>& events) { Publish(events); });
     worker_ = std::thread([this] { WorkerLoop(); });

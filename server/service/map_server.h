@@ -22,6 +22,7 @@
 #include "server/align/robot_aligner.h"
 #include "common/bounded_queue.h"
 #include "server/map/mapper.h"
+#include "server/service/island_maps.h"
 #include "server/service/replay.h"
 #include "server/service/server_options.h"
 #include "server/service/store_feature_store.h"
@@ -84,6 +85,8 @@ class MapServer {
   void Unsubscribe(const std::shared_ptr<ObjectEventQueue>& queue);
 
   const Mapper& mapper() const { return *mapper_; }
+  // The object maps of the sessions not aligned yet (nullptr when align.enabled is false).
+  const IslandMaps* islands() const { return islands_.get(); }
   MapStore& store() { return *store_; }
   const ServerOptions& options() const { return options_; }
   // Keyframes waiting for the mapping worker or for place recognition.
@@ -156,6 +159,9 @@ class MapServer {
   std::optional<SessionRecord> SessionByRow(int64_t session_row);
   void SetSessionCache(const SessionRecord& session);
   void LoadLoop();
+  // After the map is loaded: maps the stored keyframes of every unaligned session into its
+  // island (loading thread, before the worker starts).
+  void LoadIslands();
   void FinishLoad(const Status& status);
   // Checkpoints when checkpoint_keyframes or checkpoint_interval_s have passed (worker thread).
   void MaybeCheckpoint();
@@ -177,6 +183,7 @@ class MapServer {
   std::unique_ptr<StoreFeatureStore> features_;  // aligner_'s, in store_
   std::unique_ptr<RobotAligner> aligner_;  // used by the worker thread only (Stats: any)
   std::unique_ptr<LoopCloser> closer_;     // with aligner_ and align.loops.enabled
+  std::unique_ptr<IslandMaps> islands_;    // with aligner_
   std::atomic<bool> reindexed_{false};
   std::atomic<uint64_t> merged_keyframes_{0};
   uint64_t replayed_ = 0;

@@ -24,8 +24,12 @@ bool MapServer::MapQueued(MapperKeyframe& kf) {
   if (T_base_odom) {
     kf.T_base_kf = *T_base_odom * kf.T_odom_kf;  // the session may have been aligned since
     MapAndStoreProducts(*mapper_, kf, detector_.get(), store_.get());
-  } else {
-    BuildAndStoreProducts(*mapper_, kf, detector_.get(), store_.get());  // held back
+  } else {  // held back from the shared map, mapped in its own island
+    const KeyframeProducts products =
+        BuildAndStoreProducts(*mapper_, kf, detector_.get(), store_.get());
+    const std::optional<SessionRecord> s = SessionByRow(kf.session_row);
+    islands_->Integrate(kf.session_row, s ? s->session_id : std::to_string(kf.session_row), kf,
+                        products);
   }
   RecordForLoops(kf);
   worker_last_id_ = kf.keyframe_id;
@@ -106,6 +110,7 @@ void MapServer::ApplyAlignment(const SessionAlignment& a) {
                  s->session_id, st.ToString());
   }
   SetSessionCache(*s);
+  Publish(islands_->Drop(s->row_id));  // its objects now enter the shared map
   if (a.refined) {
     MoveSession(a);
     return;
@@ -141,6 +146,36 @@ void MapServer::ApplyAlignment(const SessionAlignment& a) {
   } else {
     since_checkpoint_ = 0;
     last_checkpoint_ = std::chrono::steady_clock::now();
+  }
+}
+
+void MapServer::LoadIslands() {
+  if (!islands_) return;
+  auto sessions = store_->ListSessions();
+  if (!sessions.ok()) {
+    spdlog::warn("islands not loaded: {}", sessions.status().ToString());
+    return;
+  }
+  for (const SessionRecord& s : *sessions) {
+    if (s.aligned) continue;
+    KeyframeScan scan;
+    scan.products_fingerprint = mapper_->options().ProductsFingerprint();
+    scan.session_row = s.row_id;
+    LoadReport report;
+    const Status st = store_->ForEachKeyframe(
+        0,
+        [&](KeyframeRecord rec) -> Status {
+          if (stop_loading_) return absl::CancelledError("the server is stopping");
+          MapperKeyframe meta;
+          const std::optional<KeyframeProducts> products = StoredProducts(
+              rec, s, *mapper_, detector_.get(), store_.get(), &report, &meta);
+          if (products) islands_->Integrate(s.row_id, s.session_id, meta, *products);
+          return absl::OkStatus();
+        },
+        scan);
+    spdlog::info("island of robot {} (session {}, not aligned): {} keyframes mapped{}",
+                 s.robot_name, s.session_id, report.keyframes(),
+                 st.ok() ? "" : absl::StrCat("; stopped: ", st.ToString()));
   }
 }
 

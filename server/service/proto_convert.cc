@@ -35,6 +35,7 @@ void ToProto(const MapObject& in, loci::v1::Object* out) {
   out->set_last_robot(in.last_robot);
   out->set_missed_views(in.missed_views);
   out->set_existence(in.existence);
+  out->set_island(in.island);
 }
 
 MapObject FromProto(const loci::v1::Object& in) {
@@ -58,6 +59,7 @@ MapObject FromProto(const loci::v1::Object& in) {
   o.last_robot = in.last_robot();
   o.missed_views = in.missed_views();
   o.existence = in.existence();
+  o.island = in.island();
   o.observation_count = in.observation_count();
   o.point_count = in.point_count();
   o.confirmed = in.confirmed();

@@ -2,6 +2,7 @@
 
 #include <absl/strings/str_cat.h>
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 
@@ -40,6 +41,12 @@ bool IsValidUtf8(const std::string& s) {
 
 }  // namespace
 
+std::vector<MapObject> MapperSource::Objects(bool confirmed_only) const {
+  std::vector<MapObject> objects = mapper_.Snapshot(confirmed_only);
+  for (MapObject& o : objects) o.island = island_;
+  return objects;
+}
+
 std::vector<Eigen::Vector3f> MapperSource::CloudPoints(double voxel_m) const {
   std::vector<Eigen::Vector3f> out;
   for (const SemanticPoint& p : mapper_.Cloud(voxel_m, {})) out.push_back(p.p_m);
@@ -75,11 +82,40 @@ QueryAdapter::QueryAdapter(QueryAdapterOptions options)
 
 StatusOr<loci::v1::AskResponse> QueryAdapter::Ask(const loci::v1::AskRequest& request,
                                                   const MapServer& server) {
-  return Ask(request, MapperSource(server.mapper()));
+  LOCI_ASSIGN_OR_RETURN(loci::v1::AskResponse answer, Ask(request, MapperSource(server.mapper())));
+  if (server.islands() == nullptr) return answer;
+  std::vector<std::string> names;
+  for (const IslandMaps::Island& island : server.islands()->List()) {
+    names.push_back(island.name);
+    StatusOr<loci::v1::AskResponse> in_island =
+        Ask(request, MapperSource(*island.map, island.name), island.name);
+    if (!in_island.ok() || in_island->objects().empty()) continue;
+    // Before: what the shared map says, or that it has none of it.
+    const std::string before =
+        answer.objects().empty() ? "Not in the shared map." : answer.answer() + " Also";
+    answer.set_answer(absl::StrCat(before, answer.objects().empty() ? " In" : " in", " robot ",
+                                   island.robot, "'s island (session ", island.name,
+                                   ", not aligned with the shared map yet; positions in its own "
+                                   "frame): ",
+                                   in_island->answer()));
+    for (const loci::v1::Object& o : in_island->objects()) *answer.add_objects() = o;
+    for (const loci::v1::Relation& r : in_island->relations()) *answer.add_relations() = r;
+  }
+  KeepSlots(names);
+  return answer;
+}
+
+void QueryAdapter::KeepSlots(const std::vector<std::string>& islands) {
+  std::lock_guard<std::mutex> lock(mu_);
+  std::erase_if(cache_, [&](const auto& entry) {
+    return !entry.first.empty() &&
+           std::find(islands.begin(), islands.end(), entry.first) == islands.end();
+  });
 }
 
 StatusOr<loci::v1::AskResponse> QueryAdapter::Ask(const loci::v1::AskRequest& request,
-                                                  const QueryMapSource& source) {
+                                                  const QueryMapSource& source,
+                                                  const std::string& slot) {
   const std::string& text = request.text();
   if (text.size() > options_.max_question_bytes) {
     return absl::InvalidArgumentError(absl::StrCat("question is ", text.size(),
@@ -89,7 +125,7 @@ StatusOr<loci::v1::AskResponse> QueryAdapter::Ask(const loci::v1::AskRequest& re
   if (!IsValidUtf8(text) || !IsValidUtf8(request.robot_name())) {
     return absl::InvalidArgumentError("question and robot name must be UTF-8 text");
   }
-  const std::shared_ptr<const query::MapIndex> index = IndexFor(source);
+  const std::shared_ptr<const query::MapIndex> index = IndexFor(source, slot);
   int64_t now_ns = options_.now_ns ? options_.now_ns() : NowNs();
   int64_t newest_kf_ns = 0;
   for (const auto& [robot, pose] : source.LatestPoses()) {
@@ -131,15 +167,21 @@ void QueryAdapter::EstimateUp(const QueryMapSource& source, std::optional<Vec3d>
   }
 }
 
-std::shared_ptr<const query::MapIndex> QueryAdapter::IndexFor(const QueryMapSource& source) {
+std::shared_ptr<const query::MapIndex> QueryAdapter::IndexFor(const QueryMapSource& source,
+                                                              const std::string& slot) {
   // Version key: every integrated keyframe moves its robot's latest pose stamp. Read before the
   // snapshot, so a keyframe landing in between only makes the next Ask rebuild.
   const std::map<std::string, RobotPose> poses = source.LatestPoses();
   std::string key = absl::StrCat(source.VersionSalt(), "|");
   for (const auto& [robot, pose] : poses) absl::StrAppend(&key, robot, "@", pose.t_ns, ";");
+  auto cached = [&](bool any_version) -> std::shared_ptr<const query::MapIndex> {
+    auto it = cache_.find(slot);  // mu_ held
+    if (it == cache_.end() || !(any_version || it->second.key == key)) return nullptr;
+    return it->second.index;
+  };
   {
     std::lock_guard<std::mutex> lock(mu_);
-    if (cached_index_ && cached_key_ == key) return cached_index_;
+    if (auto index = cached(false)) return index;
   }
   // While another asker rebuilds, answer from the index at hand (a keyframe older) rather
   // than queue behind the build: under ingest, builds would otherwise set the tail latency.
@@ -147,13 +189,13 @@ std::shared_ptr<const query::MapIndex> QueryAdapter::IndexFor(const QueryMapSour
   if (!build_lock.owns_lock()) {
     {
       std::lock_guard<std::mutex> lock(mu_);
-      if (cached_index_) return cached_index_;
+      if (auto index = cached(true)) return index;
     }
     build_lock.lock();
   }
   {
     std::lock_guard<std::mutex> lock(mu_);  // another asker may have built it meanwhile
-    if (cached_index_ && cached_key_ == key) return cached_index_;
+    if (auto index = cached(false)) return index;
   }
   // The server's map frame is levelled when it is built (server/map/map_frame.h): its z is up.
   const std::string levelled = source.LevelledBy();
@@ -169,9 +211,8 @@ std::shared_ptr<const query::MapIndex> QueryAdapter::IndexFor(const QueryMapSour
   for (const auto& [robot, pose] : poses) viewpoints.push_back({robot, pose.T_map_cam, pose.t_ns});
   auto index = engine_.Index(source.Objects(options_.confirmed_only), up, std::move(viewpoints));
   std::lock_guard<std::mutex> lock(mu_);
-  cached_key_ = std::move(key);
-  cached_index_ = index;
-  up_source_ = up_source;
+  cache_[slot] = CachedIndex{std::move(key), index};
+  if (slot.empty()) up_source_ = up_source;
   ++builds_;
   return index;
 }

@@ -42,20 +42,21 @@ class QueryMapSource {
   virtual std::string LevelledBy() const { return ""; }
 };
 
-// A source that reads the running server's Mapper.
+// A source that reads the running server's Mapper, or an island's (island_maps.h: its objects
+// carry the island's name).
 class MapperSource final : public QueryMapSource {
  public:
-  explicit MapperSource(const Mapper& mapper) : mapper_(mapper) {}
+  explicit MapperSource(const Mapper& mapper, std::string island = "")
+      : mapper_(mapper), island_(std::move(island)) {}
   std::map<std::string, RobotPose> LatestPoses() const override { return mapper_.LatestPoses(); }
-  std::vector<MapObject> Objects(bool confirmed_only) const override {
-    return mapper_.Snapshot(confirmed_only);
-  }
+  std::vector<MapObject> Objects(bool confirmed_only) const override;
   std::optional<Vec3d> GravityUp() const override { return mapper_.UpDirection(); }
   std::vector<Eigen::Vector3f> CloudPoints(double voxel_m) const override;
   std::string LevelledBy() const override { return mapper_.FrameSource(); }
 
  private:
   const Mapper& mapper_;
+  const std::string island_;
 };
 
 struct QueryAdapterOptions {
@@ -85,12 +86,16 @@ class QueryAdapter final : public QueryEngine {
  public:
   explicit QueryAdapter(QueryAdapterOptions options);
 
+  // The shared map's answer; then, for each map island (a session not aligned yet) whose own
+  // answer names objects, a sentence "In robot R's island (...): ANSWER" and its objects
+  // (Object.island set). Relations are only found within one map.
   StatusOr<loci::v1::AskResponse> Ask(const loci::v1::AskRequest& request,
                                       const MapServer& server) override;
-  // Same on any map source. Thread-safe. INVALID_ARGUMENT for a question that is too long, not
-  // UTF-8, or not understood (the message lists the known words).
+  // Same on any map source; `slot` names the source's cached index ("" = the shared map's).
+  // Thread-safe. INVALID_ARGUMENT for a question that is too long, not UTF-8, or not understood
+  // (the message lists the known words).
   StatusOr<loci::v1::AskResponse> Ask(const loci::v1::AskRequest& request,
-                                      const QueryMapSource& source);
+                                      const QueryMapSource& source, const std::string& slot = "");
 
   // Where the last index's up direction came from: "map frame (HOW)" for the server's levelled
   // map, else "gravity+planes" (gravity refined by the horizontal planes), "gravity", "planes"
@@ -100,7 +105,10 @@ class QueryAdapter final : public QueryEngine {
   uint64_t index_builds() const;
 
  private:
-  std::shared_ptr<const query::MapIndex> IndexFor(const QueryMapSource& source);
+  std::shared_ptr<const query::MapIndex> IndexFor(const QueryMapSource& source,
+                                                  const std::string& slot);
+  // Forgets the cached indexes of islands that no longer exist.
+  void KeepSlots(const std::vector<std::string>& islands);
   // Up of a source whose map is not levelled: its gravity refined by planes, else planes, else
   // the configured up; snapped to +z within up_snap_deg.
   void EstimateUp(const QueryMapSource& source, std::optional<Vec3d>* up,
@@ -109,8 +117,11 @@ class QueryAdapter final : public QueryEngine {
   QueryAdapterOptions options_;
   query::QueryEngine engine_;
   mutable std::mutex mu_;  // guards the cache fields below
-  std::string cached_key_;
-  std::shared_ptr<const query::MapIndex> cached_index_;
+  struct CachedIndex {
+    std::string key;
+    std::shared_ptr<const query::MapIndex> index;
+  };
+  std::map<std::string, CachedIndex> cache_;  // by slot: "" = the shared map, else an island
   std::string up_source_ = "config";
   uint64_t builds_ = 0;
   // One build at a time; askers meanwhile use the previous index (or wait when there is none).

@@ -9,15 +9,17 @@
 
 namespace loci::server {
 
-bool LoadKeyframe(const KeyframeRecord& rec, const SessionRecord& session, Mapper& mapper,
-                  detection::Detector* detector, MapStore* store, LoadReport* report) {
+std::optional<KeyframeProducts> StoredProducts(const KeyframeRecord& rec,
+                                              const SessionRecord& session, const Mapper& mapper,
+                                              detection::Detector* detector, MapStore* store,
+                                              LoadReport* report, MapperKeyframe* meta) {
   const std::string fingerprint = mapper.options().ProductsFingerprint();
   if (!rec.products.empty()) {
     auto products = DecodeProducts(rec.products, fingerprint);
     if (products.ok()) {
-      mapper.Integrate(KeyframeMeta(rec, session), *products);
+      *meta = KeyframeMeta(rec, session);
       ++report->from_products;
-      return true;
+      return std::move(*products);
     }
     spdlog::warn("load: products of keyframe {} unusable ({}); recomputing them", rec.id,
                  products.status().ToString());
@@ -25,16 +27,27 @@ bool LoadKeyframe(const KeyframeRecord& rec, const SessionRecord& session, Mappe
   if (rec.rgb_jpeg.empty()) {
     spdlog::warn("load: keyframe {} skipped: its images were dropped (retention) and it has no "
                  "products for the current options", rec.id);
-    return false;
+    return std::nullopt;
   }
   auto kf = DecodeKeyframe(rec, session);
   if (!kf.ok()) {
     // Stored keyframes were validated on ingest; a corrupt row is skipped, not fatal.
     spdlog::warn("load: keyframe {} skipped: {}", rec.id, kf.status().ToString());
-    return false;
+    return std::nullopt;
   }
-  MapAndStoreProducts(mapper, *kf, detector, store);
+  KeyframeProducts products = BuildAndStoreProducts(mapper, *kf, detector, store);
+  *meta = std::move(*kf);
   ++report->from_raw;
+  return products;
+}
+
+bool LoadKeyframe(const KeyframeRecord& rec, const SessionRecord& session, Mapper& mapper,
+                  detection::Detector* detector, MapStore* store, LoadReport* report) {
+  MapperKeyframe meta;
+  const std::optional<KeyframeProducts> products =
+      StoredProducts(rec, session, mapper, detector, store, report, &meta);
+  if (!products) return false;
+  mapper.Integrate(meta, *products);
   return true;
 }
 

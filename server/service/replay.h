@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "common/status.h"
@@ -34,6 +35,14 @@ StageTimes MapAndStoreProducts(Mapper& mapper, MapperKeyframe& keyframe,
                                detection::Detector* detector, MapStore* store);
 
 struct LoadReport;
+
+// A stored keyframe's products: decoded from the store, or built from its images (and stored
+// when `store` is non-null); nullopt when it has to be skipped. `meta` gets the keyframe to
+// integrate them with (counted in `report` as from products or from images).
+std::optional<KeyframeProducts> StoredProducts(const KeyframeRecord& rec,
+                                              const SessionRecord& session, const Mapper& mapper,
+                                              detection::Detector* detector, MapStore* store,
+                                              LoadReport* report, MapperKeyframe* meta);
 
 // Maps one stored keyframe from its products, or from its images (whose new products are
 // stored when `store` is non-null); false when it had to be skipped (counted in `report`).

@@ -20,6 +20,19 @@ bool Inside(const Eigen::Vector3d& p, const loci::v1::Aabb& box) {
          p.x() <= box.max_m().x() && p.y() <= box.max_m().y() && p.z() <= box.max_m().z();
 }
 
+// Whether a FindObjects request selects the object (class, confidence, region).
+bool Wanted(const loci::v1::FindObjectsRequest& req, const MapObject& o) {
+  if (!req.classes().empty() &&
+      std::find(req.classes().begin(), req.classes().end(), o.class_name) == req.classes().end()) {
+    return false;
+  }
+  if (o.confidence < req.min_confidence()) return false;
+  if (req.has_within_box() && !Inside(o.centroid_m, req.within_box())) return false;
+  const Eigen::Vector3d center(req.near_center_m().x(), req.near_center_m().y(),
+                               req.near_center_m().z());
+  return req.radius_m() <= 0 || (o.centroid_m - center).norm() <= req.radius_m();
+}
+
 }  // namespace
 
 grpc::Status ToGrpc(const Status& s) {
@@ -159,18 +172,16 @@ grpc::Status QueryService::FindObjects(const loci::v1::FindObjectsRequest& req,
     return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
                         "min_confidence and radius_m must be finite, radius_m >= 0");
   }
-  const Eigen::Vector3d center(req.near_center_m().x(), req.near_center_m().y(),
-                               req.near_center_m().z());
-  for (const MapObject& o : server_->mapper().Snapshot(req.confirmed_only())) {
-    if (!req.classes().empty() && std::find(req.classes().begin(), req.classes().end(),
-                                             o.class_name) == req.classes().end()) {
-      continue;
+  std::vector<MapObject> objects = server_->mapper().Snapshot(req.confirmed_only());
+  const bool region = req.has_within_box() || req.radius_m() > 0;
+  if (req.include_islands() && !region && server_->islands() != nullptr) {
+    for (MapObject& o : server_->islands()->Snapshot(req.confirmed_only())) {
+      objects.push_back(std::move(o));  // after the shared map's
     }
-    if (o.confidence < req.min_confidence()) continue;
-    if (req.has_within_box() && !Inside(o.centroid_m, req.within_box())) continue;
-    if (req.radius_m() > 0 && (o.centroid_m - center).norm() > req.radius_m()) continue;
-    ToProto(o, resp->add_objects());
+  }
+  for (const MapObject& o : objects) {
     if (req.limit() > 0 && resp->objects_size() >= static_cast<int>(req.limit())) break;
+    if (Wanted(req, o)) ToProto(o, resp->add_objects());
   }
   return grpc::Status::OK;
 }
@@ -181,6 +192,12 @@ grpc::Status QueryService::GetObject(const loci::v1::GetObjectRequest& req,
   std::vector<ColoredPoint> cloud;
   std::vector<int64_t> keyframes;
   auto o = server_->mapper().GetObject(req.id(), req.with_cloud() ? &cloud : nullptr, &keyframes);
+  if (!o && server_->islands() != nullptr) {  // an island's object (its own id range)
+    if (auto island = server_->islands()->FindByObjectId(req.id())) {
+      o = island->map->GetObject(req.id(), req.with_cloud() ? &cloud : nullptr, &keyframes);
+      if (o) o->island = island->name;
+    }
+  }
   if (!o) {
     return grpc::Status(grpc::StatusCode::NOT_FOUND, absl::StrCat("no object ", req.id()));
   }
@@ -310,6 +327,12 @@ grpc::Status QueryService::FillAlignment(const std::vector<SessionRecord>& sessi
     out->set_robot(s.robot_name);
     out->set_aligned(s.aligned);
     if (s.aligned) ToProto(T_map_base * s.T_base_odom, out->mutable_t_map_odom());
+    if (!s.aligned && server_->islands() != nullptr) {
+      if (auto island = server_->islands()->Find(s.row_id)) {
+        out->set_island_objects(island->map->Stats().confirmed_objects);
+        ToProto(island->map->MapFromBaseFrame(), out->mutable_t_island_odom());
+      }
+    }
     auto n = server_->store().CountKeyframes(s.row_id);
     if (!n.ok()) return ToGrpc(n.status());
     out->set_keyframes(*n);

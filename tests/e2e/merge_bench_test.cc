@@ -42,6 +42,7 @@ TEST(BenchMerge, RobotStartingAnywhereInTheSameRoomIsAlignedExactly) {
 TEST(BenchMerge, LookAlikeRoomElsewhereIsNeverMerged) {
   const std::string out = RunBenchMerge("--views 40 --start 0 --robot-hz 0 --other-room 8");
   EXPECT_NE(out.find("B was NOT aligned (40 keyframes stored)"), std::string::npos) << out;
+  EXPECT_GT(Number(out, R"(its island map holds ([0-9]+) confirmed objects)"), 0) << out;
   EXPECT_EQ(Number(out, R"(; ([0-9]+) merges accepted)"), 0) << out;
   EXPECT_GT(Number(out, R"(verified, ([0-9]+) rejected candidates)"), 0)
       << "place recognition should find look-alike candidates for verification to reject\n"

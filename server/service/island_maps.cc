@@ -1,0 +1,94 @@
+#include "server/service/island_maps.h"
+
+#include <spdlog/spdlog.h>
+
+namespace loci::server {
+
+IslandMaps::IslandMaps(const MapOptions& options,
+                       std::function<void(const std::vector<ObjectEventOut>&)> listener)
+    : options_(options), listener_(std::move(listener)) {
+  options_.octomap.enabled = false;  // a thread and a tree per island; the shared map has one
+}
+
+void IslandMaps::Integrate(int64_t session_row, const std::string& island,
+                           const MapperKeyframe& keyframe, const KeyframeProducts& products) {
+  std::shared_ptr<Mapper> map;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    auto it = islands_.find(session_row);
+    if (it == islands_.end()) {
+      auto fresh = std::make_shared<Mapper>(options_);
+      if (Status s = fresh->SetFirstObjectId(session_row * kIslandIdStride + 1); !s.ok()) {
+        spdlog::warn("island {}: {}", island, s.ToString());
+        return;
+      }
+      if (listener_) {
+        fresh->SetEventListener([this, island](const std::vector<ObjectEventOut>& events) {
+          std::vector<ObjectEventOut> tagged = events;
+          for (ObjectEventOut& e : tagged) e.object.island = island;
+          listener_(tagged);
+        });
+      }
+      it = islands_.emplace(session_row, Island{session_row, island, keyframe.robot, fresh}).first;
+    }
+    // Only the mapping thread integrates, so the map is not dropped under this call.
+    map = std::const_pointer_cast<Mapper>(it->second.map);
+  }
+  MapperKeyframe in_island = keyframe;
+  in_island.T_base_kf = keyframe.T_odom_kf;
+  map->Integrate(in_island, products);
+}
+
+std::vector<ObjectEventOut> IslandMaps::Drop(int64_t session_row) {
+  std::optional<Island> island;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    auto it = islands_.find(session_row);
+    if (it == islands_.end()) return {};
+    island = std::move(it->second);
+    islands_.erase(it);
+  }
+  std::vector<ObjectEventOut> removed;
+  for (MapObject& o : IslandObjects(*island, /*confirmed_only=*/false)) {
+    ObjectEventOut e;
+    e.kind = ObjectChange::Kind::kRemoved;
+    e.object = std::move(o);
+    removed.push_back(std::move(e));
+  }
+  return removed;
+}
+
+std::vector<IslandMaps::Island> IslandMaps::List() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  std::vector<Island> out;
+  for (const auto& [row, island] : islands_) out.push_back(island);
+  return out;
+}
+
+std::optional<IslandMaps::Island> IslandMaps::Find(int64_t session_row) const {
+  std::lock_guard<std::mutex> lock(mu_);
+  auto it = islands_.find(session_row);
+  if (it == islands_.end()) return std::nullopt;
+  return it->second;
+}
+
+std::optional<IslandMaps::Island> IslandMaps::FindByObjectId(int64_t id) const {
+  if (id <= kIslandIdStride) return std::nullopt;
+  return Find((id - 1) / kIslandIdStride);
+}
+
+std::vector<MapObject> IslandMaps::Snapshot(bool confirmed_only) const {
+  std::vector<MapObject> out;
+  for (const Island& island : List()) {
+    for (MapObject& o : IslandObjects(island, confirmed_only)) out.push_back(std::move(o));
+  }
+  return out;
+}
+
+std::vector<MapObject> IslandObjects(const IslandMaps::Island& island, bool confirmed_only) {
+  std::vector<MapObject> objects = island.map->Snapshot(confirmed_only);
+  for (MapObject& o : objects) o.island = island.name;
+  return objects;
+}
+
+}  // namespace loci::server

@@ -1,0 +1,70 @@
+// Map islands (issue 15): the object maps of robot sessions that place recognition has not
+// aligned to the shared map yet. Each such session's keyframes are mapped by a Mapper of its
+// own, in the session's own frame (its odometry frame, levelled z-up from its own gravity or
+// planes, origin at its first keyframe), so a robot that starts in a room nobody else has seen
+// can still be asked what it has seen. An island map has objects and a cloud, no OctoMap.
+//
+// When the session is aligned, its island is dropped (its objects are REMOVED) and its
+// keyframes enter the shared map, where fusion gives each physical object one id.
+//
+// Object ids of an island start at session_row * 2^32 + 1 (kIslandIdStride), so they never
+// meet a shared-map id or another island's. Integrate and Drop are called on the mapping
+// thread; the readers from any thread.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/map_object.h"
+#include "server/map/mapper.h"
+
+namespace loci::server {
+
+inline constexpr int64_t kIslandIdStride = int64_t{1} << 32;
+
+class IslandMaps {
+ public:
+  // `options`: the shared map's; islands use them with the OctoMap off. `listener` receives
+  // every island's object events (the objects carry their island).
+  IslandMaps(const MapOptions& options,
+             std::function<void(const std::vector<ObjectEventOut>&)> listener);
+
+  // Maps one keyframe of an unaligned session into its island (made on its first keyframe)
+  // from the keyframe's products; `island` names it (the session id). The pose used is
+  // T_odom_kf: an island's base frame is the session's odometry frame.
+  void Integrate(int64_t session_row, const std::string& island, const MapperKeyframe& keyframe,
+                 const KeyframeProducts& products);
+  // Forgets the session's island (it was aligned); returns REMOVED events for its objects.
+  std::vector<ObjectEventOut> Drop(int64_t session_row);
+
+  struct Island {
+    int64_t session_row = 0;
+    std::string name;  // the session id
+    std::string robot;
+    std::shared_ptr<const Mapper> map;
+  };
+  std::vector<Island> List() const;
+  std::optional<Island> Find(int64_t session_row) const;
+  // The island holding object `id` (by its id range), if that island exists.
+  std::optional<Island> FindByObjectId(int64_t id) const;
+
+  // Every island's objects, tagged with their island.
+  std::vector<MapObject> Snapshot(bool confirmed_only) const;
+
+ private:
+  MapOptions options_;
+  std::function<void(const std::vector<ObjectEventOut>&)> listener_;
+  mutable std::mutex mu_;  // guards islands_ (the maps themselves are thread-safe)
+  std::map<int64_t, Island> islands_;
+};
+
+// The island's objects with MapObject::island set.
+std::vector<MapObject> IslandObjects(const IslandMaps::Island& island, bool confirmed_only);
+
+}  // namespace loci::server

@@ -1,0 +1,302 @@
+// Map islands (issue 15) on loopback gRPC: robot A maps one `loci synth` room (the shared map),
+// robot B another room with its own odometry. B is never aligned, and its keyframes are mapped
+// in an island of its own: its objects are as exact as a single robot's map (count error 0,
+// centroids within 2 cm, in B's own frame), FindObjects and GetObject give them with their
+// island, GetStats lists the island, Ask names it, it equals the map B makes alone, and a
+// restart re-derives it. Robot C then
+// starts in A's room with its own odometry: it is aligned, and its island is gone.
+#include <grpcpp/create_channel.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <map>
+#include <set>
+
+#include "common/objects_json.h"
+#include "loci/v1/mapping.grpc.pb.h"
+#include "loci/v1/query.grpc.pb.h"
+#include "proto/convert.h"
+#include "server/map/object_eval.h"
+#include "server/service/grpc_server.h"
+#include "server/service/map_server.h"
+#include "server/service/proto_convert.h"
+#include "server/service/query_adapter.h"
+#include "synth/sequence_writer.h"
+#include "tests/server/keyframe_proto.h"
+#include "tests/server/scene_stream.h"
+
+namespace loci::server {
+namespace {
+
+namespace fs = std::filesystem;
+
+synth::SceneOptions Room(uint64_t seed) {
+  synth::SceneOptions o;
+  o.seed = seed;
+  o.num_frames = 45;
+  o.fps_hz = 5.0;
+  o.num_objects = 8;
+  return o;
+}
+
+// A running server with its gRPC endpoint and stubs.
+struct Running {
+  std::unique_ptr<MapServer> server;
+  std::unique_ptr<GrpcServer> grpc;
+  std::unique_ptr<loci::v1::Mapping::Stub> mapping;
+  std::unique_ptr<loci::v1::Query::Stub> query;
+};
+
+// The server's defaults, with depth read to 6 m as in the integration test (the synth rooms'
+// shelves stand about 4 m from the camera).
+ServerOptions Options() {
+  ServerOptions o;
+  EXPECT_TRUE(o.FromYamlFile(std::string(LOCI_SOURCE_DIR) + "/config/server.yaml").ok());
+  o.map.cloud.max_depth_m = 6.0;
+  o.map.octomap.max_range_m = 6.0;
+  return o;
+}
+
+// `loops`: loop closure (an island has none; the map B makes alone, compared with it, neither).
+Running Start(const std::string& db, bool loops = true) {
+  ServerOptions o = Options();
+  o.align.loops.enabled = loops;
+  o.db_path = db;
+  Running r;
+  auto server = MapServer::Open(o);
+  EXPECT_TRUE(server.ok()) << server.status();
+  if (!server.ok()) return r;
+  r.server = std::move(*server);
+  auto grpc = GrpcServer::Start(r.server.get(), "127.0.0.1:0", 64,
+                                std::make_shared<QueryAdapter>(QueryAdapterOptions{}));
+  EXPECT_TRUE(grpc.ok()) << grpc.status();
+  if (!grpc.ok()) return r;
+  r.grpc = std::move(*grpc);
+  auto channel = grpc::CreateChannel(absl::StrCat("127.0.0.1:", r.grpc->port()),
+                                     grpc::InsecureChannelCredentials());
+  r.mapping = loci::v1::Mapping::NewStub(channel);
+  r.query = loci::v1::Query::NewStub(channel);
+  return r;
+}
+
+// Streams views [first, end) as robot `robot`; with `own_odometry` the poses are re-based on
+// view `first` (the robot's odometry starts at the identity there). Returns the session id.
+std::string Stream(loci::v1::Mapping::Stub* stub, const std::string& robot,
+                   const std::vector<loci::v1::Keyframe>& views, size_t first, bool own_odometry) {
+  grpc::ClientContext open_ctx;
+  loci::v1::OpenSessionResponse session;
+  EXPECT_TRUE(stub->OpenSession(&open_ctx,
+                                testing::OpenRequest(robot, PinholeCamera::TumFr1(), false),
+                                &session)
+                  .ok());
+  const SE3d T_odom_world =
+      own_odometry ? PoseFromProto(views[first].t_odom_cam()).inverse() : SE3d::Identity();
+  grpc::ClientContext ctx;
+  auto stream = stub->StreamKeyframes(&ctx);
+  for (size_t i = first; i < views.size(); ++i) {
+    loci::v1::Keyframe kf = views[i];
+    kf.set_session_id(session.session_id());
+    kf.set_seq(static_cast<int64_t>(i - first));
+    ToProto(T_odom_world * PoseFromProto(kf.t_odom_cam()), kf.mutable_t_odom_cam());
+    EXPECT_TRUE(stream->Write(kf));
+    loci::v1::KeyframeAck ack;
+    EXPECT_TRUE(stream->Read(&ack));
+    EXPECT_EQ(ack.status().code(), 0) << ack.status().message();
+  }
+  stream->WritesDone();
+  EXPECT_TRUE(stream->Finish().ok());
+  return session.session_id();
+}
+
+std::vector<loci::v1::Object> Find(loci::v1::Query::Stub* stub, bool include_islands) {
+  grpc::ClientContext ctx;
+  loci::v1::FindObjectsRequest req;
+  req.set_confirmed_only(true);
+  req.set_include_islands(include_islands);
+  loci::v1::FindObjectsResponse resp;
+  EXPECT_TRUE(stub->FindObjects(&ctx, req, &resp).ok());
+  return {resp.objects().begin(), resp.objects().end()};
+}
+
+loci::v1::GetStatsResponse Stats(loci::v1::Query::Stub* stub) {
+  grpc::ClientContext ctx;
+  loci::v1::GetStatsResponse resp;
+  EXPECT_TRUE(stub->GetStats(&ctx, {}, &resp).ok());
+  return resp;
+}
+
+const loci::v1::SessionAlignment* SessionOf(const loci::v1::GetStatsResponse& stats,
+                                            const std::string& robot) {
+  for (const auto& s : stats.session_alignments()) {
+    if (s.robot() == robot) return &s;
+  }
+  return nullptr;
+}
+
+std::vector<loci::v1::Object> InIsland(const std::vector<loci::v1::Object>& objects,
+                                       const std::string& island) {
+  std::vector<loci::v1::Object> out;
+  for (const auto& o : objects) {
+    if (o.island() == island) out.push_back(o);
+  }
+  return out;
+}
+
+class Islands : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = ::testing::TempDir() + "/loci_islands_" + std::to_string(getpid());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    for (const auto& [name, seed] : {std::pair<std::string, uint64_t>{"a", 2}, {"b", 1}}) {
+      ASSERT_TRUE(synth::WriteSequence(Room(seed), dir_ + "/" + name).ok());
+      auto views = testing::LoadSceneKeyframes(dir_ + "/" + name);
+      ASSERT_TRUE(views.ok()) << views.status();
+      views_[name] = std::move(*views);
+    }
+  }
+  void TearDown() override {
+    if (!HasFailure()) fs::remove_all(dir_);
+  }
+
+  // B's island objects against room b's truth (objects detected in >= 3 keyframes), in room
+  // b's world: T_world_island = T_world_odomB * T_island_odomB^-1.
+  void ExpectExact(const std::vector<loci::v1::Object>& island_objects,
+                   const SE3d& T_island_odom, const ServerOptions& options) {
+    const SE3d T_world_odom = PoseFromProto(views_["b"][0].t_odom_cam());
+    const SE3d T_world_island = T_world_odom * T_island_odom.inverse();
+    std::vector<MapObject> objects;
+    for (const auto& o : island_objects) objects.push_back(Transformed(FromProto(o), T_world_island));
+    auto gt = ReadObjectsJson(dir_ + "/b/objects.json");
+    ASSERT_TRUE(gt.ok());
+    std::map<int64_t, int> detected_in;
+    for (const auto& kf : views_["b"]) {
+      for (const auto& d : kf.detections()) ++detected_in[d.track_id()];
+    }
+    std::erase_if(gt->objects, [&](const GroundTruthObject& o) { return detected_in[o.id] < 3; });
+    ObjectEvalOptions eo;
+    for (const auto& c : options.map.mapped_classes) {
+      if (!options.map.IsDynamic(c)) eo.classes.push_back(c);
+    }
+    const ObjectEvalResult r = EvaluateObjects(objects, *gt, eo);
+    EXPECT_GE(r.gt_count, 4);
+    EXPECT_EQ(r.count_error, 0.0) << "island " << r.detected_count << ", truth " << r.gt_count;
+    EXPECT_TRUE(r.missed_gt_ids.empty());
+    EXPECT_TRUE(r.false_positive_ids.empty());
+    for (const ObjectMatch& m : r.matches) {
+      EXPECT_LT(m.centroid_error_m, 0.02) << m.class_name << " (gt " << m.gt_id << ")";
+    }
+  }
+
+  std::string dir_;
+  std::map<std::string, std::vector<loci::v1::Keyframe>> views_;
+};
+
+TEST_F(Islands, UnalignedRobotGetsAnExactIslandMapThatAlignmentDissolves) {
+  const std::string db = dir_ + "/islands.db";
+  std::string island;
+  int64_t island_first_id = 0;
+  std::vector<loci::v1::Object> before_restart;
+  {
+    Running r = Start(db);
+    ASSERT_TRUE(r.server);
+    Stream(r.mapping.get(), "A", views_["a"], 0, false);
+    island = Stream(r.mapping.get(), "B", views_["b"], 0, true);
+    r.server->Flush();
+
+    const loci::v1::GetStatsResponse stats = Stats(r.query.get());
+    const loci::v1::SessionAlignment* b = SessionOf(stats, "B");
+    ASSERT_NE(b, nullptr);
+    ASSERT_FALSE(b->aligned()) << "room b is another place: B must stay an island";
+    const std::vector<loci::v1::Object> shared = Find(r.query.get(), false);
+    const std::vector<loci::v1::Object> all = Find(r.query.get(), true);
+    for (const auto& o : shared) EXPECT_EQ(o.island(), "") << o.id();
+    before_restart = InIsland(all, island);
+    ASSERT_EQ(all.size(), shared.size() + before_restart.size());
+    EXPECT_EQ(b->island_objects(), before_restart.size());
+    for (const auto& o : before_restart) EXPECT_GT(o.id(), kIslandIdStride);
+    island_first_id = (before_restart.front().id() - 1) / kIslandIdStride * kIslandIdStride + 1;
+    ExpectExact(before_restart, PoseFromProto(b->t_island_odom()), r.server->options());
+
+    // GetObject by an island id; Ask names the island for a class only room b holds.
+    {
+      grpc::ClientContext ctx;
+      loci::v1::GetObjectRequest req;
+      req.set_id(before_restart.front().id());
+      loci::v1::GetObjectResponse resp;
+      ASSERT_TRUE(r.query->GetObject(&ctx, req, &resp).ok());
+      EXPECT_EQ(resp.object().island(), island);
+      EXPECT_FALSE(resp.keyframe_ids().empty());
+    }
+    std::set<std::string> shared_classes;
+    for (const auto& o : shared) shared_classes.insert(o.class_name());
+    const auto only_b = std::find_if(before_restart.begin(), before_restart.end(), [&](const auto& o) {
+      return !shared_classes.count(o.class_name());
+    });
+    ASSERT_NE(only_b, before_restart.end()) << "rooms a and b hold the same classes";
+    grpc::ClientContext ctx;
+    loci::v1::AskRequest ask;
+    ask.set_text("where is the " + only_b->class_name());
+    loci::v1::AskResponse answer;
+    ASSERT_TRUE(r.query->Ask(&ctx, ask, &answer).ok());
+    std::printf("  %s? %s\n", ask.text().c_str(), answer.answer().c_str());
+    EXPECT_NE(answer.answer().find("robot B's island (session " + island), std::string::npos)
+        << answer.answer();
+    ASSERT_FALSE(answer.objects().empty()) << answer.answer();
+    EXPECT_EQ(answer.objects(0).island(), island) << answer.answer();
+  }
+  {  // The island is the map B makes alone: the same objects in the same frame.
+    Running solo = Start(dir_ + "/solo.db", /*loops=*/false);
+    ASSERT_TRUE(solo.server);
+    Stream(solo.mapping.get(), "B", views_["b"], 0, true);
+    solo.server->Flush();
+    const std::vector<loci::v1::Object> alone = Find(solo.query.get(), false);
+    ASSERT_EQ(alone.size(), before_restart.size());
+    for (size_t i = 0; i < alone.size(); ++i) {
+      EXPECT_EQ(alone[i].class_name(), before_restart[i].class_name());
+      EXPECT_EQ(alone[i].id() + island_first_id - 1, before_restart[i].id());
+      EXPECT_NEAR(alone[i].centroid_m().x(), before_restart[i].centroid_m().x(), 1e-3);
+      EXPECT_NEAR(alone[i].centroid_m().y(), before_restart[i].centroid_m().y(), 1e-3);
+      EXPECT_NEAR(alone[i].centroid_m().z(), before_restart[i].centroid_m().z(), 1e-3);
+    }
+  }
+  // A restart re-derives the island from the stored products: the same objects.
+  Running r = Start(db);
+  ASSERT_TRUE(r.server);
+  const std::vector<loci::v1::Object> after = InIsland(Find(r.query.get(), true), island);
+  ASSERT_EQ(after.size(), before_restart.size());
+  for (size_t i = 0; i < after.size(); ++i) {
+    EXPECT_EQ(after[i].id(), before_restart[i].id());
+    EXPECT_EQ(after[i].class_name(), before_restart[i].class_name());
+    EXPECT_NEAR(after[i].centroid_m().x(), before_restart[i].centroid_m().x(), 1e-3);
+    EXPECT_NEAR(after[i].centroid_m().z(), before_restart[i].centroid_m().z(), 1e-3);
+  }
+  // C starts in A's room, elsewhere, with its own odometry: aligned, and no island of C stays.
+  // Watchers saw C's island objects come and go.
+  auto events = std::make_shared<ObjectEventQueue>(100000);
+  ASSERT_TRUE(r.server->Subscribe(events).ok());
+  const std::string c = Stream(r.mapping.get(), "C", views_["a"], 20, true);
+  r.server->Flush();
+  r.server->Unsubscribe(events);
+  events->Close();
+  std::set<int64_t> created, removed;
+  while (std::optional<ObjectEventOut> e = events->Pop()) {
+    if (e->object.island != c) continue;
+    if (e->kind == ObjectChange::Kind::kCreated) created.insert(e->object.id);
+    if (e->kind == ObjectChange::Kind::kRemoved) removed.insert(e->object.id);
+  }
+  EXPECT_FALSE(created.empty()) << "C's first keyframes were mapped in an island";
+  for (int64_t id : created) EXPECT_TRUE(removed.count(id)) << id;
+  const loci::v1::GetStatsResponse stats = Stats(r.query.get());
+  const loci::v1::SessionAlignment* sc = SessionOf(stats, "C");
+  ASSERT_NE(sc, nullptr);
+  EXPECT_TRUE(sc->aligned());
+  const std::vector<loci::v1::Object> all = Find(r.query.get(), true);
+  EXPECT_TRUE(InIsland(all, c).empty());
+  EXPECT_EQ(InIsland(all, island).size(), before_restart.size());
+}
+
+}  // namespace
+}  // namespace loci::server
