@@ -127,12 +127,12 @@ loci::v1::GetStatsResponse Stats(loci::v1::Query::Stub* stub) {
   return resp;
 }
 
-const loci::v1::SessionAlignment* SessionOf(const loci::v1::GetStatsResponse& stats,
-                                            const std::string& robot) {
-  for (const auto& s : stats.session_alignments()) {
-    if (s.robot() == robot) return &s;
-  }
-  return nullptr;
+// Every session of the stats, by robot name.
+std::map<std::string, loci::v1::SessionAlignment> SessionsByRobot(
+    const loci::v1::GetStatsResponse& stats) {
+  std::map<std::string, loci::v1::SessionAlignment> out;
+  for (const auto& s : stats.session_alignments()) out[s.robot()] = s;
+  return out;
 }
 
 std::vector<loci::v1::Object> InIsland(const std::vector<loci::v1::Object>& objects,
@@ -206,9 +206,9 @@ TEST_F(Islands, UnalignedRobotGetsAnExactIslandMapThatAlignmentDissolves) {
     island = Stream(r.mapping.get(), "B", views_["b"], 0, true);
     r.server->Flush();
 
-    const loci::v1::GetStatsResponse stats = Stats(r.query.get());
-    const loci::v1::SessionAlignment* b = SessionOf(stats, "B");
-    ASSERT_NE(b, nullptr);
+    const auto sessions = SessionsByRobot(Stats(r.query.get()));
+    ASSERT_TRUE(sessions.count("B"));
+    const loci::v1::SessionAlignment* b = &sessions.at("B");
     ASSERT_FALSE(b->aligned()) << "room b is another place: B must stay an island";
     const std::vector<loci::v1::Object> shared = Find(r.query.get(), false);
     const std::vector<loci::v1::Object> all = Find(r.query.get(), true);
@@ -289,10 +289,9 @@ TEST_F(Islands, UnalignedRobotGetsAnExactIslandMapThatAlignmentDissolves) {
   }
   EXPECT_FALSE(created.empty()) << "C's first keyframes were mapped in an island";
   for (int64_t id : created) EXPECT_TRUE(removed.count(id)) << id;
-  const loci::v1::GetStatsResponse stats = Stats(r.query.get());
-  const loci::v1::SessionAlignment* sc = SessionOf(stats, "C");
-  ASSERT_NE(sc, nullptr);
-  EXPECT_TRUE(sc->aligned());
+  const auto sessions = SessionsByRobot(Stats(r.query.get()));
+  ASSERT_TRUE(sessions.count("C"));
+  EXPECT_TRUE(sessions.at("C").aligned());
   const std::vector<loci::v1::Object> all = Find(r.query.get(), true);
   EXPECT_TRUE(InIsland(all, c).empty());
   EXPECT_EQ(InIsland(all, island).size(), before_restart.size());
