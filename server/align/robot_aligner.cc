@@ -45,6 +45,30 @@ bool RobotAligner::AnyAligned() const {
   return false;
 }
 
+std::pair<int64_t, SE3d> RobotAligner::IslandOfLocked(int64_t session_row) const {
+  auto it = sessions_.find(session_row);
+  if (it == sessions_.end() || it->second.island_row == 0) return {session_row, SE3d::Identity()};
+  return {it->second.island_row, it->second.T_island_odom};
+}
+
+std::pair<int64_t, SE3d> RobotAligner::IslandOf(int64_t session_row) const {
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  return IslandOfLocked(session_row);
+}
+
+bool RobotAligner::SameIsland(int64_t a_row, int64_t b_row) const {
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  return IslandOfLocked(a_row).first == IslandOfLocked(b_row).first;
+}
+
+void RobotAligner::SetIsland(int64_t session_row, int64_t island_row, const SE3d& T_island_odom) {
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  auto it = sessions_.find(session_row);
+  if (it == sessions_.end() || it->second.T_base_odom || island_row == session_row) return;
+  it->second.island_row = island_row;
+  it->second.T_island_odom = T_island_odom;
+}
+
 AlignStats RobotAligner::Stats() const {
   std::lock_guard<std::mutex> lock(stats_mu_);
   AlignStats s = stats_;
@@ -97,12 +121,17 @@ StatusOr<AlignOutcome> RobotAligner::AddKeyframe(const AlignKeyframe& kf, const 
   AlignOutcome out;
   std::optional<SessionAlignment>& result = out.alignment;
   if (match && !aligned) {
-    out.matches = Match(kf, features, bow, /*loops=*/false);
+    out.matches = Match(kf, features, bow, /*loops=*/false, /*query_aligned=*/false);
     result = Gate(kf, Estimates(kf, out.matches));
+    if (result) {
+      out.island_alignments = AlignIsland(*result);
+    } else {
+      out.join = Join(kf, out.matches);
+    }
   } else if (match && options_.loops.enabled) {
-    out.matches = Match(kf, features, bow, /*loops=*/true);
+    out.matches = Match(kf, features, bow, /*loops=*/true, /*query_aligned=*/true);
   } else if (match && Refining(kf.session_row)) {
-    out.matches = Match(kf, features, bow, /*loops=*/false);
+    out.matches = Match(kf, features, bow, /*loops=*/false, /*query_aligned=*/true);
     result = Refine(kf, Estimates(kf, out.matches));
   }
   if (Status st = cache_.Put(kf.keyframe_id, std::move(features)); !st.ok()) {
@@ -133,7 +162,8 @@ Status RobotAligner::IndexStored(const AlignKeyframe& kf, place::KeyframeFeature
 
 std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
                                                const place::KeyframeFeatures& features,
-                                               const place::BowVector& bow, bool loops) {
+                                               const place::BowVector& bow, bool loops,
+                                               bool query_aligned) {
   std::vector<VerifiedMatch> matches;
   int tried = 0;
   uint64_t verified = 0, rejected = 0, missing = 0;
@@ -143,8 +173,11 @@ std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
     if (a == indexed_.end()) continue;
     const bool loop = a->second.session_row == kf.session_row;
     if (loop && (!loops || kf.t_ns - a->second.t_ns < options_.loops.min_gap_ns())) continue;
-    // Unaligned sessions do not align each other.
-    if (!loop && !Alignment(a->second.session_row)) continue;
+    // A candidate of an unaligned session: only for an unaligned query, in another island.
+    if (!loop && !Alignment(a->second.session_row) &&
+        (query_aligned || SameIsland(a->second.session_row, kf.session_row))) {
+      continue;
+    }
     if (tried++ >= options_.max_verify) break;
     StatusOr<std::shared_ptr<const place::KeyframeFeatures>> stored = cache_.Get(c.keyframe_id);
     if (!stored.ok()) {
@@ -209,6 +242,58 @@ std::optional<SessionAlignment> RobotAligner::Gate(const AlignKeyframe& kf,
   return out;
 }
 
+std::optional<IslandJoin> RobotAligner::Join(const AlignKeyframe& kf,
+                                             const std::vector<VerifiedMatch>& matches) {
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  const auto [own_island, T_own_odom] = IslandOfLocked(kf.session_row);
+  for (const VerifiedMatch& m : matches) {  // the best-ranked match to another island
+    const IndexedKeyframe& a = indexed_.at(m.a_id);
+    if (m.loop || sessions_.at(a.session_row).T_base_odom) continue;
+    const auto [island, T_island_odomA] = IslandOfLocked(a.session_row);
+    if (island == own_island) continue;
+    const SE3d T_island_odom = T_island_odomA * a.T_odom_kf * m.T_a_b * kf.T_odom_kf.inverse();
+    const place::ConsistencyGate::Decision d =
+        gate_.Add(absl::StrCat("j", own_island, ">", island), kf.keyframe_id,
+                  T_island_odom * T_own_odom.inverse());
+    if (d.verdict != place::ConsistencyGate::Verdict::kAccepted) return std::nullopt;
+    SE3d T_island_own = d.T_x_y;
+    const auto [down_to, n_to] = IslandDown(island);
+    const auto [down_from, n_from] = IslandDown(own_island);
+    const bool levelled = options_.level_with_gravity && n_to >= options_.min_gravity_keyframes &&
+                          n_from >= options_.min_gravity_keyframes;
+    if (levelled) {
+      T_island_own = LevelOnto(T_island_own, down_from, down_to,
+                               T_island_own * (T_own_odom * kf.T_odom_kf.translation()));
+    }
+    IslandJoin join{own_island, island, {}, kf.keyframe_id};
+    for (auto& [row, s] : sessions_) {
+      if (s.T_base_odom || IslandOfLocked(row).first != own_island) continue;
+      s.T_island_odom = T_island_own * IslandOfLocked(row).second;
+      s.island_row = island;
+      join.T_island_odom.emplace_back(row, s.T_island_odom);
+    }
+    spdlog::info("island {} joined island {} at keyframe {} ({} agreeing matches{})", own_island,
+                 island, kf.keyframe_id, d.agreeing, levelled ? ", levelled with gravity" : "");
+    return join;
+  }
+  return std::nullopt;
+}
+
+std::vector<SessionAlignment> RobotAligner::AlignIsland(const SessionAlignment& aligned) {
+  std::lock_guard<std::mutex> lock(sessions_mu_);
+  const auto [island, T_island_odom] = IslandOfLocked(aligned.session_row);
+  const SE3d T_base_island = aligned.T_base_odom * T_island_odom.inverse();
+  std::vector<SessionAlignment> out;
+  for (auto& [row, s] : sessions_) {
+    if (s.T_base_odom || IslandOfLocked(row).first != island) continue;
+    s.T_base_odom = T_base_island * IslandOfLocked(row).second;
+    s.recognised = true;
+    out.push_back({row, *s.T_base_odom, aligned.keyframe_id, aligned.matches, aligned.levelled,
+                   false});
+  }
+  return out;
+}
+
 std::optional<AlignmentDelay> RobotAligner::Delay(int64_t session_row) const {
   std::lock_guard<std::mutex> lock(sessions_mu_);
   auto it = sessions_.find(session_row);
@@ -257,15 +342,33 @@ bool RobotAligner::Level(const Session& session, const Vec3d& pivot_odom,
     count += other.gravity_count;
   }
   if (count < options_.min_gravity_keyframes || down_base.norm() < 1e-9) return false;
-  const Vec3d down_odom_in_base = T_base_odom->linear() * session.gravity_sum_odom.normalized();
-  const Eigen::Matrix3d R_fix =
-      Quatd::FromTwoVectors(down_odom_in_base, down_base.normalized()).toRotationMatrix();
-  const Vec3d pivot_base = *T_base_odom * pivot_odom;  // stays where the images put it
-  SE3d levelled = SE3d::Identity();
-  levelled.linear() = R_fix * T_base_odom->linear();
-  levelled.translation() = pivot_base - levelled.linear() * pivot_odom;
-  *T_base_odom = levelled;
+  *T_base_odom = LevelOnto(*T_base_odom, session.gravity_sum_odom, down_base,
+                           *T_base_odom * pivot_odom);
   return true;
+}
+
+std::pair<Vec3d, int> RobotAligner::IslandDown(int64_t island_row) const {
+  Vec3d down = Vec3d::Zero();
+  int count = 0;
+  for (const auto& [row, s] : sessions_) {
+    if (s.T_base_odom || IslandOfLocked(row).first != island_row) continue;
+    down += IslandOfLocked(row).second.linear() * s.gravity_sum_odom;
+    count += s.gravity_count;
+  }
+  return {down, count};
+}
+
+SE3d LevelOnto(const SE3d& T_to_from, const Vec3d& down_from, const Vec3d& down_to,
+               const Vec3d& pivot_to) {
+  if (down_from.norm() < 1e-9 || down_to.norm() < 1e-9) return T_to_from;
+  const Vec3d down_from_in_to = T_to_from.linear() * down_from.normalized();
+  const Eigen::Matrix3d R_fix =
+      Quatd::FromTwoVectors(down_from_in_to, down_to.normalized()).toRotationMatrix();
+  SE3d levelled = SE3d::Identity();
+  levelled.linear() = R_fix * T_to_from.linear();
+  // The pivot (where the images put the matched keyframe) stays where it is.
+  levelled.translation() = pivot_to - R_fix * (pivot_to - T_to_from.translation());
+  return levelled;
 }
 
 }  // namespace loci::server

@@ -14,7 +14,12 @@
 // keyframes keep being matched until refine_max_matches agreeing matches are in; each time they
 // double, AddKeyframe returns a refined placement (their mean, levelled).
 //
-// Two unaligned sessions are not matched with each other: a session aligns to the shared map.
+// Unaligned sessions also form map islands: a keyframe of an unaligned session is matched
+// against the keyframes of unaligned sessions in other islands too, and when min_matches of
+// them agree (ConsistencyGate, hypothesis per pair of islands), the querying session's island
+// joins the other: each of its sessions gets T_island_odom in the other island's frame
+// (levelled with gravity as a merge is). When any session of an island is aligned to the
+// shared map, every session of the island is, through its T_island_odom.
 // The bag-of-words index lives in memory; each keyframe's features go to a FeatureStore (the
 // map database on the server) and only the most recently used stay in memory
 // (place/feature_cache.h). After a restart the server rebuilds the index from the stored
@@ -70,9 +75,21 @@ struct VerifiedMatch {
   bool loop = false; // same session
 };
 
-// What one keyframe gave: an alignment of its session, and the verified matches.
+// An island (all its sessions) placed in another unaligned session's island.
+struct IslandJoin {
+  int64_t from_island_row = 0;  // the island that moved (it no longer exists)
+  int64_t island_row = 0;       // the island it joined
+  // Every session that moved, with its odometry frame's placement in that island's frame.
+  std::vector<std::pair<int64_t, SE3d>> T_island_odom;
+  int64_t keyframe_id = 0;  // the keyframe whose match completed the consensus
+};
+
+// What one keyframe gave: an alignment of its session (and of the other sessions of its island,
+// which follow it), an island join, and the verified matches.
 struct AlignOutcome {
   std::optional<SessionAlignment> alignment;
+  std::vector<SessionAlignment> island_alignments;
+  std::optional<IslandJoin> join;
   std::vector<VerifiedMatch> matches;
 };
 
@@ -96,6 +113,12 @@ struct AlignStats {
   uint64_t indexed_from_store = 0;  // keyframes indexed from stored features (IndexStored)
 };
 
+// T_to_from turned about pivot_to (a point in the `to` frame, kept where it is) so that the
+// `from` side's down (its frame) maps onto the `to` side's down: only yaw and translation are
+// left to the images. Either down zero: unchanged.
+SE3d LevelOnto(const SE3d& T_to_from, const Vec3d& down_from, const Vec3d& down_to,
+               const Vec3d& pivot_to);
+
 class RobotAligner {
  public:
   // `features` keeps every keyframe's features (it outlives the aligner); null: in memory.
@@ -110,6 +133,11 @@ class RobotAligner {
   bool Known(int64_t session_row) const;
   // Whether any declared session is aligned.
   bool AnyAligned() const;
+  // An unaligned session's island: the row of the island's first session (its own row when it
+  // joined none) and where the session's odometry frame sits in that island's frame.
+  std::pair<int64_t, SE3d> IslandOf(int64_t session_row) const;
+  // Restores an island membership (after a restart): the unaligned session is in island_row.
+  void SetIsland(int64_t session_row, int64_t island_row, const SE3d& T_island_odom);
 
   // See the file comment. `bgr` CV_8UC3 and `depth_m` CV_32FC1 (0 = no depth) of the keyframe;
   // an unknown session is an error, as are images the features cannot be read from.
@@ -143,6 +171,8 @@ class RobotAligner {
     int keyframes = 0;            // seen by AddKeyframe
     int64_t first_t_ns = 0;
     std::optional<AlignmentDelay> delay;
+    int64_t island_row = 0;  // unaligned: the island joined (0 = its own)
+    SE3d T_island_odom = SE3d::Identity();
   };
   struct IndexedKeyframe {  // the features are in cache_
     int64_t session_row = 0;
@@ -158,8 +188,17 @@ class RobotAligner {
   void CountIndexed(double t0_ms);
   // Verifies the best candidates (max_verify, in rank order) among the keyframes of aligned
   // sessions and, with loops, the older ones of kf's own session; every match that verifies.
+  // An unaligned query also verifies candidates of unaligned sessions in other islands.
   std::vector<VerifiedMatch> Match(const AlignKeyframe& kf, const place::KeyframeFeatures& features,
-                                   const place::BowVector& bow, bool loops);
+                                   const place::BowVector& bow, bool loops, bool query_aligned);
+  // IslandOf with sessions_mu_ held.
+  std::pair<int64_t, SE3d> IslandOfLocked(int64_t session_row) const;
+  // Whether two sessions are one unaligned island (sessions_mu_ not held).
+  bool SameIsland(int64_t a_row, int64_t b_row) const;
+  // The best-ranked match to another island, through the gate; the join when it accepts.
+  std::optional<IslandJoin> Join(const AlignKeyframe& kf, const std::vector<VerifiedMatch>& matches);
+  // After `aligned` placed its session: the other sessions of its island, placed through it.
+  std::vector<SessionAlignment> AlignIsland(const SessionAlignment& aligned);
   // The estimates of T_base_odom(kf's session), one per merge match.
   std::vector<SE3d> Estimates(const AlignKeyframe& kf, const std::vector<VerifiedMatch>& matches) const;
   std::optional<SessionAlignment> Gate(const AlignKeyframe& kf, const std::vector<SE3d>& estimates);
@@ -171,6 +210,9 @@ class RobotAligner {
   // Replaces the roll and pitch of T_base_odom with those gravity gives, keeping the matched
   // keyframe's position; false when either side lacks gravity.
   bool Level(const Session& session, const Vec3d& pivot_odom, SE3d* T_base_odom) const;
+  // The sum of the gravity (unit vectors, pointing down) of an island's sessions in its frame,
+  // and how many keyframes it sums (sessions_mu_ held).
+  std::pair<Vec3d, int> IslandDown(int64_t island_row) const;
   static std::string Key(int64_t session_row);
 
   place::PlaceOptions place_;

@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+
 namespace loci::server {
 
 IslandMaps::IslandMaps(const MapOptions& options,
@@ -11,7 +13,8 @@ IslandMaps::IslandMaps(const MapOptions& options,
 }
 
 void IslandMaps::Integrate(int64_t session_row, const std::string& island,
-                           const MapperKeyframe& keyframe, const KeyframeProducts& products) {
+                           const MapperKeyframe& keyframe, const KeyframeProducts& products,
+                           const SE3d& T_island_odom) {
   std::shared_ptr<Mapper> map;
   {
     std::lock_guard<std::mutex> lock(mu_);
@@ -29,13 +32,17 @@ void IslandMaps::Integrate(int64_t session_row, const std::string& island,
           listener_(tagged);
         });
       }
-      it = islands_.emplace(session_row, Island{session_row, island, keyframe.robot, fresh}).first;
+      it = islands_.emplace(session_row, Island{session_row, island, {}, fresh}).first;
+    }
+    std::vector<std::string>& robots = it->second.robots;
+    if (std::find(robots.begin(), robots.end(), keyframe.robot) == robots.end()) {
+      robots.push_back(keyframe.robot);
     }
     // Only the mapping thread integrates, so the map is not dropped under this call.
     map = std::const_pointer_cast<Mapper>(it->second.map);
   }
   MapperKeyframe in_island = keyframe;
-  in_island.T_base_kf = keyframe.T_odom_kf;
+  in_island.T_base_kf = T_island_odom * keyframe.T_odom_kf;
   map->Integrate(in_island, products);
 }
 

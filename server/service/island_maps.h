@@ -7,8 +7,11 @@
 // When the session is aligned, its island is dropped (its objects are REMOVED) and its
 // keyframes enter the shared map, where fusion gives each physical object one id.
 //
-// Object ids of an island start at session_row * 2^32 + 1 (kIslandIdStride), so they never
-// meet a shared-map id or another island's. Integrate and Drop are called on the mapping
+// Sessions whose islands overlap join into one island (server/align/robot_aligner.h): the
+// joining island is dropped and its keyframes are mapped again into the other.
+//
+// Object ids of an island start at its first session's row * 2^32 + 1 (kIslandIdStride), so
+// they never meet a shared-map id or another island's. Integrate and Drop are called on the mapping
 // thread; the readers from any thread.
 #pragma once
 
@@ -35,18 +38,19 @@ class IslandMaps {
   IslandMaps(const MapOptions& options,
              std::function<void(const std::vector<ObjectEventOut>&)> listener);
 
-  // Maps one keyframe of an unaligned session into its island (made on its first keyframe)
-  // from the keyframe's products; `island` names it (the session id). The pose used is
-  // T_odom_kf: an island's base frame is the session's odometry frame.
-  void Integrate(int64_t session_row, const std::string& island, const MapperKeyframe& keyframe,
-                 const KeyframeProducts& products);
-  // Forgets the session's island (it was aligned); returns REMOVED events for its objects.
-  std::vector<ObjectEventOut> Drop(int64_t session_row);
+  // Maps one keyframe of an unaligned session into island `island_row` (made on its first
+  // keyframe; `island` names it: its first session's id) from the keyframe's products, at
+  // T_island_odom * T_odom_kf: an island's base frame is its first session's odometry frame, and
+  // T_island_odom places the keyframe's session in it (identity for that first session).
+  void Integrate(int64_t island_row, const std::string& island, const MapperKeyframe& keyframe,
+                 const KeyframeProducts& products, const SE3d& T_island_odom = SE3d::Identity());
+  // Forgets an island (it was aligned, or joined another); REMOVED events for its objects.
+  std::vector<ObjectEventOut> Drop(int64_t island_row);
 
   struct Island {
-    int64_t session_row = 0;
-    std::string name;  // the session id
-    std::string robot;
+    int64_t session_row = 0;  // the island's first session
+    std::string name;         // its session id
+    std::vector<std::string> robots;  // robots whose keyframes it maps, in order of arrival
     std::shared_ptr<const Mapper> map;
   };
   std::vector<Island> List() const;

@@ -130,6 +130,11 @@ class MapServer {
   // Stores the session's placement and maps its held keyframes (those the worker has seen and
   // not mapped).
   void ApplyAlignment(const SessionAlignment& alignment);
+  // Stores where the joining island's sessions now sit, drops that island and maps their
+  // keyframes the worker has seen into the island they joined.
+  void ApplyJoin(const IslandJoin& join);
+  // An island's name: its first session's id.
+  std::string IslandName(int64_t island_row);
   // After a restart: indexes every stored keyframe for place recognition from its stored
   // features, or its images where it has none, on the loading thread once the map is ready
   // (new keyframes are indexed meanwhile).

@@ -6,6 +6,7 @@
 // stored products (under mapping_mu_, between two keyframes of the worker).
 #include <spdlog/spdlog.h>
 
+#include <map>
 #include <set>
 
 #include "server/service/keyframe_decoder.h"
@@ -24,12 +25,11 @@ bool MapServer::MapQueued(MapperKeyframe& kf) {
   if (T_base_odom) {
     kf.T_base_kf = *T_base_odom * kf.T_odom_kf;  // the session may have been aligned since
     MapAndStoreProducts(*mapper_, kf, detector_.get(), store_.get());
-  } else {  // held back from the shared map, mapped in its own island
+  } else {  // held back from the shared map, mapped in its island
     const KeyframeProducts products =
         BuildAndStoreProducts(*mapper_, kf, detector_.get(), store_.get());
-    const std::optional<SessionRecord> s = SessionByRow(kf.session_row);
-    islands_->Integrate(kf.session_row, s ? s->session_id : std::to_string(kf.session_row), kf,
-                        products);
+    const auto [island_row, T_island_odom] = aligner_->IslandOf(kf.session_row);
+    islands_->Integrate(island_row, IslandName(island_row), kf, products, T_island_odom);
   }
   RecordForLoops(kf);
   worker_last_id_ = kf.keyframe_id;
@@ -55,13 +55,25 @@ void MapServer::RecognisePlace(const MapperKeyframe& kf) {
   std::lock_guard<std::mutex> mapping(mapping_mu_);
   RecordMatches(outcome->matches);
   if (outcome->alignment) ApplyAlignment(*outcome->alignment);
+  for (const SessionAlignment& a : outcome->island_alignments) ApplyAlignment(a);
+  if (outcome->join) ApplyJoin(*outcome->join);
   MaybeCloseLoops();
 }
 
 std::optional<SessionRecord> MapServer::SessionByRow(int64_t session_row) {
-  std::lock_guard<std::mutex> lock(sessions_mu_);
-  for (const auto& [id, s] : sessions_) {
-    if (s.row_id == session_row) return s;
+  {
+    std::lock_guard<std::mutex> lock(sessions_mu_);
+    for (const auto& [id, s] : sessions_) {
+      if (s.row_id == session_row) return s;
+    }
+  }
+  // Not cached (a session read back after a restart): from the store.
+  auto all = store_->ListSessions();
+  if (!all.ok()) return std::nullopt;
+  for (const SessionRecord& r : *all) {
+    if (r.row_id != session_row) continue;
+    SetSessionCache(r);
+    return r;
   }
   return std::nullopt;
 }
@@ -74,15 +86,6 @@ void MapServer::SetSessionCache(const SessionRecord& session) {
 void MapServer::DeclareSession(int64_t session_row) {
   if (aligner_->Known(session_row)) return;
   std::optional<SessionRecord> s = SessionByRow(session_row);
-  if (!s) {  // not cached (cannot happen for a keyframe that was just ingested): from the store
-    auto all = store_->ListSessions();
-    if (all.ok()) {
-      for (const SessionRecord& r : *all) {
-        if (r.row_id == session_row) s = r;
-      }
-    }
-    if (s) SetSessionCache(*s);
-  }
   if (!s) {
     aligner_->AddSession(session_row, std::nullopt);
     return;
@@ -98,6 +101,57 @@ void MapServer::DeclareSession(int64_t session_row) {
   }
   aligner_->AddSession(session_row, s->aligned ? std::optional<SE3d>(s->T_base_odom)
                                                : std::nullopt);
+  if (!s->aligned && s->island_row != 0) {
+    aligner_->SetIsland(session_row, s->island_row, s->T_island_odom);
+  }
+}
+
+std::string MapServer::IslandName(int64_t island_row) {
+  const std::optional<SessionRecord> s = SessionByRow(island_row);
+  return s ? s->session_id : std::to_string(island_row);
+}
+
+void MapServer::ApplyJoin(const IslandJoin& join) {
+  std::set<int64_t> moved;
+  std::map<int64_t, SE3d> T_island_odom;
+  for (const auto& [row, T] : join.T_island_odom) {
+    moved.insert(row);
+    T_island_odom[row] = T;
+    if (Status st = store_->SetSessionIsland(row, join.island_row, T); !st.ok()) {
+      spdlog::warn("session row {}: island join not stored ({}); it joins again after a restart "
+                   "when it matches again", row, st.ToString());
+    }
+    if (std::optional<SessionRecord> s = SessionByRow(row)) {
+      s->island_row = join.island_row;
+      s->T_island_odom = T;
+      SetSessionCache(*s);
+    }
+  }
+  Publish(islands_->Drop(join.from_island_row));
+  // The moved sessions' keyframes the worker has seen, again, into the island they joined.
+  const int64_t upto_keyframe_id = worker_last_id_;
+  const std::string name = IslandName(join.island_row);
+  KeyframeScan scan;
+  scan.products_fingerprint = mapper_->options().ProductsFingerprint();
+  LoadReport report;
+  const Status st = store_->ForEachKeyframe(
+      0,
+      [&](KeyframeRecord rec) -> Status {
+        if (rec.id > upto_keyframe_id || !moved.count(rec.session_row)) return absl::OkStatus();
+        std::optional<SessionRecord> s = SessionByRow(rec.session_row);
+        if (!s) return absl::OkStatus();
+        MapperKeyframe meta;
+        const std::optional<KeyframeProducts> products =
+            StoredProducts(rec, *s, *mapper_, detector_.get(), store_.get(), &report, &meta);
+        if (products) {
+          islands_->Integrate(join.island_row, name, meta, *products, T_island_odom[rec.session_row]);
+        }
+        return absl::OkStatus();
+      },
+      scan);
+  spdlog::info("island {} joined island {}: {} keyframes mapped again{}", join.from_island_row,
+               join.island_row, report.keyframes(),
+               st.ok() ? "" : absl::StrCat("; stopped: ", st.ToString()));
 }
 
 void MapServer::ApplyAlignment(const SessionAlignment& a) {
@@ -110,7 +164,9 @@ void MapServer::ApplyAlignment(const SessionAlignment& a) {
                  s->session_id, st.ToString());
   }
   SetSessionCache(*s);
-  Publish(islands_->Drop(s->row_id));  // its objects now enter the shared map
+  // Its island's objects now enter the shared map (with the island's other sessions, which are
+  // aligned with it).
+  Publish(islands_->Drop(s->island_row != 0 ? s->island_row : s->row_id));
   if (a.refined) {
     MoveSession(a);
     return;
@@ -158,6 +214,8 @@ void MapServer::LoadIslands() {
   }
   for (const SessionRecord& s : *sessions) {
     if (s.aligned) continue;
+    const int64_t island_row = s.island_row != 0 ? s.island_row : s.row_id;
+    const std::string name = IslandName(island_row);
     KeyframeScan scan;
     scan.products_fingerprint = mapper_->options().ProductsFingerprint();
     scan.session_row = s.row_id;
@@ -169,7 +227,7 @@ void MapServer::LoadIslands() {
           MapperKeyframe meta;
           const std::optional<KeyframeProducts> products = StoredProducts(
               rec, s, *mapper_, detector_.get(), store_.get(), &report, &meta);
-          if (products) islands_->Integrate(s.row_id, s.session_id, meta, *products);
+          if (products) islands_->Integrate(island_row, name, meta, *products, s.T_island_odom);
           return absl::OkStatus();
         },
         scan);

@@ -1,6 +1,7 @@
 #include "server/service/query_adapter.h"
 
 #include <absl/strings/str_cat.h>
+#include <absl/strings/str_join.h>
 
 #include <algorithm>
 #include <cmath>
@@ -93,11 +94,11 @@ StatusOr<loci::v1::AskResponse> QueryAdapter::Ask(const loci::v1::AskRequest& re
     // Before: what the shared map says, or that it has none of it.
     const std::string before =
         answer.objects().empty() ? "Not in the shared map." : answer.answer() + " Also";
-    answer.set_answer(absl::StrCat(before, answer.objects().empty() ? " In" : " in", " robot ",
-                                   island.robot, "'s island (session ", island.name,
-                                   ", not aligned with the shared map yet; positions in its own "
-                                   "frame): ",
-                                   in_island->answer()));
+    answer.set_answer(absl::StrCat(
+        before, answer.objects().empty() ? " In" : " in", " the island of robot",
+        island.robots.size() > 1 ? "s " : " ", absl::StrJoin(island.robots, ", "), " (",
+        island.name, ", not aligned with the shared map yet; positions in its own frame): ",
+        in_island->answer()));
     for (const loci::v1::Object& o : in_island->objects()) *answer.add_objects() = o;
     for (const loci::v1::Relation& r : in_island->relations()) *answer.add_relations() = r;
   }

@@ -86,8 +86,8 @@ class QueryAdapter final : public QueryEngine {
  public:
   explicit QueryAdapter(QueryAdapterOptions options);
 
-  // The shared map's answer; then, for each map island (a session not aligned yet) whose own
-  // answer names objects, a sentence "In robot R's island (...): ANSWER" and its objects
+  // The shared map's answer; then, for each map island (sessions not aligned yet) whose own
+  // answer names objects, a sentence "In the island of robot R (...): ANSWER" and its objects
   // (Object.island set). Relations are only found within one map.
   StatusOr<loci::v1::AskResponse> Ask(const loci::v1::AskRequest& request,
                                       const MapServer& server) override;

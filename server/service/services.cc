@@ -328,9 +328,10 @@ grpc::Status QueryService::FillAlignment(const std::vector<SessionRecord>& sessi
     out->set_aligned(s.aligned);
     if (s.aligned) ToProto(T_map_base * s.T_base_odom, out->mutable_t_map_odom());
     if (!s.aligned && server_->islands() != nullptr) {
-      if (auto island = server_->islands()->Find(s.row_id)) {
+      if (auto island = server_->islands()->Find(s.island_row != 0 ? s.island_row : s.row_id)) {
+        out->set_island(island->name);
         out->set_island_objects(island->map->Stats().confirmed_objects);
-        ToProto(island->map->MapFromBaseFrame(), out->mutable_t_island_odom());
+        ToProto(island->map->MapFromBaseFrame() * s.T_island_odom, out->mutable_t_island_odom());
       }
     }
     auto n = server_->store().CountKeyframes(s.row_id);

@@ -29,6 +29,10 @@ struct SessionRecord {
   // Whether T_base_odom is known (server/align/): an unaligned session's keyframes stay out of
   // the map.
   bool aligned = true;
+  // An unaligned session that joined another unaligned session's island: that session's row
+  // and where this one's odometry frame sits in the island's frame (0: its own island).
+  int64_t island_row = 0;
+  SE3d T_island_odom = SE3d::Identity();
   int64_t opened_ns = 0;  // wall time
   bool open = true;
 };
@@ -136,6 +140,10 @@ class MapStore {
   virtual Status CloseSession(int64_t session_row, int64_t closed_ns) = 0;
   // Marks a session aligned at T_base_odom (robot alignment).
   virtual Status SetSessionAlignment(int64_t session_row, const SE3d& T_base_odom) = 0;
+  // Places an unaligned session in another unaligned session's island (island_row) at
+  // T_island_odom; NotFound for an unknown or aligned session.
+  virtual Status SetSessionIsland(int64_t session_row, int64_t island_row,
+                                  const SE3d& T_island_odom) = 0;
 
   // Stores a keyframe in one transaction; (session_row, seq) is stored at most once.
   virtual StatusOr<InsertResult> InsertKeyframe(const KeyframeRecord& keyframe) = 0;

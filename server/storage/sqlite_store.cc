@@ -47,7 +47,7 @@ void BindCamera(Stmt& s, int i, const PinholeCamera& c) {
 constexpr char kSessionColumns[] =
     "id, session_id, robot_name, client_version, fx, fy, cx, cy, width_px, height_px, "
     "depth_scale, map_tx, map_ty, map_tz, map_qw, map_qx, map_qy, map_qz, opened_ns, closed_ns, "
-    "aligned";
+    "aligned, island_row";
 
 // Creates a missing database file with mode 0600: it holds every camera image. SQLite gives its
 // -wal and -shm files the same mode. An existing file keeps its mode.
@@ -210,6 +210,11 @@ StatusOr<std::vector<SessionRecord>> SqliteStore::QuerySessions(const std::strin
     s.opened_ns = q.Int(18);
     s.open = q.IsNull(19);
     s.aligned = q.Int(20) != 0;
+    if (!s.aligned && !q.IsNull(21)) {  // joined another session's island
+      s.island_row = q.Int(21);
+      s.T_island_odom = s.T_base_odom;
+      s.T_base_odom = SE3d::Identity();
+    }
     out.push_back(std::move(s));
   }
   if (rc != SQLITE_DONE) return SqlError(db, "query sessions");
@@ -258,6 +263,23 @@ Status SqliteStore::SetSessionAlignment(int64_t session_row, const SE3d& T_base_
     if (q.Step() != SQLITE_DONE) return SqlError(db, "align session");
     if (sqlite3_changes(db) != 1) {
       return absl::NotFoundError(absl::StrCat("no session row ", session_row));
+    }
+    return absl::OkStatus();
+  });
+}
+
+Status SqliteStore::SetSessionIsland(int64_t session_row, int64_t island_row,
+                                     const SE3d& T_island_odom) {
+  return Write([&](sqlite3* db) -> Status {
+    Stmt q(db,
+           "UPDATE sessions SET map_tx = ?, map_ty = ?, map_tz = ?, map_qw = ?, map_qx = ?,"
+           " map_qy = ?, map_qz = ?, island_row = ? WHERE id = ? AND aligned = 0");
+    LOCI_RETURN_IF_ERROR(q.status());
+    BindPose(q, 1, T_island_odom);
+    q.Bind(8, island_row).Bind(9, session_row);
+    if (q.Step() != SQLITE_DONE) return SqlError(db, "join island");
+    if (sqlite3_changes(db) != 1) {
+      return absl::NotFoundError(absl::StrCat("no unaligned session row ", session_row));
     }
     return absl::OkStatus();
   });

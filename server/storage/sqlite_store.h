@@ -46,6 +46,8 @@ class SqliteStore final : public MapStore {
   StatusOr<std::vector<SessionRecord>> ListSessions() override;
   Status CloseSession(int64_t session_row, int64_t closed_ns) override;
   Status SetSessionAlignment(int64_t session_row, const SE3d& T_base_odom) override;
+  Status SetSessionIsland(int64_t session_row, int64_t island_row,
+                          const SE3d& T_island_odom) override;
   StatusOr<InsertResult> InsertKeyframe(const KeyframeRecord& keyframe) override;
   StatusOr<int64_t> LastStoredSeq(int64_t session_row) override;
   StatusOr<LastStamp> LastStoredStamp(int64_t session_row) override;

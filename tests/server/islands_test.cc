@@ -81,25 +81,36 @@ Running Start(const std::string& db, bool loops = true) {
   return r;
 }
 
-// Streams views [first, end) as robot `robot`; with `own_odometry` the poses are re-based on
-// view `first` (the robot's odometry starts at the identity there). Returns the session id.
+// Views [first, end) as a robot sends them: with `own_odometry` the poses are re-based on view
+// `first` (the robot's odometry starts at the identity there), else the scene's.
+std::vector<loci::v1::Keyframe> Rebased(const std::vector<loci::v1::Keyframe>& views, size_t first,
+                                        bool own_odometry) {
+  const SE3d T_odom_world =
+      own_odometry ? PoseFromProto(views[first].t_odom_cam()).inverse() : SE3d::Identity();
+  std::vector<loci::v1::Keyframe> out(views.begin() + static_cast<std::ptrdiff_t>(first),
+                                      views.end());
+  for (loci::v1::Keyframe& kf : out) {
+    ToProto(T_odom_world * PoseFromProto(kf.t_odom_cam()), kf.mutable_t_odom_cam());
+  }
+  return out;
+}
+
+// Streams the keyframes as robot `robot` (seq = their index), waiting for each ack. Returns the
+// session id.
 std::string Stream(loci::v1::Mapping::Stub* stub, const std::string& robot,
-                   const std::vector<loci::v1::Keyframe>& views, size_t first, bool own_odometry) {
+                   const std::vector<loci::v1::Keyframe>& keyframes) {
   grpc::ClientContext open_ctx;
   loci::v1::OpenSessionResponse session;
   EXPECT_TRUE(stub->OpenSession(&open_ctx,
                                 testing::OpenRequest(robot, PinholeCamera::TumFr1(), false),
                                 &session)
                   .ok());
-  const SE3d T_odom_world =
-      own_odometry ? PoseFromProto(views[first].t_odom_cam()).inverse() : SE3d::Identity();
   grpc::ClientContext ctx;
   auto stream = stub->StreamKeyframes(&ctx);
-  for (size_t i = first; i < views.size(); ++i) {
-    loci::v1::Keyframe kf = views[i];
+  for (size_t i = 0; i < keyframes.size(); ++i) {
+    loci::v1::Keyframe kf = keyframes[i];
     kf.set_session_id(session.session_id());
-    kf.set_seq(static_cast<int64_t>(i - first));
-    ToProto(T_odom_world * PoseFromProto(kf.t_odom_cam()), kf.mutable_t_odom_cam());
+    kf.set_seq(static_cast<int64_t>(i));
     EXPECT_TRUE(stream->Write(kf));
     loci::v1::KeyframeAck ack;
     EXPECT_TRUE(stream->Read(&ack));
@@ -164,7 +175,8 @@ class Islands : public ::testing::Test {
   // B's island objects against room b's truth (objects detected in >= 3 keyframes), in room
   // b's world: T_world_island = T_world_odomB * T_island_odomB^-1.
   void ExpectExact(const std::vector<loci::v1::Object>& island_objects,
-                   const SE3d& T_island_odom, const ServerOptions& options) {
+                   const SE3d& T_island_odom, const ServerOptions& options,
+                   double max_centroid_error_m = 0.02) {
     const SE3d T_world_odom = PoseFromProto(views_["b"][0].t_odom_cam());
     const SE3d T_world_island = T_world_odom * T_island_odom.inverse();
     std::vector<MapObject> objects;
@@ -186,7 +198,8 @@ class Islands : public ::testing::Test {
     EXPECT_TRUE(r.missed_gt_ids.empty());
     EXPECT_TRUE(r.false_positive_ids.empty());
     for (const ObjectMatch& m : r.matches) {
-      EXPECT_LT(m.centroid_error_m, 0.02) << m.class_name << " (gt " << m.gt_id << ")";
+      EXPECT_LT(m.centroid_error_m, max_centroid_error_m)
+          << m.class_name << " (gt " << m.gt_id << ")";
     }
   }
 
@@ -202,8 +215,8 @@ TEST_F(Islands, UnalignedRobotGetsAnExactIslandMapThatAlignmentDissolves) {
   {
     Running r = Start(db);
     ASSERT_TRUE(r.server);
-    Stream(r.mapping.get(), "A", views_["a"], 0, false);
-    island = Stream(r.mapping.get(), "B", views_["b"], 0, true);
+    Stream(r.mapping.get(), "A", Rebased(views_["a"], 0, false));
+    island = Stream(r.mapping.get(), "B", Rebased(views_["b"], 0, true));
     r.server->Flush();
 
     const auto sessions = SessionsByRobot(Stats(r.query.get()));
@@ -242,7 +255,7 @@ TEST_F(Islands, UnalignedRobotGetsAnExactIslandMapThatAlignmentDissolves) {
     loci::v1::AskResponse answer;
     ASSERT_TRUE(r.query->Ask(&ctx, ask, &answer).ok());
     std::printf("  %s? %s\n", ask.text().c_str(), answer.answer().c_str());
-    EXPECT_NE(answer.answer().find("robot B's island (session " + island), std::string::npos)
+    EXPECT_NE(answer.answer().find("In the island of robot B (" + island), std::string::npos)
         << answer.answer();
     ASSERT_FALSE(answer.objects().empty()) << answer.answer();
     EXPECT_EQ(answer.objects(0).island(), island) << answer.answer();
@@ -250,7 +263,7 @@ TEST_F(Islands, UnalignedRobotGetsAnExactIslandMapThatAlignmentDissolves) {
   {  // The island is the map B makes alone: the same objects in the same frame.
     Running solo = Start(dir_ + "/solo.db", /*loops=*/false);
     ASSERT_TRUE(solo.server);
-    Stream(solo.mapping.get(), "B", views_["b"], 0, true);
+    Stream(solo.mapping.get(), "B", Rebased(views_["b"], 0, true));
     solo.server->Flush();
     const std::vector<loci::v1::Object> alone = Find(solo.query.get(), false);
     ASSERT_EQ(alone.size(), before_restart.size());
@@ -277,7 +290,7 @@ TEST_F(Islands, UnalignedRobotGetsAnExactIslandMapThatAlignmentDissolves) {
   // Watchers saw C's island objects come and go.
   auto events = std::make_shared<ObjectEventQueue>(100000);
   ASSERT_TRUE(r.server->Subscribe(events).ok());
-  const std::string c = Stream(r.mapping.get(), "C", views_["a"], 20, true);
+  const std::string c = Stream(r.mapping.get(), "C", Rebased(views_["a"], 20, true));
   r.server->Flush();
   r.server->Unsubscribe(events);
   events->Close();
@@ -295,6 +308,135 @@ TEST_F(Islands, UnalignedRobotGetsAnExactIslandMapThatAlignmentDissolves) {
   const std::vector<loci::v1::Object> all = Find(r.query.get(), true);
   EXPECT_TRUE(InIsland(all, c).empty());
   EXPECT_EQ(InIsland(all, island).size(), before_restart.size());
+}
+
+// Robots B and C both start in room b, which the shared map (A, room a) has never seen; C starts
+// at view 20 with its own odometry. Their islands overlap, so C's joins B's (within 2 cm and
+// 1.5 deg of the truth): one island holds room b's objects once (count error 0, centroids within
+// 3 cm of the truth), and the join survives a restart.
+TEST_F(Islands, OverlappingIslandsJoinIntoOne) {
+  const std::string db = dir_ + "/join.db";
+  std::string b, c;
+  size_t joined_objects = 0;
+  {
+    Running r = Start(db);
+    ASSERT_TRUE(r.server);
+    Stream(r.mapping.get(), "A", Rebased(views_["a"], 0, false));
+    b = Stream(r.mapping.get(), "B", Rebased(views_["b"], 0, true));
+    c = Stream(r.mapping.get(), "C", Rebased(views_["b"], 20, true));
+    r.server->Flush();
+    const auto sessions = SessionsByRobot(Stats(r.query.get()));
+    ASSERT_TRUE(sessions.count("B") && sessions.count("C"));
+    EXPECT_FALSE(sessions.at("B").aligned());
+    EXPECT_FALSE(sessions.at("C").aligned());
+    EXPECT_EQ(sessions.at("B").island(), b);
+    EXPECT_EQ(sessions.at("C").island(), b) << "C's island did not join B's";
+    const std::vector<loci::v1::Object> all = Find(r.query.get(), true);
+    EXPECT_TRUE(InIsland(all, c).empty());
+    const std::vector<loci::v1::Object> island = InIsland(all, b);
+    EXPECT_EQ(sessions.at("C").island_objects(), island.size());
+    // Where the join put C's odometry frame in B's, against the truth (both start at a view's
+    // true pose); objects fused from both then carry that error too (3 cm, as a merge into the
+    // shared map is held to in ThreeRobots).
+    const SE3d T_b_c = PoseFromProto(sessions.at("B").t_island_odom()).inverse() *
+                       PoseFromProto(sessions.at("C").t_island_odom());
+    const SE3d T_b_c_true = PoseFromProto(views_["b"][0].t_odom_cam()).inverse() *
+                            PoseFromProto(views_["b"][20].t_odom_cam());
+    const SE3d T_err = T_b_c_true.inverse() * T_b_c;
+    const double err_deg = Eigen::AngleAxisd(T_err.linear()).angle() * 180 / M_PI;
+    std::printf("  C joined B's island %.1f mm, %.2f deg from the truth\n",
+                1e3 * T_err.translation().norm(), err_deg);
+    EXPECT_LT(T_err.translation().norm(), 0.02);
+    EXPECT_LT(err_deg, 1.5);
+    ExpectExact(island, PoseFromProto(sessions.at("B").t_island_odom()), r.server->options(), 0.03);
+    int seen_by_both = 0;
+    for (const auto& o : island) seen_by_both += o.robots_size() == 2;
+    EXPECT_GT(seen_by_both, 0) << "no object fused from both robots' views";
+    joined_objects = island.size();
+  }
+  Running r = Start(db);
+  ASSERT_TRUE(r.server);
+  const auto sessions = SessionsByRobot(Stats(r.query.get()));
+  ASSERT_TRUE(sessions.count("C"));
+  EXPECT_EQ(sessions.at("C").island(), b);
+  EXPECT_EQ(InIsland(Find(r.query.get(), true), b).size(), joined_objects);
+}
+
+// An island aligns as a whole: B and C join in room b (as above); then C walks on into room a,
+// which the shared map holds, 6 m beside room b and turned by 0.3 rad (T_b_a: room a's world in
+// room b's). C is aligned there, and B with it through the join: no island is left; B sits
+// where the join put it from C (5 cm, 1.5 deg: the pose graph moves both after the alignment),
+// within 2 deg of the truth from A (its position error then grows with the 6 m lever arm), and
+// every object of room b is in the shared map where B's placement puts it (5 cm).
+TEST_F(Islands, AnIslandIsAlignedAsAWhole) {
+  Running r = Start(dir_ + "/whole.db");
+  ASSERT_TRUE(r.server);
+  Stream(r.mapping.get(), "A", Rebased(views_["a"], 0, false));
+  const std::string b = Stream(r.mapping.get(), "B", Rebased(views_["b"], 0, true));
+  const SE3d T_b_a = MakeSE3(Vec3d(6.0, 0.0, 0.0), Quatd(Eigen::AngleAxisd(0.3, Vec3d::UnitZ())));
+  const SE3d T_odomC_b = PoseFromProto(views_["b"][20].t_odom_cam()).inverse();
+  std::vector<loci::v1::Keyframe> c_views = Rebased(views_["b"], 20, true);
+  for (size_t i = 10; i < views_["a"].size(); ++i) {  // later in time, in room a
+    loci::v1::Keyframe kf = views_["a"][i];
+    kf.set_t_ns(kf.t_ns() + 100'000'000'000);
+    ToProto(T_odomC_b * T_b_a * PoseFromProto(kf.t_odom_cam()), kf.mutable_t_odom_cam());
+    c_views.push_back(kf);
+  }
+  Stream(r.mapping.get(), "C", c_views);
+  r.server->Flush();
+  const auto sessions = SessionsByRobot(Stats(r.query.get()));
+  ASSERT_TRUE(sessions.count("A") && sessions.count("B") && sessions.count("C"));
+  ASSERT_TRUE(sessions.at("C").aligned());
+  ASSERT_TRUE(sessions.at("B").aligned()) << "B did not follow C, whose island it shares";
+  const std::vector<loci::v1::Object> all = Find(r.query.get(), true);
+  for (const auto& o : all) EXPECT_EQ(o.island(), "") << "island object #" << o.id() << " left";
+  // A's odometry frame is room a's world; B's is room b's view 0, C's room b's view 20.
+  const SE3d T_map_a = PoseFromProto(sessions.at("A").t_map_odom());
+  const SE3d T_map_odomB = PoseFromProto(sessions.at("B").t_map_odom());
+  const SE3d T_map_odomC = PoseFromProto(sessions.at("C").t_map_odom());
+  auto error = [](const SE3d& truth, const SE3d& estimate) {
+    const SE3d T_err = truth.inverse() * estimate;
+    return std::pair<double, double>(T_err.translation().norm(),
+                                     Eigen::AngleAxisd(T_err.linear()).angle() * 180 / M_PI);
+  };
+  // B against C, both placed in the map: the join's estimate, carried through C's alignment.
+  const auto [bc_m, bc_deg] = error(PoseFromProto(views_["b"][20].t_odom_cam()).inverse() *
+                                        PoseFromProto(views_["b"][0].t_odom_cam()),
+                                    T_map_odomC.inverse() * T_map_odomB);
+  // B against A: C's alignment in room a adds its own yaw error, times the 6 m lever arm.
+  const auto [ab_m, ab_deg] = error(T_b_a.inverse() * PoseFromProto(views_["b"][0].t_odom_cam()),
+                                    T_map_a.inverse() * T_map_odomB);
+  std::printf("  B from C %.1f mm, %.2f deg; B from A %.1f mm, %.2f deg from the truth\n",
+              1e3 * bc_m, bc_deg, 1e3 * ab_m, ab_deg);
+  EXPECT_LT(bc_m, 0.05);  // 0.6 mm at the join; the pose graph then moves both (about 2 cm)
+  EXPECT_LT(bc_deg, 1.5);
+  EXPECT_LT(ab_deg, 2.0);
+  EXPECT_LT(ab_m, 0.03 + 6.0 * ab_deg * M_PI / 180);
+  // Room b's objects entered the shared map where B's placement puts them.
+  auto gt = ReadObjectsJson(dir_ + "/b/objects.json");
+  ASSERT_TRUE(gt.ok());
+  std::map<int64_t, int> detected_in;
+  for (const auto& kf : views_["b"]) {
+    for (const auto& d : kf.detections()) ++detected_in[d.track_id()];
+  }
+  const SE3d T_map_b = T_map_odomB * PoseFromProto(views_["b"][0].t_odom_cam()).inverse();
+  int checked = 0;
+  double worst_m = 0;
+  for (const GroundTruthObject& g : gt->objects) {
+    if (detected_in[g.id] < 3 || g.dynamic) continue;
+    double nearest_m = 1e9;
+    for (const auto& o : all) {
+      if (o.class_name() != g.class_name) continue;
+      const Vec3d c_m(o.centroid_m().x(), o.centroid_m().y(), o.centroid_m().z());
+      nearest_m = std::min(nearest_m, (c_m - T_map_b * g.centroid_m).norm());
+    }
+    EXPECT_LT(nearest_m, 0.05) << g.class_name << " (gt " << g.id << ") of room b";
+    worst_m = std::max(worst_m, nearest_m);
+    ++checked;
+  }
+  std::printf("  %d objects of room b in the shared map, the farthest %.1f mm from where B's "
+              "placement puts it\n", checked, 1e3 * worst_m);
+  EXPECT_GE(checked, 4);
 }
 
 }  // namespace

@@ -43,6 +43,9 @@ class GatedStore final : public MapStore {
   Status SetSessionAlignment(int64_t row, const SE3d& T_base_odom) override {
     return inner_->SetSessionAlignment(row, T_base_odom);
   }
+  Status SetSessionIsland(int64_t row, int64_t island_row, const SE3d& T_island_odom) override {
+    return inner_->SetSessionIsland(row, island_row, T_island_odom);
+  }
   StatusOr<InsertResult> InsertKeyframe(const KeyframeRecord& k) override {
     return inner_->InsertKeyframe(k);
   }

@@ -163,6 +163,17 @@ TEST(SqliteStore, SessionAlignmentIsStoredAndScansFilterBySession) {
   EXPECT_FALSE((*(*store)->FindSession(b->session_id))->aligned);
   EXPECT_TRUE((*(*store)->FindSession(a->session_id))->aligned);
   const SE3d T = MakeSE3(Vec3d(0.5, -1, 0.2), Quatd(Eigen::AngleAxisd(1.0, Vec3d::UnitZ())));
+  // Unaligned, b joins another unaligned session's island (here a's row; aligned sessions refuse).
+  ASSERT_TRUE((*store)->SetSessionIsland(b->row_id, a->row_id, T.inverse()).ok());
+  EXPECT_EQ((*store)->SetSessionIsland(a->row_id, b->row_id, T).code(), absl::StatusCode::kNotFound);
+  {
+    auto joined = (*store)->FindSession(b->session_id);
+    ASSERT_TRUE(joined.ok() && joined->has_value());
+    EXPECT_FALSE((*joined)->aligned);
+    EXPECT_EQ((*joined)->island_row, a->row_id);
+    EXPECT_TRUE((*joined)->T_island_odom.isApprox(T.inverse(), 1e-12));
+    EXPECT_EQ((*(*store)->FindSession(a->session_id))->island_row, 0);
+  }
   ASSERT_TRUE((*store)->SetSessionAlignment(b->row_id, T).ok());
   auto found = (*store)->FindSession(b->session_id);
   ASSERT_TRUE(found.ok() && found->has_value());
