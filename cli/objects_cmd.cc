@@ -124,9 +124,11 @@ void PrintAlignment(const loci::v1::GetStatsResponse& resp) {
                   s.session_id().substr(0, 24).c_str(), s.robot().c_str(), t.x(), t.y(), t.z(),
                   static_cast<unsigned long long>(s.keyframes()));
     } else {
-      std::printf("session %-24s %-12s island (not aligned yet), %llu kf, %llu objects in its "
+      const std::string joined =
+          s.island().empty() || s.island() == s.session_id() ? "" : " of " + s.island();
+      std::printf("session %-24s %-12s island%s (not aligned yet), %llu kf, %llu objects in its "
                   "own frame\n",
-                  s.session_id().substr(0, 24).c_str(), s.robot().c_str(),
+                  s.session_id().substr(0, 24).c_str(), s.robot().c_str(), joined.c_str(),
                   static_cast<unsigned long long>(s.keyframes()),
                   static_cast<unsigned long long>(s.island_objects()));
     }
