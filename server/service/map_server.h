@@ -133,6 +133,10 @@ class MapServer {
   // Stores where the joining island's sessions now sit, drops that island and maps their
   // keyframes the worker has seen into the island they joined.
   void ApplyJoin(const IslandJoin& join);
+  // Maps a session's stored keyframes up to upto_keyframe_id that the island lacks into it, at
+  // T_island_odom; how many.
+  uint64_t MapIntoIsland(int64_t session_row, int64_t island_row, const SE3d& T_island_odom,
+                         int64_t upto_keyframe_id);
   // An island's name: its first session's id.
   std::string IslandName(int64_t island_row);
   // After a restart: indexes every stored keyframe for place recognition from its stored

@@ -6,6 +6,7 @@
 // stored products (under mapping_mu_, between two keyframes of the worker).
 #include <spdlog/spdlog.h>
 
+#include <limits>
 #include <map>
 #include <set>
 
@@ -112,11 +113,7 @@ std::string MapServer::IslandName(int64_t island_row) {
 }
 
 void MapServer::ApplyJoin(const IslandJoin& join) {
-  std::set<int64_t> moved;
-  std::map<int64_t, SE3d> T_island_odom;
   for (const auto& [row, T] : join.T_island_odom) {
-    moved.insert(row);
-    T_island_odom[row] = T;
     if (Status st = store_->SetSessionIsland(row, join.island_row, T); !st.ok()) {
       spdlog::warn("session row {}: island join not stored ({}); it joins again after a restart "
                    "when it matches again", row, st.ToString());
@@ -128,30 +125,42 @@ void MapServer::ApplyJoin(const IslandJoin& join) {
     }
   }
   Publish(islands_->Drop(join.from_island_row));
-  // The moved sessions' keyframes the worker has seen, again, into the island they joined.
-  const int64_t upto_keyframe_id = worker_last_id_;
-  const std::string name = IslandName(join.island_row);
+  uint64_t remapped = 0;
+  // The keyframes the worker has seen (it may have mapped one there since the aligner decided).
+  for (const auto& [row, T] : join.T_island_odom) {
+    remapped += MapIntoIsland(row, join.island_row, T, worker_last_id_);
+  }
+  spdlog::info("island {} joined island {}: {} keyframes mapped again", join.from_island_row,
+               join.island_row, remapped);
+}
+
+uint64_t MapServer::MapIntoIsland(int64_t session_row, int64_t island_row,
+                                  const SE3d& T_island_odom, int64_t upto_keyframe_id) {
+  std::optional<SessionRecord> s = SessionByRow(session_row);
+  if (!s) return 0;
+  const std::string name = IslandName(island_row);
+  const std::optional<IslandMaps::Island> target = islands_->Find(island_row);
   KeyframeScan scan;
   scan.products_fingerprint = mapper_->options().ProductsFingerprint();
+  scan.session_row = session_row;
   LoadReport report;
   const Status st = store_->ForEachKeyframe(
       0,
       [&](KeyframeRecord rec) -> Status {
-        if (rec.id > upto_keyframe_id || !moved.count(rec.session_row)) return absl::OkStatus();
-        std::optional<SessionRecord> s = SessionByRow(rec.session_row);
-        if (!s) return absl::OkStatus();
+        if (stop_loading_) return absl::CancelledError("the server is stopping");
+        if (rec.id > upto_keyframe_id || (target && target->map->HasKeyframe(rec.id))) {
+          return absl::OkStatus();
+        }
         MapperKeyframe meta;
         const std::optional<KeyframeProducts> products =
             StoredProducts(rec, *s, *mapper_, detector_.get(), store_.get(), &report, &meta);
-        if (products) {
-          islands_->Integrate(join.island_row, name, meta, *products, T_island_odom[rec.session_row]);
-        }
+        if (products) islands_->Integrate(island_row, name, meta, *products, T_island_odom);
         return absl::OkStatus();
       },
       scan);
-  spdlog::info("island {} joined island {}: {} keyframes mapped again{}", join.from_island_row,
-               join.island_row, report.keyframes(),
-               st.ok() ? "" : absl::StrCat("; stopped: ", st.ToString()));
+  if (!st.ok()) spdlog::warn("session {}: not all keyframes mapped into its island: {}",
+                             s->session_id, st.ToString());
+  return report.keyframes();
 }
 
 void MapServer::ApplyAlignment(const SessionAlignment& a) {
@@ -214,26 +223,10 @@ void MapServer::LoadIslands() {
   }
   for (const SessionRecord& s : *sessions) {
     if (s.aligned) continue;
-    const int64_t island_row = s.island_row != 0 ? s.island_row : s.row_id;
-    const std::string name = IslandName(island_row);
-    KeyframeScan scan;
-    scan.products_fingerprint = mapper_->options().ProductsFingerprint();
-    scan.session_row = s.row_id;
-    LoadReport report;
-    const Status st = store_->ForEachKeyframe(
-        0,
-        [&](KeyframeRecord rec) -> Status {
-          if (stop_loading_) return absl::CancelledError("the server is stopping");
-          MapperKeyframe meta;
-          const std::optional<KeyframeProducts> products = StoredProducts(
-              rec, s, *mapper_, detector_.get(), store_.get(), &report, &meta);
-          if (products) islands_->Integrate(island_row, name, meta, *products, s.T_island_odom);
-          return absl::OkStatus();
-        },
-        scan);
-    spdlog::info("island of robot {} (session {}, not aligned): {} keyframes mapped{}",
-                 s.robot_name, s.session_id, report.keyframes(),
-                 st.ok() ? "" : absl::StrCat("; stopped: ", st.ToString()));
+    const uint64_t n = MapIntoIsland(s.row_id, s.island_row != 0 ? s.island_row : s.row_id,
+                                     s.T_island_odom, std::numeric_limits<int64_t>::max());
+    spdlog::info("island of robot {} (session {}, not aligned): {} keyframes mapped",
+                 s.robot_name, s.session_id, n);
   }
 }
 
