@@ -64,6 +64,9 @@ void HandleObjects(QueryService& service, const httplib::Request& req, httplib::
   bool confirmed_only = false;
   if (!ReadBoolParam(req, res, "confirmed_only", &confirmed_only)) return;
   find.set_confirmed_only(confirmed_only);
+  bool include_islands = false;
+  if (!ReadBoolParam(req, res, "include_islands", &include_islands)) return;
+  find.set_include_islands(include_islands);
   if (req.has_param("limit")) {
     uint32_t limit = 0;
     if (!ParseInt(req.get_param_value("limit"), &limit)) {

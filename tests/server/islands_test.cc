@@ -18,6 +18,7 @@
 #include "loci/v1/mapping.grpc.pb.h"
 #include "loci/v1/query.grpc.pb.h"
 #include "proto/convert.h"
+#include "server/http/http_api.h"
 #include "server/map/object_eval.h"
 #include "server/service/grpc_server.h"
 #include "server/service/map_server.h"
@@ -26,6 +27,8 @@
 #include "synth/sequence_writer.h"
 #include "tests/server/keyframe_proto.h"
 #include "tests/server/scene_stream.h"
+// Last: httplib pulls <resolv.h>, whose `_res` macro breaks Eigen headers included after it.
+#include <httplib.h>
 
 namespace loci::server {
 namespace {
@@ -255,6 +258,17 @@ TEST_F(Islands, UnalignedRobotGetsAnExactIslandMapThatAlignmentDissolves) {
     loci::v1::AskResponse answer;
     ASSERT_TRUE(r.query->Ask(&ctx, ask, &answer).ok());
     std::printf("  %s? %s\n", ask.text().c_str(), answer.answer().c_str());
+    // HTTP gives the same objects, islands only when asked for.
+    auto http = HttpApi::Start(&r.grpc->query_service(), "127.0.0.1:0");
+    ASSERT_TRUE(http.ok()) << http.status();
+    httplib::Client client("127.0.0.1", (*http)->port());
+    const auto with = client.Get("/api/objects?confirmed_only=1&include_islands=1");
+    const auto without = client.Get("/api/objects?confirmed_only=1");
+    ASSERT_TRUE(with && without);
+    EXPECT_EQ(with->status, 200);
+    EXPECT_NE(with->body.find(island), std::string::npos);
+    EXPECT_EQ(without->body.find(island), std::string::npos);
+    EXPECT_EQ(client.Get("/api/objects?include_islands=maybe")->status, 400);
     EXPECT_NE(answer.answer().find("In the island of robot B (" + island), std::string::npos)
         << answer.answer();
     ASSERT_FALSE(answer.objects().empty()) << answer.answer();
