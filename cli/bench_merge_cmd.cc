@@ -126,7 +126,8 @@ void PrintFigures(const loci::v1::GetStatsResponse& stats, const SE3d& T_map_odo
               static_cast<unsigned long long>(a.rejected()),
               static_cast<unsigned long long>(a.merges_accepted()));
   const auto& g = stats.pose_graph();
-  std::printf("  pose graph: %llu solves, last %.0f ms over %llu keyframes, %llu islands\n",
+  std::printf("  pose graph: %llu solves, last %.0f ms over %llu keyframes, %llu unconnected "
+              "parts\n",
               static_cast<unsigned long long>(g.optimizations()), g.last_solve_ms(),
               static_cast<unsigned long long>(g.nodes()),
               static_cast<unsigned long long>(g.islands()));

@@ -106,7 +106,7 @@ void PrintAlignment(const loci::v1::GetStatsResponse& resp) {
                 static_cast<unsigned long long>(g.keyframes_moved()));
     if (g.optimizations() > 0) {
       std::printf("pose graph         %llu keyframes, %llu edges, loops %llu kept / %llu rejected, "
-                  "merges %llu kept / %llu rejected, %llu islands%s, %.0f ms\n",
+                  "merges %llu kept / %llu rejected, %llu unconnected parts%s, %.0f ms\n",
                   static_cast<unsigned long long>(g.nodes()),
                   static_cast<unsigned long long>(g.edges()),
                   static_cast<unsigned long long>(g.loops_accepted()),

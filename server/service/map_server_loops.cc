@@ -78,7 +78,7 @@ void MapServer::MaybeCloseLoops() {
   auto moved = updates.empty() ? StatusOr<size_t>(0) : UpdateKeyframePosesLocked(updates);
   spdlog::info(
       "pose graph: {} keyframes, loops {} kept / {} rejected, merges {} kept / {} rejected, "
-      "{} islands, {}guard {:.0f} ms + solve {:.0f} ms; {} keyframes moved in {:.0f} ms",
+      "{} unconnected parts, {}guard {:.0f} ms + solve {:.0f} ms; {} keyframes moved in {:.0f} ms",
       g.nodes, g.loops_accepted, g.loops_rejected, g.merges_accepted, g.merges_rejected,
       g.islands, g.four_dof ? "4-DoF, " : "", g.pcm_ms, g.solve_ms,
       moved.ok() ? *moved : 0,
