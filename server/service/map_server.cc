@@ -106,6 +106,7 @@ void MapServer::LoadLoop() {
       if (Status s = Checkpoint(); !s.ok()) spdlog::warn("checkpoint: {}", s.ToString());
     }
     LoadIslands();
+    DeclareStoredSessions();
     mapper_->SetEventListener(
         [this](const std::vector<ObjectEventOut>& events) { Publish(events); });
     worker_ = std::thread([this] { WorkerLoop(); });

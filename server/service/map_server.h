@@ -171,6 +171,9 @@ class MapServer {
   // After the map is loaded: maps the stored keyframes of every unaligned session into its
   // island (loading thread, before the worker starts).
   void LoadIslands();
+  // After the map is loaded: every stored session with keyframes is declared to the aligner,
+  // with its placement or island, before a keyframe or a join can need it (loading thread).
+  void DeclareStoredSessions();
   void FinishLoad(const Status& status);
   // Checkpoints when checkpoint_keyframes or checkpoint_interval_s have passed (worker thread).
   void MaybeCheckpoint();

@@ -214,6 +214,26 @@ void MapServer::ApplyAlignment(const SessionAlignment& a) {
   }
 }
 
+void MapServer::DeclareStoredSessions() {
+  if (!aligner_) return;
+  auto sessions = store_->ListSessions();
+  if (!sessions.ok()) {
+    spdlog::warn("sessions not declared at load ({}); each is on its next keyframe",
+                 sessions.status().ToString());
+    return;
+  }
+  // Aligned sessions first: an unaligned one never becomes the map's origin here.
+  for (const bool aligned : {true, false}) {
+    for (const SessionRecord& s : *sessions) {
+      if (s.aligned != aligned) continue;
+      auto keyframes = store_->CountKeyframes(s.row_id);
+      // A session without keyframes is declared on its first (which may make it the origin).
+      if (!keyframes.ok() || *keyframes == 0) continue;
+      DeclareSession(s.row_id);
+    }
+  }
+}
+
 void MapServer::LoadIslands() {
   if (!islands_) return;
   auto sessions = store_->ListSessions();
