@@ -83,6 +83,7 @@ void FusedObject::Absorb(const FusedObject& other) {
   std::sort(keyframes_.begin(), keyframes_.end());
   tracks_.insert(other.tracks_.begin(), other.tracks_.end());
   misses_ += other.misses_;
+  ObserveRange(other.nearest_range_m_);
   RecomputeGeometry();
 }
 
@@ -99,6 +100,12 @@ void FusedObject::Observe(const std::string& class_name, double score, int64_t s
   robots_.insert(robot);
   if (keyframes_.empty() || keyframes_.back() != keyframe_id) keyframes_.push_back(keyframe_id);
   if (track_id != 0) tracks_.insert({session_row, track_id});
+}
+
+void FusedObject::ObserveRange(double range_m) {
+  if (range_m > 0 && (nearest_range_m_ <= 0 || range_m < nearest_range_m_)) {
+    nearest_range_m_ = range_m;
+  }
 }
 
 double FusedObject::ExistenceLlr(const ExistenceModel& m) const {

@@ -108,6 +108,9 @@ class FusedObject {
   // Up to 48 of the object's supported points (map frame), and its largest half extent, m.
   const std::vector<Eigen::Vector3d>& sample_m() const { return sample_m_; }
   double half_size_m() const { return obb_half_m_.maxCoeff(); }
+  // Keeps the camera distance of the nearest view (range_m <= 0: unknown, ignored).
+  void ObserveRange(double range_m);
+  double nearest_range_m() const { return nearest_range_m_; }  // 0: unknown
 
   // Voxel keys of the fused points at `voxel_m` (overlap measure).
   VoxelSet KeysAt(double voxel_m) const;
@@ -165,6 +168,7 @@ class FusedObject {
   std::set<std::pair<int64_t, int64_t>> tracks_;  // (session_row, track_id)
   bool confirmed_ = false;
   uint32_t misses_ = 0;
+  double nearest_range_m_ = 0;
   std::vector<Eigen::Vector3d> sample_m_;
 };
 

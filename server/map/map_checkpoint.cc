@@ -64,6 +64,7 @@ void FusedObject::SaveState(loci::store::v1::FusedObjectState* out) const {
   }
   out->set_confirmed(confirmed_);
   out->set_misses(misses_);
+  out->set_nearest_range_m(nearest_range_m_);
 }
 
 Status FusedObject::LoadState(const loci::store::v1::FusedObjectState& in) {
@@ -93,6 +94,7 @@ Status FusedObject::LoadState(const loci::store::v1::FusedObjectState& in) {
   for (int i = 0; i < in.track_id_size(); ++i) tracks_.insert({in.track_session(i), in.track_id(i)});
   confirmed_ = in.confirmed();
   misses_ = in.misses();
+  nearest_range_m_ = in.nearest_range_m();
   RecomputeGeometry();
   return absl::OkStatus();
 }

@@ -18,7 +18,8 @@ constexpr const char* kFusionKeys[] = {
     "merge_centroid_m",        "merge_containment", "merge_across_classes", "assoc_containment",
     "max_size_ratio",          "label_universe",    "min_likelihood",       "existence_p_real",
     "existence_p_false",       "confirm_llr",       "remove_llr",           "visibility",
-    "centroid_min_part",       "class_size_slack",  "merge_box_containment"};
+    "centroid_min_part",       "class_size_slack",  "merge_box_containment",
+    "merge_sigmas",            "depth_sigma_at_1m", "view_sigma_rad"};
 
 Status CheckMapKeys(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
@@ -137,6 +138,9 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "track_gate_m", &fusion.track_gate_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "confirm_observations", &fusion.confirm_observations));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_centroid_m", &fusion.merge_centroid_m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_sigmas", &fusion.merge_sigmas));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "depth_sigma_at_1m", &fusion.depth_sigma_at_1m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "view_sigma_rad", &fusion.view_sigma_rad));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_containment", &fusion.merge_containment));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_across_classes", &fusion.merge_across_classes));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "assoc_containment", &fusion.assoc_containment));
@@ -230,6 +234,10 @@ Status MapOptions::Validate() const {
   }
   if (fusion.label_universe < 2) return bad("fusion.label_universe >= 2");
   if (!(fusion.merge_box_containment > 0)) return bad("fusion.merge_box_containment > 0");
+  if (!(fusion.merge_sigmas >= 0 && fusion.merge_sigmas <= 5 && fusion.depth_sigma_at_1m >= 0 &&
+        fusion.view_sigma_rad >= 0 && fusion.view_sigma_rad < 0.5)) {
+    return bad("fusion: merge_sigmas in [0, 5], depth_sigma_at_1m >= 0, view_sigma_rad in [0, 0.5)");
+  }
   if (!std::isfinite(fusion.class_size_slack)) return bad("fusion.class_size_slack finite");
   if (!(fusion.centroid_min_part >= 0 && fusion.centroid_min_part < 0.5)) {
     return bad("fusion.centroid_min_part in [0, 0.5)");

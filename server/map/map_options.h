@@ -119,6 +119,17 @@ struct FusionOptions {
   // Far objects (3 m and more: depth noise ~z^2, a degree of pose error moves them 5 cm) come back
   // as several smeared boxes whose voxels no longer overlap; >= 1 = off (0.75).
   double merge_box_containment = 0.75;
+  // Objects of the same class also merge when their centroids are closer than merge_sigmas
+  // times the pair's position uncertainty, sqrt(s(r_a)^2 + s(r_b)^2), where r is the distance
+  // of an object's nearest view and s(r)^2 = (depth_sigma_at_1m r^2)^2 + (view_sigma_rad r)^2:
+  // depth noise grows with r^2 (Kinect-class sensors, 0.01 m at 1 m) and an orientation error
+  // of the view moves the object by r times it (0.026 rad = 1.5 deg, the median orientation
+  // error of loci-track's odometry on fr1_rpy after a rotation-only alignment). Near objects
+  // keep merge_centroid_m (s(1 m) = 0.028 m); a thing seen only from 3 m and more by two robots
+  // (or two passes) 15 cm apart is one thing. 0 = off (1.0).
+  double merge_sigmas = 1.0;
+  double depth_sigma_at_1m = 0.01;
+  double view_sigma_rad = 0.026;
 };
 
 struct OctomapOptions {
@@ -171,6 +182,6 @@ struct MapOptions {
 
 // Version of the product and fusion code; bump it when a change alters products or the map
 // for the same options (stored products and checkpoints of another version are recomputed).
-inline constexpr int kMapCodeVersion = 3;
+inline constexpr int kMapCodeVersion = 4;
 
 }  // namespace loci::server

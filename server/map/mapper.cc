@@ -122,6 +122,7 @@ MapObservation ToMap(const ObjectObservation& o, const MapperKeyframe& kf,
   m.centroid_m = centroid_from_box ? Eigen::Vector3d((0.5f * (lo + hi)).cast<double>())
                                    : Eigen::Vector3d(sum / static_cast<double>(o.cloud_kf.size()));
   m.half_size_m = 0.5 * (hi - lo).maxCoeff();
+  m.range_m = (m.centroid_m - T_map_kf.translation().cast<double>()).norm();
   return m;
 }
 

@@ -94,6 +94,16 @@ double ObjectMap::AssociationScore(const FusedObject& object, const MapObservati
   return score;
 }
 
+double ObjectMap::RangeMergeGate(const FusedObject& a, const FusedObject& b) const {
+  const double ra = a.nearest_range_m(), rb = b.nearest_range_m();
+  if (options_.merge_sigmas <= 0 || ra <= 0 || rb <= 0) return 0.0;
+  auto variance = [&](double r) {
+    const double depth = options_.depth_sigma_at_1m * r * r, view = options_.view_sigma_rad * r;
+    return depth * depth + view * view;
+  };
+  return options_.merge_sigmas * std::sqrt(variance(ra) + variance(rb));
+}
+
 bool ObjectMap::SizeCompatible(double half_a_m, double half_b_m) const {
   const double lo = std::max(std::min(half_a_m, half_b_m), 0.02);
   return std::max(half_a_m, half_b_m) / lo <= options_.max_size_ratio;
@@ -133,6 +143,7 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
     object.AddPoints(obs.points_m);
     object.Observe(obs.class_name, obs.score, obs.session_row, obs.track_id, obs.robot,
                    obs.keyframe_id, obs.t_ns);
+    object.ObserveRange(obs.range_m);
     object.UpdateConfirmed(options_.confirm_observations, Existence(), options_.confirm_llr);
     changes->push_back({kind, best_id, 0, {}});
     ids.push_back(MergeDuplicates(best_id, changes));
@@ -156,6 +167,7 @@ bool ObjectMap::Duplicates(const FusedObject& self, const FusedObject& other,
   }
   const double d = (other.centroid_m() - self.centroid_m()).norm();
   if (d < options_.merge_centroid_m) return true;
+  if (same_class && d < RangeMergeGate(self, other)) return true;
   if (d >= options_.track_gate_m + 1.0) return false;
   if (self_keys->empty()) *self_keys = self.KeysAt(options_.overlap_voxel_m);
   if (VoxelContainment(*self_keys, other.KeysAt(options_.overlap_voxel_m)) >

@@ -34,6 +34,7 @@ struct MapObservation {
   std::vector<ColoredPoint> points_m;  // map frame
   Eigen::Vector3d centroid_m = Eigen::Vector3d::Zero();
   double half_size_m = 0;  // half the longest side of its points' box
+  double range_m = 0;      // distance from the keyframe's camera to the centroid (0: unknown)
 };
 
 struct ObjectChange {
@@ -118,6 +119,9 @@ class ObjectMap {
                   double size_b_m) const;
   // Largest half extents within FusionOptions::max_size_ratio of each other.
   bool SizeCompatible(double half_a_m, double half_b_m) const;
+  // Centroid distance under which two objects are one by their range uncertainty
+  // (FusionOptions::merge_sigmas); 0 when off or a range is unknown.
+  double RangeMergeGate(const FusedObject& a, const FusedObject& b) const;
   // Merges duplicates of `id` into the older object (a kMerged change for the survivor, then a
   // kRemoved one for the absorbed object); returns the surviving id.
   int64_t MergeDuplicates(int64_t id, std::vector<ObjectChange>* changes);

@@ -102,5 +102,33 @@ TEST(ObjectRules, SameClassBoxesThatOverlapAreOneObject) {
   EXPECT_EQ(map.size(), 2u);
 }
 
+// Two cups 0.126 m apart, each seen by its own robot (session, track) in 3 views: the same thing
+// at 3.2 m on fr1_rpy's far desk (two robots' poses and depth noise put it in two places), and the
+// mug and pen holder 0.12 m apart at 0.9 m.
+size_t CupsAt(double range_m, double merge_sigmas) {
+  FusionOptions opt = TrackOnly(0.75);
+  opt.merge_sigmas = merge_sigmas;
+  ObjectMap map(opt, 0.01);
+  std::vector<ObjectChange> changes;
+  const Eigen::Vector3d step(0.01, 0.01, 0.01), size(0.1, 0.1, 0.12);
+  const Eigen::Vector3d a(-1.58, 1.65, 1.02), b(-1.54, 1.61, 0.91);  // 0.126 m apart
+  for (int64_t kf = 1; kf <= 3; ++kf) {
+    MapObservation first = Grid("cup", 1, kf, a - size / 2, a + size / 2, step);
+    MapObservation second = Grid("cup", 2, 10 + kf, b - size / 2, b + size / 2, step);
+    first.range_m = second.range_m = range_m;
+    second.session_row = 2;
+    map.Integrate({first}, &changes);
+    map.Integrate({second}, &changes);
+  }
+  return map.size();
+}
+
+TEST(ObjectRules, FarObjectsMergeWithinTheirRangeUncertainty) {
+  EXPECT_EQ(CupsAt(3.2, 1.0), 1u);  // gate sqrt(2) * s(3.2 m) = 0.19 m
+  EXPECT_EQ(CupsAt(0.9, 1.0), 2u);  // gate 0.1 m (merge_centroid_m): s(0.9 m) = 0.024 m
+  EXPECT_EQ(CupsAt(3.2, 0.0), 2u);  // off
+  EXPECT_EQ(CupsAt(0.0, 1.0), 2u);  // range unknown
+}
+
 }  // namespace
 }  // namespace loci::server
