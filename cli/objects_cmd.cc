@@ -106,7 +106,8 @@ void PrintAlignment(const loci::v1::GetStatsResponse& resp) {
                 static_cast<unsigned long long>(g.keyframes_moved()));
     if (g.optimizations() > 0) {
       std::printf("pose graph         %llu keyframes, %llu edges, loops %llu kept / %llu rejected, "
-                  "merges %llu kept / %llu rejected, %llu unconnected parts%s, %.0f ms\n",
+                  "merges %llu kept / %llu rejected, %llu unconnected parts%s, %llu gravity "
+                  "priors, %.0f ms\n",
                   static_cast<unsigned long long>(g.nodes()),
                   static_cast<unsigned long long>(g.edges()),
                   static_cast<unsigned long long>(g.loops_accepted()),
@@ -114,7 +115,7 @@ void PrintAlignment(const loci::v1::GetStatsResponse& resp) {
                   static_cast<unsigned long long>(g.merges_accepted()),
                   static_cast<unsigned long long>(g.merges_rejected()),
                   static_cast<unsigned long long>(g.islands()), g.four_dof() ? ", 4-DoF" : "",
-                  g.last_solve_ms());
+                  static_cast<unsigned long long>(g.gravity_priors()), g.last_solve_ms());
     }
   }
   for (const loci::v1::SessionAlignment& s : resp.session_alignments()) {

@@ -76,8 +76,8 @@ StatusOr<GraphResult> LoopCloser::Optimize(const std::vector<MappedKeyframe>& ma
     auto it = keyframes_.find(m.keyframe_id);
     if (it == keyframes_.end()) continue;  // not recorded (its images could not be read)
     const LoopKeyframe& kf = it->second;
-    LOCI_RETURN_IF_ERROR(graph.AddKeyframe(
-        {kf.keyframe_id, ChainName(kf.session_row), kf.t_ns, m.T_map_kf, gravity_aligned}));
+    LOCI_RETURN_IF_ERROR(graph.AddKeyframe({kf.keyframe_id, ChainName(kf.session_row), kf.t_ns,
+                                            m.T_map_kf, gravity_aligned, -kf.gravity_kf}));
     session_of[kf.keyframe_id] = kf.session_row;
     const LoopKeyframe*& prev = last_of_chain[kf.session_row];
     if (prev != nullptr && prev->segment == kf.segment) {

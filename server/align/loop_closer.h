@@ -41,6 +41,7 @@ struct LoopKeyframe {
   int64_t t_ns = 0;
   SE3d T_odom_kf = SE3d::Identity();
   int tracking_inliers = 0;  // the client's tracking quality of T_odom_kf (0 = unknown)
+  Vec3d gravity_kf = Vec3d::Zero();  // the keyframe's measured gravity, unit, down (0: none)
 };
 
 // A mapped keyframe's current pose in the map frame.

@@ -8,7 +8,7 @@ namespace {
 // The keys FromYaml reads, per section (a key added there belongs here too).
 Status CheckGraphKeys(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node, "graph",
-                                      {"odometry", "pcm", "loss", "landmarks", "solver", "dof",
+                                      {"odometry", "pcm", "loss", "landmarks", "solver", "dof", "gravity",
                                        "reference_robot", "place_trans_m", "place_rot_rad",
                                        "moved_trans_m", "moved_rot_rad"}));
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["odometry"], "graph.odometry",
@@ -18,6 +18,8 @@ Status CheckGraphKeys(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["pcm"], "graph.pcm",
                                       {"enabled", "chi2_threshold", "min_set_size", "residual_chi2"}));
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["loss"], "graph.loss", {"type", "scale"}));
+  LOCI_RETURN_IF_ERROR(
+      CheckKnownKeys(node["gravity"], "graph.gravity", {"sigma_rad", "loss_scale"}));
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["landmarks"], "graph.landmarks",
                                       {"enabled", "sigma_m", "huber_m", "min_observations"}));
   return CheckKnownKeys(node["solver"], "graph.solver",
@@ -42,6 +44,8 @@ Status ReadSections(const YAML::Node& node, GraphOptions* g) {
   LOCI_RETURN_IF_ERROR(ReadOptional(pcm, "residual_chi2", &g->pcm.residual_chi2));
   LOCI_RETURN_IF_ERROR(ReadOptional(node["loss"], "type", &g->loss.type));
   LOCI_RETURN_IF_ERROR(ReadOptional(node["loss"], "scale", &g->loss.scale));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node["gravity"], "sigma_rad", &g->gravity.sigma_rad));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node["gravity"], "loss_scale", &g->gravity.loss_scale));
   const YAML::Node lm = node["landmarks"];
   LOCI_RETURN_IF_ERROR(ReadOptional(lm, "enabled", &g->landmarks.enabled));
   LOCI_RETURN_IF_ERROR(ReadOptional(lm, "sigma_m", &g->landmarks.sigma_m));
@@ -93,6 +97,9 @@ Status GraphOptions::Validate() const {
     return Bad("loss.type is huber, cauchy or none");
   }
   if (!(loss.scale > 0)) return Bad("loss.scale > 0");
+  if (!(gravity.sigma_rad >= 0 && gravity.sigma_rad < 1) || !(gravity.loss_scale > 0)) {
+    return Bad("gravity.sigma_rad in [0, 1) and gravity.loss_scale > 0");
+  }
   if (!(landmarks.sigma_m > 0) || !(landmarks.huber_m > 0)) {
     return Bad("landmarks.sigma_m and landmarks.huber_m must be > 0");
   }

@@ -65,6 +65,17 @@ struct LandmarkOptions {
   int min_observations = 2;  // landmarks seen by fewer keyframes are left out (2)
 };
 
+// Per-keyframe gravity priors: a keyframe that carries its own gravity measurement (the client's
+// accelerometer) gets the residual ((R_map_kf * up_kf).x, .y) / sigma_rad under a Cauchy loss
+// of loss_scale sigmas: its tilt is pulled towards the measured up. With them, dof "auto"
+// solves in 6-DoF instead of 4-DoF: a visual odometry's roll and pitch drift (4.9 deg of tilt
+// between frames 0 and 300 of fr1_rpy), which the 4-DoF mode holds as if it were gravity, can
+// then follow the loops and merges, and gravity keeps the map from tilting. sigma_rad 0 = off.
+struct GravityPriorOptions {
+  double sigma_rad = 0.0;
+  double loss_scale = 2.0;
+};
+
 struct GraphSolverOptions {
   int max_iterations = 100;        // Levenberg-Marquardt iterations (100)
   int threads = 1;                 // Ceres threads; the server shares its cores (1)
@@ -76,9 +87,11 @@ struct GraphOptions {
   PcmOptions pcm;
   RobustLossOptions loss;
   LandmarkOptions landmarks;
+  GravityPriorOptions gravity;
   GraphSolverOptions solver;
   // "auto": 4-DoF (x, y, z, yaw per keyframe; roll and pitch held) when every keyframe's
-  // orientation is gravity-aligned (the map frame is z up), else 6-DoF; "4dof": required,
+  // orientation is gravity-aligned (the map frame is z up) and gravity priors are off or some
+  // keyframe has no gravity measurement, else 6-DoF (with the priors); "4dof": required,
   // FailedPrecondition otherwise; "6dof": always full 6-DoF (auto).
   std::string dof = "auto";
   // The robot whose first keyframe is held constant (the gauge); other islands hold their own

@@ -68,6 +68,14 @@ void AddLandmarks(const SolverInput& in, const GraphOptions& o, PoseBlocks* b,
   }
 }
 
+void AddGravity(const SolverInput& in, const GraphOptions& o, PoseBlocks* b,
+                ceres::Problem* problem) {
+  for (const auto& [node, up_kf] : in.gravity) {
+    problem->AddResidualBlock(GravityError::Create(up_kf, o.gravity.sigma_rad),
+                              new ceres::CauchyLoss(o.gravity.loss_scale), b->q[node].data());
+  }
+}
+
 ceres::Solver::Options SolverOptions(const GraphSolverOptions& o) {
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
@@ -96,6 +104,7 @@ StatusOr<SolverOutput> SolvePoseGraph(const SolverInput& in, const GraphOptions&
   AddPoses(in, &blocks, &problem);
   AddEdges(in, o, &blocks, &problem);
   AddLandmarks(in, o, &blocks, &landmarks, &problem);
+  AddGravity(in, o, &blocks, &problem);
   SolverOutput out;
   if (problem.NumResidualBlocks() == 0) {
     out.T_map_kf = in.T_map_kf;

@@ -30,6 +30,7 @@ struct SolverInput {
   bool four_dof = false;
   std::vector<Vec3d> landmarks_map;  // initial centroids, map frame
   std::vector<SolverObservation> observations;
+  std::vector<std::pair<size_t, Vec3d>> gravity;  // (node, up_kf): gravity priors
 };
 
 struct SolverOutput {

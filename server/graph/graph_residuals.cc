@@ -20,4 +20,8 @@ ceres::CostFunction* CentroidError::Create(const Vec3d& c_kf_m, double sigma_m) 
       new CentroidError(c_kf_m, sigma_m));
 }
 
+ceres::CostFunction* GravityError::Create(const Vec3d& up_kf, double sigma_rad) {
+  return new ceres::AutoDiffCostFunction<GravityError, 2, 4>(new GravityError(up_kf, sigma_rad));
+}
+
 }  // namespace loci::server

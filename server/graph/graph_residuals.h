@@ -64,6 +64,29 @@ class CentroidError {
   double inv_sigma_;
 };
 
+// Gravity prior (GravityPriorOptions): r = (R_map_kf * up_kf).xy / sigma, zero when the
+// keyframe's measured up is the map's z.
+class GravityError {
+ public:
+  GravityError(const Vec3d& up_kf, double sigma_rad)
+      : up_kf_(up_kf.normalized()), inv_sigma_(1 / sigma_rad) {}
+
+  template <typename T>
+  bool operator()(const T* q_ptr, T* residual_ptr) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> q_map_kf(q_ptr);
+    const Eigen::Matrix<T, 3, 1> up_map = q_map_kf * up_kf_.template cast<T>();
+    residual_ptr[0] = up_map.x() * T(inv_sigma_);
+    residual_ptr[1] = up_map.y() * T(inv_sigma_);
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const Vec3d& up_kf, double sigma_rad);
+
+ private:
+  Vec3d up_kf_;
+  double inv_sigma_;
+};
+
 // Rotation about the map's z axis only, q <- Rz(delta) * q: the 4-DoF mode's orientation
 // manifold (roll and pitch, known from gravity, never change).
 struct YawOnlyQuaternion {

@@ -28,6 +28,9 @@ struct KeyframeNode {
   // Roll and pitch of T_map_kf come from gravity (the map frame is z up). All nodes aligned
   // allows the 4-DoF mode (GraphOptions::dof).
   bool gravity_aligned = false;
+  // The keyframe's own measured up direction in its frame (unit; minus the accelerometer's
+  // gravity), for GravityPriorOptions; zero = none.
+  Vec3d up_kf = Vec3d::Zero();
 };
 
 // The client's tracking quality of an odometry edge; negative = unknown.
@@ -77,6 +80,7 @@ struct GraphStats {
   size_t rejected_after_solve = 0;     // of the rejected: by their residual after the solve
   size_t landmarks = 0;                // used (seen by enough keyframes)
   size_t centroid_observations = 0;    // used
+  size_t gravity_priors = 0;           // keyframes with a gravity prior
   size_t islands = 0;       // connected components after the accepted edges; one is anchored each
   size_t moved = 0;         // keyframes reported in the updates
   bool four_dof = false;    // the solve held roll and pitch

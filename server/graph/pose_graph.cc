@@ -78,9 +78,9 @@ Status PoseGraph::AddKeyframe(const KeyframeNode& node) {
     return absl::InvalidArgumentError(
         absl::StrCat("pose graph: keyframe ", node.keyframe_id, " added twice"));
   }
-  if (!IsFinite(node.T_map_kf)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("pose graph: keyframe ", node.keyframe_id, " has a non-finite pose"));
+  if (!IsFinite(node.T_map_kf) || !node.up_kf.allFinite()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "pose graph: keyframe ", node.keyframe_id, " has a non-finite pose or gravity"));
   }
   index_[node.keyframe_id] = nodes_.size();
   nodes_.push_back(node);
@@ -183,10 +183,12 @@ int PoseGraph::ReferenceChain(const OdometryChains& chains) const {
 
 bool PoseGraph::FourDof() const {
   if (options_.dof == "6dof") return false;
+  bool all_measured = true;
   for (const KeyframeNode& n : nodes_) {
     if (!n.gravity_aligned) return false;
+    all_measured = all_measured && n.up_kf.squaredNorm() > 0;
   }
-  return true;
+  return options_.dof == "4dof" || !(options_.gravity.sigma_rad > 0 && all_measured);
 }
 
 SolverInput PoseGraph::BuildSolverInput(const OdometryChains& chains,
@@ -210,6 +212,11 @@ SolverInput PoseGraph::BuildSolverInput(const OdometryChains& chains,
   in.anchors = found.anchor_nodes;
   *islands = found.root_chain.size();
   if (options_.landmarks.enabled) AddLandmarks(observations_, index_, options_.landmarks, &in);
+  if (!four_dof && options_.gravity.sigma_rad > 0) {
+    for (size_t i = 0; i < nodes_.size(); ++i) {
+      if (nodes_[i].up_kf.squaredNorm() > 0) in.gravity.emplace_back(i, nodes_[i].up_kf);
+    }
+  }
   return in;
 }
 
@@ -288,6 +295,7 @@ StatusOr<GraphResult> PoseGraph::Optimize() {
   s.four_dof = four_dof;
   s.landmarks = in.landmarks_map.size();
   s.centroid_observations = in.observations.size();
+  s.gravity_priors = in.gravity.size();
   ApplySolution(out, &result);
   return result;
 }

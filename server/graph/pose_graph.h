@@ -1,7 +1,7 @@
 // loci::server::PoseGraph: the keyframe pose graph of issue 15 (server/graph/README.md).
 //
 //   PoseGraph graph(options);                       // options.Validate() first
-//   graph.AddKeyframe({id, robot, t_ns, T_map_kf, gravity_aligned});
+//   graph.AddKeyframe({id, robot, t_ns, T_map_kf, gravity_aligned, up_kf});  // up_kf: 0 = none
 //   graph.AddOdometryEdge(prev_id, id, T_prev_kf, {quality, inliers});
 //   graph.AddLoopEdge(a_id, b_id, T_a_b, information);      // verified, same robot
 //   graph.AddMergeEdge(a_id, b_id, T_a_b, information);     // verified, two robots

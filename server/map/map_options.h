@@ -120,8 +120,9 @@ struct FusionOptions {
   // as several smeared boxes whose voxels no longer overlap; >= 1 = off (0.75).
   double merge_box_containment = 0.75;
   // Objects of the same class also merge when their centroids are closer than merge_sigmas
-  // times the pair's position uncertainty, sqrt(s(r_a)^2 + s(r_b)^2), where r is the distance
-  // of an object's nearest view and s(r)^2 = (depth_sigma_at_1m r^2)^2 + (view_sigma_rad r)^2:
+  // times the pair's position uncertainty, sqrt(2) s(r), where r is the distance of the nearer
+  // object's nearest view (both must be far; a near object does not take in a far view's blob
+  // beside it) and s(r)^2 = (depth_sigma_at_1m r^2)^2 + (view_sigma_rad r)^2:
   // depth noise grows with r^2 (Kinect-class sensors, 0.01 m at 1 m) and an orientation error
   // of the view moves the object by r times it (0.026 rad = 1.5 deg, the median orientation
   // error of loci-track's odometry on fr1_rpy after a rotation-only alignment). Near objects

@@ -97,11 +97,11 @@ double ObjectMap::AssociationScore(const FusedObject& object, const MapObservati
 double ObjectMap::RangeMergeGate(const FusedObject& a, const FusedObject& b) const {
   const double ra = a.nearest_range_m(), rb = b.nearest_range_m();
   if (options_.merge_sigmas <= 0 || ra <= 0 || rb <= 0) return 0.0;
-  auto variance = [&](double r) {
-    const double depth = options_.depth_sigma_at_1m * r * r, view = options_.view_sigma_rad * r;
-    return depth * depth + view * view;
-  };
-  return options_.merge_sigmas * std::sqrt(variance(ra) + variance(rb));
+  // Both objects at the nearer one's range: a well-placed near object does not take in whatever
+  // a far view put beside it (the far blob's own uncertainty would let it).
+  const double r = std::min(ra, rb);
+  const double depth = options_.depth_sigma_at_1m * r * r, view = options_.view_sigma_rad * r;
+  return options_.merge_sigmas * std::sqrt(2 * (depth * depth + view * view));
 }
 
 bool ObjectMap::SizeCompatible(double half_a_m, double half_b_m) const {

@@ -268,7 +268,8 @@ void MapServer::Reindex() {
         if (stop_loading_) return absl::CancelledError("the server is stopping");
         if (closer_) {
           closer_->AddKeyframe({rec.id, rec.session_row, rec.segment, rec.t_ns, rec.T_odom_cam,
-                                rec.tracking_inliers});
+                                rec.tracking_inliers,
+                                rec.has_gravity ? rec.gravity_cam : Vec3d::Zero()});
         }
         if (!ToReindex(rec)) return absl::OkStatus();
         if (!ReindexFromFeatures(rec, &counts)) need_images.insert(rec.id);

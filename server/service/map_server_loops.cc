@@ -18,8 +18,8 @@ namespace loci::server {
 
 void MapServer::RecordForLoops(const MapperKeyframe& kf) {
   if (!closer_) return;
-  closer_->AddKeyframe(
-      {kf.keyframe_id, kf.session_row, kf.segment, kf.t_ns, kf.T_odom_kf, kf.tracking_inliers});
+  closer_->AddKeyframe({kf.keyframe_id, kf.session_row, kf.segment, kf.t_ns, kf.T_odom_kf,
+                        kf.tracking_inliers, kf.has_gravity ? kf.gravity_cam : Vec3d::Zero()});
 }
 
 void MapServer::RecordMatches(const std::vector<VerifiedMatch>& matches) {
@@ -78,9 +78,10 @@ void MapServer::MaybeCloseLoops() {
   auto moved = updates.empty() ? StatusOr<size_t>(0) : UpdateKeyframePosesLocked(updates);
   spdlog::info(
       "pose graph: {} keyframes, loops {} kept / {} rejected, merges {} kept / {} rejected, "
-      "{} unconnected parts, {}guard {:.0f} ms + solve {:.0f} ms; {} keyframes moved in {:.0f} ms",
+      "{} unconnected parts, {}{} gravity priors, guard {:.0f} ms + solve {:.0f} ms; {} keyframes "
+      "moved in {:.0f} ms",
       g.nodes, g.loops_accepted, g.loops_rejected, g.merges_accepted, g.merges_rejected,
-      g.islands, g.four_dof ? "4-DoF, " : "", g.pcm_ms, g.solve_ms,
+      g.islands, g.four_dof ? "4-DoF, " : "", g.gravity_priors, g.pcm_ms, g.solve_ms,
       moved.ok() ? *moved : 0,
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   if (!moved.ok()) {

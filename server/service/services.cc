@@ -381,6 +381,7 @@ void QueryService::FillPoseGraph(loci::v1::PoseGraphStats* out) {
   out->set_merges_rejected(g.merges_rejected);
   out->set_islands(g.islands);
   out->set_four_dof(g.four_dof);
+  out->set_gravity_priors(g.gravity_priors);
   out->set_last_solve_ms(g.pcm_ms + g.solve_ms);
 }
 

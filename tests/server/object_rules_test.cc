@@ -105,7 +105,7 @@ TEST(ObjectRules, SameClassBoxesThatOverlapAreOneObject) {
 // Two cups 0.126 m apart, each seen by its own robot (session, track) in 3 views: the same thing
 // at 3.2 m on fr1_rpy's far desk (two robots' poses and depth noise put it in two places), and the
 // mug and pen holder 0.12 m apart at 0.9 m.
-size_t CupsAt(double range_m, double merge_sigmas) {
+size_t CupsAt(double range_m, double merge_sigmas, double second_range_m = -1) {
   FusionOptions opt = TrackOnly(0.75);
   opt.merge_sigmas = merge_sigmas;
   ObjectMap map(opt, 0.01);
@@ -115,7 +115,8 @@ size_t CupsAt(double range_m, double merge_sigmas) {
   for (int64_t kf = 1; kf <= 3; ++kf) {
     MapObservation first = Grid("cup", 1, kf, a - size / 2, a + size / 2, step);
     MapObservation second = Grid("cup", 2, 10 + kf, b - size / 2, b + size / 2, step);
-    first.range_m = second.range_m = range_m;
+    first.range_m = range_m;
+    second.range_m = second_range_m < 0 ? range_m : second_range_m;
     second.session_row = 2;
     map.Integrate({first}, &changes);
     map.Integrate({second}, &changes);
@@ -128,6 +129,7 @@ TEST(ObjectRules, FarObjectsMergeWithinTheirRangeUncertainty) {
   EXPECT_EQ(CupsAt(0.9, 1.0), 2u);  // gate 0.1 m (merge_centroid_m): s(0.9 m) = 0.024 m
   EXPECT_EQ(CupsAt(3.2, 0.0), 2u);  // off
   EXPECT_EQ(CupsAt(0.0, 1.0), 2u);  // range unknown
+  EXPECT_EQ(CupsAt(0.9, 1.0, 3.2), 2u);  // a near object does not take in a far view's blob
 }
 
 }  // namespace

@@ -186,6 +186,58 @@ TEST(PoseGraph, FourDofLoopWithTiltedMeasurementDoesNotTiltTheMap) {
   EXPECT_GT(tilt6, 0.5 * M_PI / 180);
 }
 
+// Mean angle between each keyframe's estimated and true up (map z seen from the keyframe), rad.
+double MeanTiltErrorRad(const SyntheticRobot& robot, const PoseGraph& graph) {
+  const Trajectory estimate = EstimatedTrajectory(robot, graph);
+  double sum = 0;
+  for (size_t i = 0; i < robot.nodes.size(); ++i) {
+    const Vec3d truth = robot.T_map_kf_true[i].rotation().transpose() * Vec3d::UnitZ();
+    const Vec3d est = estimate[i].T_world_cam.rotation().transpose() * Vec3d::UnitZ();
+    sum += std::acos(std::clamp(truth.dot(est), -1.0, 1.0));
+  }
+  return sum / robot.nodes.size();
+}
+
+// A visual odometry's roll and pitch drift too (fr1_rpy: 4.9 deg of tilt between frames 0 and
+// 300). The 4-DoF mode holds every keyframe's tilt as the odometry gave it; each keyframe's own
+// accelerometer reading (1 deg of noise here) as a gravity prior takes the drift out.
+TEST(PoseGraph, GravityPriorsTakeOutTheOdometrysTiltDrift) {
+  std::mt19937 rng(11);
+  const std::vector<SE3d> truth = SquarePath(SquarePathOptions{});
+  OdometryNoiseOptions noise;
+  noise.rot_sigma_rad = 0.004;  // a tilt random walk of 0.23 deg per keyframe
+  LoopScene s;
+  s.robot = MakeSyntheticRobot("robot1", 1, truth, noise, truth.front(), false, &rng);
+  std::normal_distribution<double> accel_noise(0, 0.01);
+  for (size_t i = 0; i < s.robot.nodes.size(); ++i) {
+    KeyframeNode& node = s.robot.nodes[i];
+    node.gravity_aligned = true;  // the map frame is z up; the tilt is the odometry's
+    const Vec3d up = truth[i].rotation().transpose() * Vec3d::UnitZ();
+    node.up_kf = (up + Vec3d(accel_noise(rng), accel_noise(rng), accel_noise(rng))).normalized();
+  }
+  s.loops = ProximityEdges(s.robot, s.robot, EdgeKind::kLoop, ProximityEdgeOptions{}, &rng);
+  GraphOptions options;
+  PoseGraph four = GraphOf(s, options);
+  const double drift = MeanTiltErrorRad(s.robot, four);
+  const auto r4 = four.Optimize();
+  ASSERT_TRUE(r4.ok()) << r4.status();
+  EXPECT_TRUE(r4->stats.four_dof);
+  options.gravity.sigma_rad = 0.02;
+  PoseGraph priors = GraphOf(s, options);
+  const auto r = priors.Optimize();
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_FALSE(r->stats.four_dof);
+  EXPECT_EQ(r->stats.gravity_priors, s.robot.nodes.size());
+  const double tilt4 = MeanTiltErrorRad(s.robot, four), tilt = MeanTiltErrorRad(s.robot, priors);
+  std::printf("mean tilt error: odometry %.2f deg, 4-DoF %.2f deg, gravity priors %.2f deg; ATE "
+              "4-DoF %.4f m, priors %.4f m\n",
+              drift * 180 / M_PI, tilt4 * 180 / M_PI, tilt * 180 / M_PI, Ate(s.robot, four),
+              Ate(s.robot, priors));
+  EXPECT_GT(tilt4, 1.0 * M_PI / 180);  // the drift is there, and 4-DoF keeps it
+  EXPECT_LT(tilt, tilt4 / 3);
+  EXPECT_LE(Ate(s.robot, priors), Ate(s.robot, four));
+}
+
 TEST(PoseGraph, FourDofIsRefusedWithoutGravity) {
   const LoopScene s = MakeLoopScene(/*gravity_aligned=*/false);
   GraphOptions options;
