@@ -8,7 +8,6 @@
 #include <array>
 #include <chrono>
 #include <memory>
-#include <set>
 
 #include "server/graph/graph_residuals.h"
 
@@ -44,15 +43,9 @@ void AddPoses(const SolverInput& in, PoseBlocks* b, ceres::Problem* problem) {
                                in.four_dof ? YawOnlyQuaternion::Create()
                                            : new ceres::EigenQuaternionManifold);
   }
-  std::set<size_t> levelled;  // nodes with a gravity prior: an anchor's tilt stays free
-  for (const auto& prior : in.gravity) levelled.insert(prior.first);
   for (const size_t a : in.anchors) {
     problem->SetParameterBlockConstant(b->t[a].data());
-    if (levelled.count(a)) {
-      problem->SetManifold(b->q[a].data(), TiltOnlyQuaternion::Create());
-    } else {
-      problem->SetParameterBlockConstant(b->q[a].data());
-    }
+    problem->SetParameterBlockConstant(b->q[a].data());
   }
 }
 

@@ -110,31 +110,4 @@ struct YawOnlyQuaternion {
   }
 };
 
-// Rotation about the map's x and y axes only, q <- exp([d0, d1, 0]) * q: the orientation of an
-// island's anchor when gravity priors level it (position and yaw hold the gauge; yaw changes
-// only to second order).
-struct TiltOnlyQuaternion {
-  template <typename T>
-  bool Plus(const T* x, const T* delta, T* x_plus_delta) const {
-    const T angle = sqrt(delta[0] * delta[0] + delta[1] * delta[1] + T(1e-30));
-    const T s = sin(angle * T(0.5)) / angle;
-    const Eigen::Quaternion<T> tilt(cos(angle * T(0.5)), delta[0] * s, delta[1] * s, T(0));
-    Eigen::Map<Eigen::Quaternion<T>> out(x_plus_delta);
-    out = tilt * Eigen::Map<const Eigen::Quaternion<T>>(x);
-    return true;
-  }
-  template <typename T>
-  bool Minus(const T* y, const T* x, T* y_minus_x) const {
-    const Eigen::Quaternion<T> d =
-        Eigen::Map<const Eigen::Quaternion<T>>(y) * Eigen::Map<const Eigen::Quaternion<T>>(x).conjugate();
-    const T sign = d.w() < T(0) ? T(-2.0) : T(2.0);
-    y_minus_x[0] = sign * d.x();
-    y_minus_x[1] = sign * d.y();
-    return true;
-  }
-  static ceres::Manifold* Create() {
-    return new ceres::AutoDiffManifold<TiltOnlyQuaternion, 4, 2>(new TiltOnlyQuaternion);
-  }
-};
-
 }  // namespace loci::server
