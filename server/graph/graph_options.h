@@ -70,7 +70,8 @@ struct LandmarkOptions {
 // of loss_scale sigmas: its tilt is pulled towards the measured up. With them, dof "auto"
 // solves in 6-DoF instead of 4-DoF: a visual odometry's roll and pitch drift (4.9 deg of tilt
 // between frames 0 and 300 of fr1_rpy), which the 4-DoF mode holds as if it were gravity, can
-// then follow the loops and merges, and gravity keeps the map from tilting. sigma_rad 0 = off.
+// then follow the loops and merges, pulled to gravity; loops that agree on a wrong tilt still
+// tilt the map in part (server/graph/README.md), so it is off by default. sigma_rad 0 = off.
 struct GravityPriorOptions {
   double sigma_rad = 0.0;
   double loss_scale = 2.0;
