@@ -7,10 +7,10 @@ namespace {
 
 // The keys FromYaml reads, per section (a key added there belongs here too).
 Status CheckGraphKeys(const YAML::Node& node) {
-  LOCI_RETURN_IF_ERROR(CheckKnownKeys(node, "graph",
-                                      {"odometry", "pcm", "loss", "landmarks", "solver", "dof", "gravity",
-                                       "reference_robot", "place_trans_m", "place_rot_rad",
-                                       "moved_trans_m", "moved_rot_rad"}));
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(
+      node, "graph",
+      {"odometry", "pcm", "loss", "landmarks", "solver", "dof", "gravity", "reference_robot",
+       "place_trans_m", "place_rot_rad", "moved_trans_m", "moved_rot_rad"}));
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["odometry"], "graph.odometry",
                                       {"sigma_trans_m", "sigma_trans_per_m", "sigma_rot_rad",
                                        "sigma_rot_per_rad", "full_quality_inliers",

@@ -236,7 +236,8 @@ Status MapOptions::Validate() const {
   if (!(fusion.merge_box_containment > 0)) return bad("fusion.merge_box_containment > 0");
   if (!(fusion.merge_sigmas >= 0 && fusion.merge_sigmas <= 5 && fusion.depth_sigma_at_1m >= 0 &&
         fusion.view_sigma_rad >= 0 && fusion.view_sigma_rad < 0.5)) {
-    return bad("fusion: merge_sigmas in [0, 5], depth_sigma_at_1m >= 0, view_sigma_rad in [0, 0.5)");
+    return bad(
+        "fusion: merge_sigmas in [0, 5], depth_sigma_at_1m >= 0, view_sigma_rad in [0, 0.5)");
   }
   if (!std::isfinite(fusion.class_size_slack)) return bad("fusion.class_size_slack finite");
   if (!(fusion.centroid_min_part >= 0 && fusion.centroid_min_part < 0.5)) {

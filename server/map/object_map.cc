@@ -167,8 +167,8 @@ bool ObjectMap::Duplicates(const FusedObject& self, const FusedObject& other,
   }
   const double d = (other.centroid_m() - self.centroid_m()).norm();
   if (d < options_.merge_centroid_m) return true;
-  if (same_class && d < RangeMergeGate(self, other)) return true;
   if (d >= options_.track_gate_m + 1.0) return false;
+  if (same_class && d < RangeMergeGate(self, other)) return true;
   if (self_keys->empty()) *self_keys = self.KeysAt(options_.overlap_voxel_m);
   if (VoxelContainment(*self_keys, other.KeysAt(options_.overlap_voxel_m)) >
       options_.merge_containment) {
