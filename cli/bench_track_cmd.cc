@@ -1,7 +1,8 @@
 // `loci bench track --tum DIR [--threads 1] [--max-frames N] [--config FILE]`: runs the tracking
 // client's visual odometry over a TUM folder and prints per-frame tracking time (median, p95),
 // keyframes/s, encoded bytes per keyframe (JPEG q90 + 16-bit PNG, encoding not timed as
-// tracking) and ATE / RPE when groundtruth.txt exists.
+// tracking) and ATE / RPE when groundtruth.txt exists. The options are loci-track's: the client
+// YAML and the folder's camera.yaml, and frames are undistorted as loci-track does.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -10,6 +11,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "cli/commands.h"
+#include "client/app/track_pipeline.h"
+#include "client/tracking/frame_undistorter.h"
 #include "client/tracking/tracker.h"
 #include "common/config.h"
 #include "common/image_codec.h"
@@ -39,20 +42,12 @@ double Percentile(std::vector<double> v, double q) {
 
 int RunBenchTrack(const BenchTrackArgs& a) {
   cv::setNumThreads(a.threads);
-  TrackerOptions opt;
-  const std::string cfg = a.config.empty() ? SourceDir() + "/config/client.yaml" : a.config;
-  if (auto node = LoadYamlFile(cfg); node.ok()) {
-    if (Status s = opt.FromYaml((*node)["tracker"]); !s.ok()) {
-      std::cerr << "error: " << cfg << ": " << s.message() << "\n";
-      return 1;
-    }
-  } else if (!a.config.empty()) {
-    std::cerr << "error: " << node.status().message() << "\n";
+  auto config = LoadClientConfig(a.config, a.tum_dir);
+  if (!config.ok()) {
+    std::cerr << "error: " << config.status().message() << "\n";
     return 1;
   }
-  if (auto classes = LoadYamlFile(SourceDir() + "/config/classes.yaml"); classes.ok()) {
-    (void)opt.ClassWeightsFromYaml(*classes);
-  }
+  TrackerOptions& opt = config->tracker;
   if (a.no_dynamic) opt.dynamic.enabled = false;
   auto seq = LoadTumSequence(a.tum_dir);
   if (!seq.ok()) {
@@ -64,6 +59,7 @@ int RunBenchTrack(const BenchTrackArgs& a) {
     std::cerr << "error: " << tracker.status().message() << "\n";
     return 1;
   }
+  const FrameUndistorter undistort(opt.camera, opt.distortion);
   std::vector<double> ms;
   Trajectory est;
   size_t keyframes = 0, kf_bytes = 0, lost = 0, segments = 0;
@@ -72,8 +68,12 @@ int RunBenchTrack(const BenchTrackArgs& a) {
       a.max_frames > 0 ? std::min<size_t>(a.max_frames, seq->frames.size()) : seq->frames.size();
   for (size_t i = 0; i < n; ++i) {
     const TumFrame& f = seq->frames[i];
-    const cv::Mat bgr = cv::imread(f.rgb_path, cv::IMREAD_COLOR);
-    const cv::Mat depth = cv::imread(f.depth_path, cv::IMREAD_UNCHANGED);
+    cv::Mat bgr = cv::imread(f.rgb_path, cv::IMREAD_COLOR);
+    cv::Mat depth = cv::imread(f.depth_path, cv::IMREAD_UNCHANGED);
+    if (Status s = undistort.Apply(&bgr, &depth); !s.ok()) {
+      std::cerr << "error: frame " << i << ": " << s.message() << "\n";
+      return 1;
+    }
     auto r = (*tracker)->Track(bgr, depth, f.rgb_t_ns);
     if (!r.ok()) {
       std::cerr << "error: frame " << i << ": " << r.status().message() << "\n";

@@ -163,6 +163,8 @@ int Run(const Args& a) {
   po.start_frame = static_cast<size_t>(a.start_frame);
   po.max_frames = a.max_frames > 0 ? static_cast<size_t>(a.max_frames) : 0;
   po.progress = !a.no_progress;
+  po.camera = topt.camera;
+  po.distortion = topt.distortion;
   auto r = RunTrackPipeline(*seq, tracker.get(), pose_source.get(), det.file_dets, stage, po);
   const Status stage_status = stage.Finish();
   if (!r.ok()) {

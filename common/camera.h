@@ -1,4 +1,6 @@
-// Pinhole camera model (no distortion: TUM images are used as given, like the benchmark tools).
+// Pinhole camera model, and the lens distortion a sensor's raw images carry. Everything past the
+// tracking client's frame input (odometry, detection, the streamed keyframes, the server) sees
+// pinhole images: the client removes the distortion first (client/tracking/frame_undistorter.h).
 // Pixel (u, v): u right, v down, (0,0) the top-left pixel centre. Depth in metres along +z_cam.
 #pragma once
 
@@ -40,6 +42,28 @@ struct PinholeCamera {
   }
   // Positive finite focal lengths, principal point inside the image, size in (0, 8192].
   Status Validate() const;
+};
+
+// Radial-tangential lens distortion of raw images (OpenCV's model, ROS's plumb_bob):
+// coefficients k1, k2, p1, p2, k3 on normalised image coordinates. All zero: pinhole images.
+struct LensDistortion {
+  double k1 = 0, k2 = 0, p1 = 0, p2 = 0, k3 = 0;
+
+  // TUM's published calibration of the freiburg1 and freiburg2 Kinects' colour cameras (the
+  // depth images are registered to them); freiburg3's images are published undistorted.
+  static LensDistortion TumFr1() { return {0.2624, -0.9531, -0.0054, 0.0026, 1.1633}; }
+  static LensDistortion TumFr2() { return {0.2312, -0.7849, -0.0033, -0.0001, 0.9172}; }
+
+  bool IsZero() const { return k1 == 0 && k2 == 0 && p1 == 0 && p2 == 0 && k3 == 0; }
+  // Finite coefficients, and a model that stays monotonic over the image (a point further from
+  // the centre stays further out), else InvalidArgument.
+  Status Validate(const PinholeCamera& camera) const;
+};
+
+// What a sensor's configuration gives: the pinhole intrinsics and its lens distortion.
+struct CameraCalibration {
+  PinholeCamera intrinsics;
+  LensDistortion distortion;
 };
 
 }  // namespace loci

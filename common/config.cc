@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <string>
 #include <system_error>
+#include <vector>
 
 #include "absl/strings/str_join.h"
 
@@ -58,31 +59,51 @@ StatusOr<YAML::Node> LoadYamlFile(const std::string& path) {
   }
 }
 
-StatusOr<PinholeCamera> CameraPreset(const std::string& name) {
-  if (name == "tum_fr1") return PinholeCamera::TumFr1();
-  if (name == "tum_fr2") return PinholeCamera::TumFr2();
-  if (name == "tum_fr3") return PinholeCamera::TumFr3();
+StatusOr<CameraCalibration> CameraPreset(const std::string& name) {
+  using Cal = CameraCalibration;
+  if (name == "tum_fr1") return Cal{PinholeCamera::TumFr1(), LensDistortion::TumFr1()};
+  if (name == "tum_fr2") return Cal{PinholeCamera::TumFr2(), LensDistortion::TumFr2()};
+  if (name == "tum_fr3") return Cal{PinholeCamera::TumFr3(), LensDistortion{}};
   return absl::InvalidArgumentError(
       absl::StrCat("unknown camera preset '", name, "' (known: tum_fr1, tum_fr2, tum_fr3)"));
 }
 
-StatusOr<PinholeCamera> CameraFromYaml(const YAML::Node& node) {
+namespace {
+
+Status ReadDistortion(const YAML::Node& node, LensDistortion* out) {
+  if (!node["distortion"]) return absl::OkStatus();
+  std::vector<double> c;
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "distortion", &c));
+  if (c.size() != 5) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "camera.distortion: give 5 coefficients [k1, k2, p1, p2, k3], not ", c.size()));
+  }
+  *out = {c[0], c[1], c[2], c[3], c[4]};
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+StatusOr<CameraCalibration> CameraFromYaml(const YAML::Node& node) {
   if (!node) return absl::InvalidArgumentError("camera: missing");
   if (node.IsScalar()) return CameraPreset(node.as<std::string>());
-  LOCI_RETURN_IF_ERROR(
-      CheckKnownKeys(node, "camera", {"preset", "fx", "fy", "cx", "cy", "width", "height"}));
-  PinholeCamera cam;
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(
+      node, "camera", {"preset", "fx", "fy", "cx", "cy", "width", "height", "distortion"}));
+  CameraCalibration cal;
   if (node["preset"]) {
-    LOCI_ASSIGN_OR_RETURN(cam, CameraPreset(node["preset"].as<std::string>()));
+    LOCI_ASSIGN_OR_RETURN(cal, CameraPreset(node["preset"].as<std::string>()));
   }
+  PinholeCamera& cam = cal.intrinsics;
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "fx", &cam.fx));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "fy", &cam.fy));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "cx", &cam.cx));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "cy", &cam.cy));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "width", &cam.width_px));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "height", &cam.height_px));
+  LOCI_RETURN_IF_ERROR(ReadDistortion(node, &cal.distortion));
   LOCI_RETURN_IF_ERROR(cam.Validate());
-  return cam;
+  LOCI_RETURN_IF_ERROR(cal.distortion.Validate(cam));
+  return cal;
 }
 
 std::string ResolveResourceDir(const char* home, const std::string& exe,

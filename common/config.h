@@ -54,9 +54,11 @@ class ConfigFileScope {
   const std::string* previous_;
 };
 
-// Camera from a node {preset, fx, fy, cx, cy, width, height} or a named preset "tum_fr1|2|3".
-StatusOr<PinholeCamera> CameraFromYaml(const YAML::Node& node);
-StatusOr<PinholeCamera> CameraPreset(const std::string& name);
+// Camera from a node {preset, fx, fy, cx, cy, width, height, distortion: [k1, k2, p1, p2, k3]}
+// or a named preset "tum_fr1|2|3" (intrinsics and distortion). Keys override the preset's; without
+// a preset, an absent `distortion` means pinhole images.
+StatusOr<CameraCalibration> CameraFromYaml(const YAML::Node& node);
+StatusOr<CameraCalibration> CameraPreset(const std::string& name);
 
 // Where the shipped config/ and models/ (and, in the source tree, tests/data) live, first of:
 // $LOCI_HOME when set; <dir of this executable>/../share/loci when it holds config/ (an

@@ -44,7 +44,8 @@ std::string CameraYaml(const Scene& s) {
                 "# Intrinsics of this synthetic sequence (TUM fr1 scaled to the image size),\n"
                 "# pixels; one pinhole model for RGB and depth. Depth PNG: depth_scale units per "
                 "metre.\ncamera:\n  fx: %.6f\n  fy: %.6f\n  cx: %.6f\n  cy: %.6f\n  width: %d\n"
-                "  height: %d\ndepth_scale: %.1f\n",
+                "  height: %d\n  distortion: [0, 0, 0, 0, 0]  # rendered: no lens distortion\n"
+                "depth_scale: %.1f\n",
                 c.fx, c.fy, c.cx, c.cy, c.width_px, c.height_px, s.options.depth_scale);
   return buf;
 }

@@ -185,6 +185,8 @@ StatusOr<ClientRun> RunClient(const ReportOptions& o, const TumSequence& seq,
   TrackPipelineOptions po;
   po.max_frames = o.max_frames > 0 ? static_cast<size_t>(o.max_frames) : 0;
   po.progress = o.progress;
+  po.camera = topt.camera;
+  po.distortion = topt.distortion;
   LOCI_ASSIGN_OR_RETURN(run.track,
                         RunTrackPipeline(seq, tracker.get(), nullptr, file_dets, stage, po));
   LOCI_RETURN_IF_ERROR(stage.Finish());

@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "absl/strings/match.h"
+#include "client/tracking/frame_undistorter.h"
 #include "common/config.h"
 #include "common/progress.h"
 
@@ -61,14 +62,17 @@ Status ReadClientYaml(const std::string& path, const YAML::Node& root, ClientCon
 // and `depth_scale` (depth PNG units per metre).
 Status ReadSequenceCamera(const std::string& path, const YAML::Node& root, TrackerOptions* out) {
   const ConfigFileScope scope(path);
+  CameraCalibration cal;
   if (root["camera"]) {
     LOCI_RETURN_IF_ERROR(CheckKnownKeys(root, "", {"camera", "depth_scale"}));
-    LOCI_ASSIGN_OR_RETURN(out->camera, CameraFromYaml(root["camera"]));
+    LOCI_ASSIGN_OR_RETURN(cal, CameraFromYaml(root["camera"]));
   } else {
     YAML::Node intrinsics = YAML::Clone(root);  // the top-level form: every key but depth_scale
     intrinsics.remove("depth_scale");
-    LOCI_ASSIGN_OR_RETURN(out->camera, CameraFromYaml(intrinsics));
+    LOCI_ASSIGN_OR_RETURN(cal, CameraFromYaml(intrinsics));
   }
+  out->camera = cal.intrinsics;
+  out->distortion = cal.distortion;
   return ReadOptional(root, "depth_scale", &out->depth_scale);
 }
 
@@ -109,12 +113,17 @@ StatusOr<TrackPipelineResult> RunTrackPipeline(const TumSequence& seq, Tracker* 
   const size_t first = std::min(o.start_frame, seq.frames.size());
   const size_t left = seq.frames.size() - first;
   const size_t n = first + (o.max_frames > 0 ? std::min(o.max_frames, left) : left);
+  const FrameUndistorter undistort(o.camera, o.distortion);
   for (size_t i = first; i < n; ++i) {
     const TumFrame& f = seq.frames[i];
     cv::Mat bgr = cv::imread(f.rgb_path, cv::IMREAD_COLOR);
     cv::Mat depth = cv::imread(f.depth_path, cv::IMREAD_UNCHANGED);
     if (bgr.empty() || depth.empty()) {
       spdlog::warn("frame {}: unreadable image, skipped", i);
+      continue;
+    }
+    if (Status s = undistort.Apply(&bgr, &depth); !s.ok()) {
+      spdlog::warn("frame {}: {}, skipped", i, std::string(s.message()));
       continue;
     }
     ++r.frames;

@@ -34,6 +34,11 @@ struct TrackPipelineOptions {
   size_t start_frame = 0;                // first frame (index in rgb.txt) to track
   size_t max_frames = 0;                 // frames from start_frame on; 0 = to the end
   bool progress = false;                 // progress on stderr
+  // The raw images' camera and lens distortion (TrackerOptions::camera, ::distortion): every
+  // frame is undistorted (FrameUndistorter) before odometry, detection and streaming. Zero
+  // distortion: the images are used as read.
+  PinholeCamera camera = PinholeCamera::TumFr1();
+  LensDistortion distortion;
 };
 
 struct TrackPipelineResult {

@@ -36,6 +36,7 @@ constexpr const char* kDynamicKeys[] = {
 
 Status TrackerOptions::Validate() const {
   LOCI_RETURN_IF_ERROR(camera.Validate());
+  LOCI_RETURN_IF_ERROR(distortion.Validate(camera));
   if (!(depth_scale > 0)) return absl::InvalidArgumentError("depth_scale must be > 0");
   if (!(min_depth_m > 0 && max_depth_m > min_depth_m)) {
     return absl::InvalidArgumentError("need 0 < min_depth_m < max_depth_m");
@@ -59,7 +60,9 @@ Status TrackerOptions::FromYaml(const YAML::Node& n) {
   if (!n) return absl::OkStatus();
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(n, "tracker", kTrackerKeys));
   if (n["camera"]) {
-    LOCI_ASSIGN_OR_RETURN(camera, CameraFromYaml(n["camera"]));
+    LOCI_ASSIGN_OR_RETURN(const CameraCalibration cal, CameraFromYaml(n["camera"]));
+    camera = cal.intrinsics;
+    distortion = cal.distortion;
   }
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "depth_scale", &depth_scale));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_depth_m", &min_depth_m));

@@ -46,7 +46,10 @@ struct DynamicOptions {
 };
 
 struct TrackerOptions {
-  PinholeCamera camera = PinholeCamera::TumFr1();
+  PinholeCamera camera = PinholeCamera::TumFr1();  // of the pinhole images Track() is given
+  // The raw images' lens distortion: the pipeline (RunTrackPipeline, `loci bench track`)
+  // removes it with a FrameUndistorter before Track(), detection and streaming.
+  LensDistortion distortion = LensDistortion::TumFr1();
   double depth_scale = 5000.0;  // depth PNG units per metre
   double min_depth_m = 0.1;     // valid depth range for 3-D points
   double max_depth_m = 4.0;

@@ -21,8 +21,36 @@ TEST(Config, ShippedCameraFilesLoad) {
     auto cam = CameraFromYaml((*node)["camera"]);
     ASSERT_TRUE(cam.ok()) << cam.status();
     auto preset = CameraPreset(name);
-    EXPECT_DOUBLE_EQ(cam->fx, preset->fx);
-    EXPECT_EQ(cam->width_px, 640);
+    EXPECT_DOUBLE_EQ(cam->intrinsics.fx, preset->intrinsics.fx);
+    EXPECT_EQ(cam->intrinsics.width_px, 640);
+    // The files and the presets give the same lens distortion (fr1, fr2: TUM's; fr3: none).
+    EXPECT_DOUBLE_EQ(cam->distortion.k1, preset->distortion.k1) << name;
+    EXPECT_DOUBLE_EQ(cam->distortion.k3, preset->distortion.k3) << name;
+    EXPECT_EQ(cam->distortion.IsZero(), std::string(name) == "tum_fr3") << name;
+  }
+}
+
+TEST(Config, CameraDistortionIsReadAndChecked) {
+  // Intrinsics alone: pinhole images.
+  auto plain =
+      CameraFromYaml(YAML::Load("{fx: 500, fy: 500, cx: 320, cy: 240, width: 640, height: 480}"));
+  ASSERT_TRUE(plain.ok()) << plain.status();
+  EXPECT_TRUE(plain->distortion.IsZero());
+  // A preset keeps its distortion when only intrinsics are overridden; `distortion` replaces it.
+  auto over = CameraFromYaml(YAML::Load("{preset: tum_fr1, fx: 520}"));
+  ASSERT_TRUE(over.ok()) << over.status();
+  EXPECT_DOUBLE_EQ(over->distortion.k2, LensDistortion::TumFr1().k2);
+  auto given = CameraFromYaml(YAML::Load("{preset: tum_fr1, distortion: [0.1, -0.2, 0, 0, 0]}"));
+  ASSERT_TRUE(given.ok()) << given.status();
+  EXPECT_DOUBLE_EQ(given->distortion.k1, 0.1);
+  EXPECT_DOUBLE_EQ(given->distortion.k3, 0.0);
+  // Four coefficients, a string, and a model that folds over inside the image are errors.
+  for (const char* bad : {"{preset: tum_fr1, distortion: [0.1, -0.2, 0, 0]}",
+                          "{preset: tum_fr1, distortion: abc}",
+                          "{preset: tum_fr1, distortion: [0, -2.0, 0, 0, 0]}"}) {
+    auto r = CameraFromYaml(YAML::Load(bad));
+    ASSERT_FALSE(r.ok()) << bad;
+    EXPECT_NE(r.status().message().find("distortion"), std::string::npos) << r.status();
   }
 }
 

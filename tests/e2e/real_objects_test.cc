@@ -29,9 +29,9 @@ TEST(RealObjects, Fr1RpyAgainstHandMadeGroundTruth) {
   const GroundTruthEval& e = *r->gt_eval;
   const server::ObjectEvalResult& m = e.objects;
   std::printf("fr1_rpy: precision %.3f recall %.3f F1 %.3f count error %.3f centroid %.3f m, "
-              "X-on-Y %d/%zu, map up %.2f deg from ground truth\n",
+              "X-on-Y %d/%zu, map up %.2f deg from ground truth (%.2f deg by the orientations)\n",
               m.precision, m.recall, m.f1, m.count_error, m.mean_centroid_error_m, e.on_right,
-              e.on_pairs.size(), e.up_error_deg);
+              e.on_pairs.size(), e.up_error_deg, e.up_error_orientation_deg);
   if (r->gt_eval_orientations) {
     const server::ObjectEvalResult& by_rot = r->gt_eval_orientations->objects;
     std::printf("fr1_rpy, aligned by the camera orientations (%.1f deg from the positions'): "
@@ -39,8 +39,13 @@ TEST(RealObjects, Fr1RpyAgainstHandMadeGroundTruth) {
                 e.alignment_disagreement_deg, by_rot.precision, by_rot.recall, by_rot.count_error,
                 by_rot.mean_centroid_error_m);
   }
-  // The map frame is level: its z within 3 deg of the ground truth's up (itself z within 2-4 deg).
-  EXPECT_LT(e.up_error_deg, 3.0);
+  // The map frame is level: its z within 3 deg of the ground truth's up (itself z within 2-4 deg),
+  // with the map turned into the world by the camera orientations. The positions' alignment (the
+  // TUM way, used for the object figures) is ill-conditioned in rotation on a sequence that turns
+  // in place (fr1_rpy's keyframes lie within about 7 cm of their mean): it differs from the
+  // orientations' by 6.5-8 deg from run to run (docs/results.md, sessions 12 and 17), so it
+  // cannot tell whether the map is level.
+  EXPECT_LT(e.up_error_orientation_deg, 3.0);
   // Floors at the figures measured in docs/results.md (session 5: precision 0.467, recall
   // 0.467, count error 0 %, centroid 0.112 m), with room for a single object (1/15 = 0.067).
   EXPECT_GE(m.precision, 0.4);
