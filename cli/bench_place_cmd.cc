@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <opencv2/core.hpp>
@@ -25,6 +26,7 @@
 #include "common/image_codec.h"
 #include "common/time.h"
 #include "common/tum_io.h"
+#include "server/place/dense_refinement.h"
 #include "server/place/feature_codec.h"
 #include "server/place/geometric_verification.h"
 #include "server/place/place_database.h"
@@ -130,6 +132,65 @@ void BenchVerification(const std::vector<KeyframeFeatures>& kfs,
       s.median, s.p95, accepted, ms.size());
 }
 
+// The relative pose of frames a and b (p_a = T_a_b p_b) from the ground truth, when it has them.
+std::optional<SE3d> TruthAB(const TumSequence& seq, size_t a, size_t b) {
+  auto at = [&](int64_t t_ns) -> std::optional<SE3d> {
+    for (const StampedPose& p : seq.groundtruth) {
+      if (std::llabs(p.t_ns - t_ns) < 10'000'000) return p.T_world_cam;
+    }
+    return std::nullopt;
+  };
+  const std::optional<SE3d> Ta = at(seq.frames[a].rgb_t_ns), Tb = at(seq.frames[b].rgb_t_ns);
+  if (!Ta || !Tb) return std::nullopt;
+  return Ta->inverse() * *Tb;
+}
+
+// Dense refinement (place.dense) of the verified pairs of BenchVerification: its cost, and with
+// ground truth how far the sparse and the refined relative poses are from it.
+void BenchDense(const TumSequence& seq, const std::vector<KeyframeFeatures>& kfs,
+                const place::PlaceOptions& options) {
+  std::vector<double> make_ms, refine_ms, sparse_deg, dense_deg, sparse_mm, dense_mm;
+  int refused = 0;
+  auto frame = [&](size_t i) {
+    cv::Mat depth_m;
+    cv::imread(seq.frames[i].depth_path, cv::IMREAD_UNCHANGED)
+        .convertTo(depth_m, CV_32F, 1 / 5000.0);
+    const cv::Mat bgr = cv::imread(seq.frames[i].rgb_path, cv::IMREAD_COLOR);
+    const double t0 = ThreadCpuMs();
+    place::DenseFrame f = place::MakeDenseFrame(bgr, depth_m, kfs[i].camera, options.dense);
+    make_ms.push_back(ThreadCpuMs() - t0);
+    return f;
+  };
+  for (size_t i = 10; i < kfs.size(); i += 5) {
+    const place::Verification v = place::VerifyPair(kfs[i], kfs[i - 10], options.verify);
+    if (!v.accepted) continue;
+    const place::DenseFrame a = frame(i), b = frame(i - 10);
+    const double t0 = ThreadCpuMs();
+    const std::optional<SE3d> refined = place::RefineDense(a, b, v.T_a_b, options.dense);
+    refine_ms.push_back(ThreadCpuMs() - t0);
+    refused += !refined;
+    const std::optional<SE3d> truth = TruthAB(seq, i, i - 10);
+    if (!truth) continue;
+    const SE3d dense = refined.value_or(v.T_a_b);
+    sparse_deg.push_back(RotationAngleRad(truth->inverse() * v.T_a_b) * 180 / M_PI);
+    dense_deg.push_back(RotationAngleRad(truth->inverse() * dense) * 180 / M_PI);
+    sparse_mm.push_back((truth->inverse() * v.T_a_b).translation().norm() * 1e3);
+    dense_mm.push_back((truth->inverse() * dense).translation().norm() * 1e3);
+  }
+  const Stats m = Summarise(make_ms), r = Summarise(refine_ms);
+  std::printf(
+      "dense refinement (scale %.2f, %d levels): images %.1f ms/keyframe, alignment %.1f ms "
+      "median, %.1f p95 thread CPU per pair (%zu pairs, %d refused)\n",
+      options.dense.scale, options.dense.levels, m.median, r.median, r.p95, refine_ms.size(),
+      refused);
+  if (sparse_deg.empty()) return;
+  std::printf(
+      "  against the ground truth (frames as read): sparse %.2f deg, %.1f mm median -> dense "
+      "%.2f deg, %.1f mm\n",
+      Summarise(sparse_deg).median, Summarise(sparse_mm).median, Summarise(dense_deg).median,
+      Summarise(dense_mm).median);
+}
+
 cv::Mat MaskedDescriptors(const cv::Mat& descriptors, const cv::Mat& mask_row) {
   cv::Mat out(descriptors.size(), descriptors.type());
   for (int r = 0; r < descriptors.rows; ++r)
@@ -232,6 +293,7 @@ int RunBenchPlace(const BenchPlaceArgs& a) {
     return 1;
   }
   BenchVerification(*kfs, options.verify);
+  if (options.dense.enabled) BenchDense(*seq, *kfs, options);
   for (const int size : a.sizes) BenchSize(*kfs, size, a, options);
   return 0;
 }

@@ -14,6 +14,7 @@ RobotAligner::RobotAligner(const place::PlaceOptions& place, const AlignOptions&
       own_features_(features ? nullptr : std::make_unique<place::MemoryFeatureStore>()),
       cache_(features ? features : own_features_.get(),
              static_cast<size_t>(place.features.cache_keyframes)),
+      dense_cache_(static_cast<size_t>(place.dense.cache_keyframes)),
       db_(place.vocabulary, place.query),
       gate_(place.consistency) {}
 
@@ -118,10 +119,15 @@ StatusOr<AlignOutcome> RobotAligner::AddKeyframe(const AlignKeyframe& kf, const 
   LOCI_ASSIGN_OR_RETURN(place::KeyframeFeatures features,
                         place::ExtractFeatures(bgr, depth_m, camera, place_.features));
   const place::BowVector bow = db_.Quantise(features.descriptors, /*add_words=*/true);
+  std::shared_ptr<const place::DenseFrame> dense;
+  if (match && place_.dense.enabled) {
+    dense = std::make_shared<const place::DenseFrame>(
+        place::MakeDenseFrame(bgr, depth_m, camera, place_.dense));
+  }
   AlignOutcome out;
   std::optional<SessionAlignment>& result = out.alignment;
   if (match && !aligned) {
-    out.matches = Match(kf, features, bow, /*loops=*/false, /*query_aligned=*/false);
+    out.matches = Match(kf, features, bow, /*loops=*/false, /*query_aligned=*/false, dense.get());
     result = Gate(kf, Estimates(kf, out.matches));
     if (result) {
       out.island_alignments = AlignIsland(*result);
@@ -129,15 +135,16 @@ StatusOr<AlignOutcome> RobotAligner::AddKeyframe(const AlignKeyframe& kf, const 
       out.join = Join(kf, out.matches);
     }
   } else if (match && options_.loops.enabled) {
-    out.matches = Match(kf, features, bow, /*loops=*/true, /*query_aligned=*/true);
+    out.matches = Match(kf, features, bow, /*loops=*/true, /*query_aligned=*/true, dense.get());
   } else if (match && Refining(kf.session_row)) {
-    out.matches = Match(kf, features, bow, /*loops=*/false, /*query_aligned=*/true);
+    out.matches = Match(kf, features, bow, /*loops=*/false, /*query_aligned=*/true, dense.get());
     result = Refine(kf, Estimates(kf, out.matches));
   }
   if (Status st = cache_.Put(kf.keyframe_id, std::move(features)); !st.ok()) {
     spdlog::warn("keyframe {}: features not stored ({}); it is matched while cached",
                  kf.keyframe_id, st.ToString());
   }
+  if (dense) dense_cache_.Put(kf.keyframe_id, std::move(dense));
   LOCI_RETURN_IF_ERROR(Index(kf, bow));
   std::lock_guard<std::mutex> lock(stats_mu_);
   CountIndexed(t0_ms);
@@ -163,7 +170,8 @@ Status RobotAligner::IndexStored(const AlignKeyframe& kf, place::KeyframeFeature
 std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
                                                const place::KeyframeFeatures& features,
                                                const place::BowVector& bow, bool loops,
-                                               bool query_aligned) {
+                                               bool query_aligned,
+                                               const place::DenseFrame* dense) {
   std::vector<VerifiedMatch> matches;
   int tried = 0;
   uint64_t verified = 0, rejected = 0, missing = 0;
@@ -192,7 +200,8 @@ std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
       continue;
     }
     ++verified;
-    matches.push_back({c.keyframe_id, kf.keyframe_id, v.T_a_b, v.inliers, v.rms_m, loop});
+    const SE3d T_a_b = RefinedDense(c.keyframe_id, dense, v.T_a_b);
+    matches.push_back({c.keyframe_id, kf.keyframe_id, T_a_b, v.inliers, v.rms_m, loop});
   }
   std::lock_guard<std::mutex> lock(stats_mu_);
   ++stats_.queries;
@@ -201,6 +210,16 @@ std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
   stats_.features_missing += missing;
   stats_.features_read += cache_.Stats().misses - read_before;
   return matches;
+}
+
+SE3d RobotAligner::RefinedDense(int64_t a_id, const place::DenseFrame* b, const SE3d& T_a_b) {
+  if (b == nullptr) return T_a_b;
+  const std::shared_ptr<const place::DenseFrame> a = dense_cache_.Get(a_id);
+  std::optional<SE3d> refined;
+  if (a) refined = place::RefineDense(*a, *b, T_a_b, place_.dense);
+  std::lock_guard<std::mutex> lock(stats_mu_);
+  ++(!a ? stats_.dense_uncached : refined ? stats_.dense_refined : stats_.dense_refused);
+  return refined.value_or(T_a_b);
 }
 
 std::vector<SE3d> RobotAligner::Estimates(const AlignKeyframe& kf,

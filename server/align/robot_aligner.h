@@ -39,6 +39,7 @@
 #include "common/se3.h"
 #include "server/align/align_options.h"
 #include "server/place/consistency_gate.h"
+#include "server/place/dense_refinement.h"
 #include "server/place/feature_cache.h"
 #include "server/place/keyframe_features.h"
 #include "server/place/place_database.h"
@@ -111,6 +112,12 @@ struct AlignStats {
   uint64_t features_read = 0;     // candidates' features read back from the store (cache misses)
   uint64_t features_missing = 0;  // candidates skipped: their features could not be read
   uint64_t indexed_from_store = 0;  // keyframes indexed from stored features (IndexStored)
+  // Verified matches whose relative pose the dense alignment refined, refused (no convergence
+  // or a correction beyond place.dense's bounds: the sparse estimate kept), and could not refine
+  // (the candidate's reduced images no longer cached, e.g. after a restart).
+  uint64_t dense_refined = 0;
+  uint64_t dense_refused = 0;
+  uint64_t dense_uncached = 0;
 };
 
 // T_to_from turned about pivot_to (a point in the `to` frame, kept where it is) so that the
@@ -189,8 +196,12 @@ class RobotAligner {
   // Verifies the best candidates (max_verify, in rank order) among the keyframes of aligned
   // sessions and, with loops, the older ones of kf's own session; every match that verifies.
   // An unaligned query also verifies candidates of unaligned sessions in other islands.
+  // `dense`: the query's reduced images (null: no dense refinement).
   std::vector<VerifiedMatch> Match(const AlignKeyframe& kf, const place::KeyframeFeatures& features,
-                                   const place::BowVector& bow, bool loops, bool query_aligned);
+                                   const place::BowVector& bow, bool loops, bool query_aligned,
+                                   const place::DenseFrame* dense);
+  // T_a_b refined by the dense alignment when it can be; counts the outcome.
+  SE3d RefinedDense(int64_t a_id, const place::DenseFrame* b, const SE3d& T_a_b);
   // IslandOf with sessions_mu_ held.
   std::pair<int64_t, SE3d> IslandOfLocked(int64_t session_row) const;
   // Whether two sessions are one unaligned island (sessions_mu_ not held).
@@ -217,9 +228,10 @@ class RobotAligner {
 
   place::PlaceOptions place_;
   AlignOptions options_;
-  mutable std::mutex work_mu_;  // db_, gate_, indexed_, cache_
+  mutable std::mutex work_mu_;  // db_, gate_, indexed_, cache_, dense_cache_
   std::unique_ptr<place::MemoryFeatureStore> own_features_;  // when none was given
   place::FeatureCache cache_;
+  place::DenseFrameCache dense_cache_;
   place::PlaceDatabase db_;
   place::ConsistencyGate gate_;
   std::map<int64_t, Session> sessions_;

@@ -10,7 +10,12 @@ constexpr int kFeaturesVersion = 1;
 
 Status CheckPlaceKeys(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(
-      CheckKnownKeys(node, "place", {"features", "vocabulary", "query", "verify", "consistency"}));
+      CheckKnownKeys(node, "place", {"features", "vocabulary", "query", "verify", "consistency",
+                                     "dense"}));
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(
+      node["dense"], "place.dense",
+      {"enabled", "scale", "levels", "min_depth_m", "max_depth_m", "max_depth_diff_m",
+       "max_correction_m", "max_correction_rad", "cache_keyframes"}));
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
       node["features"], "place.features",
       {"max_features", "scale_factor", "levels", "fast_threshold", "min_depth_m", "max_depth_m",
@@ -73,8 +78,33 @@ Status ReadConsistency(const YAML::Node& n, ConsistencyOptions* o) {
   return ReadOptional(n, "max_rotation_deg", &o->max_rotation_deg);
 }
 
+Status ReadDense(const YAML::Node& n, DenseOptions* o) {
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "enabled", &o->enabled));
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "scale", &o->scale));
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "levels", &o->levels));
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_depth_m", &o->min_depth_m));
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_depth_m", &o->max_depth_m));
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_depth_diff_m", &o->max_depth_diff_m));
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_correction_m", &o->max_correction_m));
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_correction_rad", &o->max_correction_rad));
+  return ReadOptional(n, "cache_keyframes", &o->cache_keyframes);
+}
+
 Status Bad(const char* what) {
   return absl::InvalidArgumentError(absl::StrCat("place options: ", what));
+}
+
+Status ValidateDense(const DenseOptions& d) {
+  if (!(d.scale >= 0.1 && d.scale <= 1)) return Bad("dense.scale in [0.1, 1]");
+  if (d.levels < 1 || d.levels > 4) return Bad("dense.levels in [1, 4]");
+  if (!(d.min_depth_m > 0 && d.max_depth_m > d.min_depth_m)) {
+    return Bad("dense: 0 < min_depth_m < max_depth_m");
+  }
+  if (!(d.max_depth_diff_m > 0) || !(d.max_correction_m > 0) || !(d.max_correction_rad > 0)) {
+    return Bad("dense.max_depth_diff_m, max_correction_m and max_correction_rad > 0");
+  }
+  if (d.cache_keyframes < 1) return Bad("dense.cache_keyframes >= 1");
+  return absl::OkStatus();
 }
 
 Status ValidateFeatures(const FeatureOptions& f) {
@@ -136,6 +166,7 @@ Status PlaceOptions::FromYaml(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(ReadQuery(node["query"], &query));
   LOCI_RETURN_IF_ERROR(ReadVerify(node["verify"], &verify));
   LOCI_RETURN_IF_ERROR(ReadConsistency(node["consistency"], &consistency));
+  LOCI_RETURN_IF_ERROR(ReadDense(node["dense"], &dense));
   return Validate();
 }
 
@@ -157,7 +188,7 @@ Status PlaceOptions::Validate() const {
   if (!(consistency.max_translation_m > 0) || !(consistency.max_rotation_deg > 0)) {
     return Bad("consistency.max_translation_m and max_rotation_deg > 0");
   }
-  return absl::OkStatus();
+  return ValidateDense(dense);
 }
 
 }  // namespace loci::place

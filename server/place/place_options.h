@@ -85,12 +85,32 @@ struct ConsistencyOptions {
   double max_rotation_deg = 3.0;    // ... and rotations by at most this angle, deg (3.0)
 };
 
+// Dense refinement of verified matches (dense_refinement.h).
+struct DenseOptions {
+  bool enabled = true;
+  double scale = 0.5;  // the images are resized by this before the alignment (0.5: 320 x 240)
+  int levels = 3;      // image pyramid levels of the coarse-to-fine solver, 1..4 (3)
+  // Pixels with depth outside [min_depth_m, max_depth_m] are left out (0.1, 4.0 m).
+  double min_depth_m = 0.1;
+  double max_depth_m = 4.0;
+  // ICP correspondences whose depths differ by more than this are dropped, m (0.07).
+  double max_depth_diff_m = 0.07;
+  // A refinement that moves the sparse estimate further than this is refused and the sparse
+  // estimate kept: the dense solver's basin is a few centimetres and degrees (0.10 m, 0.07 rad).
+  double max_correction_m = 0.10;
+  double max_correction_rad = 0.07;
+  // Keyframes whose reduced images stay in memory (about 0.4 MB each at scale 0.5); a
+  // candidate outside them is not refined (256).
+  int cache_keyframes = 256;
+};
+
 struct PlaceOptions {
   FeatureOptions features;
   VocabularyOptions vocabulary;
   QueryOptions query;
   VerifyOptions verify;
   ConsistencyOptions consistency;
+  DenseOptions dense;
 
   // Reads the subsections features / vocabulary / query / verify / consistency of `place`.
   Status FromYaml(const YAML::Node& node);

@@ -358,6 +358,9 @@ grpc::Status QueryService::FillAlignment(const std::vector<SessionRecord>& sessi
   a->set_features_read(st->features_read);
   a->set_features_missing(st->features_missing);
   a->set_keyframes_from_stored_features(st->indexed_from_store);
+  a->set_dense_refined(st->dense_refined);
+  a->set_dense_refused(st->dense_refused);
+  a->set_dense_uncached(st->dense_uncached);
   FillPoseGraph(resp->mutable_pose_graph());
   return grpc::Status::OK;
 }

@@ -208,6 +208,9 @@ void CheckTwoRobots(const std::string& tum, const RobotRun& a, const RobotRun& b
   const std::optional<SE3d> est = EstimatedAToB(r.stats);
   ASSERT_TRUE(est.has_value()) << "robot B was not aligned: " << r.stats.DebugString();
   EXPECT_EQ(r.stats.alignment().merges_accepted(), 1u);
+  // Verified matches are refined by the dense alignment (place.dense), most of them.
+  const v1::AlignmentStats& al = r.stats.alignment();
+  EXPECT_GT(al.dense_refined(), al.dense_refused() + al.dense_uncached()) << al.DebugString();
   for (const v1::SessionAlignment& s : r.stats.session_alignments()) {
     if (s.robot() != "B") continue;
     std::printf("B aligned after %u of its keyframes, %.2f s (capture time) after its first\n",

@@ -54,6 +54,8 @@ SyntheticFrame RenderSynthetic(const synth::Scene& scene, int index,
   r.depth_u16.convertTo(depth_m, CV_32F, 1.0 / scene.options.depth_scale);
   auto f = ExtractFeatures(r.bgr, depth_m, scene.camera, options);
   if (f.ok()) out.features = std::move(*f);
+  out.bgr = r.bgr;
+  out.depth_m = depth_m;
   return out;
 }
 

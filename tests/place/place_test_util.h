@@ -39,6 +39,7 @@ class ErrorStats {
 struct SyntheticFrame {
   SE3d T_world_cam = SE3d::Identity();
   KeyframeFeatures features;
+  cv::Mat bgr, depth_m;  // the rendered images (depth in metres, 0 = none)
 };
 // Frame `index` of the scene's camera path, rendered (depth noise as the scene says) and with
 // its features.

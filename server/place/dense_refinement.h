@@ -1,0 +1,56 @@
+// Dense refinement of a verified match (issue 15): the relative pose that PnP and the 3D-3D
+// check give from ~30-300 ORB points is refined by aligning the two keyframes' whole images,
+// photometric and point-to-plane ICP residuals together (OpenCV rgbd's RgbdICPOdometry, a
+// DVO / KinectFusion-style coarse-to-fine solver), started from the sparse estimate. On fr1_rpy
+// the refined loop edges are closer to the ground truth (docs/results.md, session 17).
+//
+//   DenseFrame a = MakeDenseFrame(bgr_a, depth_m_a, camera, options);   // once per keyframe
+//   std::optional<SE3d> T = RefineDense(a, b, v.T_a_b, options);       // nullopt: keep v.T_a_b
+#pragma once
+
+#include <cstdint>
+#include <list>
+#include <memory>
+#include <optional>
+#include <unordered_map>
+#include <opencv2/core.hpp>
+
+#include "common/camera.h"
+#include "common/se3.h"
+#include "server/place/place_options.h"
+
+namespace loci::place {
+
+// A keyframe's images at the refinement's resolution.
+struct DenseFrame {
+  cv::Mat grey;     // CV_8UC1
+  cv::Mat depth_m;  // CV_32FC1, NaN where there is no reading in [min_depth_m, max_depth_m]
+  PinholeCamera camera;  // of these images
+  size_t Bytes() const { return grey.total() + depth_m.total() * sizeof(float); }
+};
+
+// `bgr` CV_8UC3 or CV_8UC1, `depth_m` CV_32FC1 in metres (0 = none), registered, same size.
+DenseFrame MakeDenseFrame(const cv::Mat& bgr, const cv::Mat& depth_m, const PinholeCamera& camera,
+                          const DenseOptions& options);
+
+// Refines T_a_b (p_a = T_a_b * p_b). nullopt when the solver fails or the correction exceeds
+// options.max_correction_m / max_correction_rad (the sparse estimate is then kept).
+std::optional<SE3d> RefineDense(const DenseFrame& a, const DenseFrame& b, const SE3d& T_a_b,
+                                const DenseOptions& options);
+
+// The reduced images of the most recently added keyframes (least recently used out). Not
+// thread-safe (RobotAligner calls it under its work lock).
+class DenseFrameCache {
+ public:
+  explicit DenseFrameCache(size_t capacity) : capacity_(capacity < 1 ? 1 : capacity) {}
+  void Put(int64_t keyframe_id, std::shared_ptr<const DenseFrame> frame);
+  std::shared_ptr<const DenseFrame> Get(int64_t keyframe_id);  // null when not cached
+
+ private:
+  using Entry = std::pair<int64_t, std::shared_ptr<const DenseFrame>>;
+  size_t capacity_;
+  std::list<Entry> lru_;  // most recent first
+  std::unordered_map<int64_t, std::list<Entry>::iterator> index_;
+};
+
+}  // namespace loci::place
