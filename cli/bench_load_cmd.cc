@@ -1,6 +1,6 @@
-// `loci bench load [--robots N] [--clients M] [--seconds T] [--robot-hz H]`: N robots stream
-// synthetic keyframes (a rendered `loci synth` scene, 640x480 with masks) while M query
-// clients alternate Ask and FindObjects, all over loopback gRPC to an in-process loci server
+// `loci bench load [--robots N] [--clients M] [--seconds T] [--robot-hz H] [--config FILE]`: N
+// robots stream synthetic keyframes (a rendered `loci synth` scene, 640x480 with masks) while M
+// query clients alternate Ask and FindObjects, all over loopback gRPC to an in-process loci server
 // with the query engine. Prints errors, the ingest rate, Ask and FindObjects p50/p99/max, and
 // the resident memory every 10 s.
 #include <grpcpp/create_channel.h>
@@ -17,6 +17,7 @@
 
 #include "cli/bench_views.h"
 #include "cli/commands.h"
+#include "common/config.h"
 #include "loci/v1/mapping.grpc.pb.h"
 #include "loci/v1/query.grpc.pb.h"
 #include "server/service/grpc_server.h"
@@ -35,6 +36,7 @@ struct BenchLoadArgs {
   double robot_hz = 1.0;  // keyframes per second per robot (0 = as fast as acknowledged)
   int views = 30;
   int objects = 8;
+  std::string config;  // "" = config/server.yaml
 };
 
 struct Latencies {
@@ -123,8 +125,10 @@ int RunBenchLoad(const BenchLoadArgs& a) {
     std::cerr << "error: " << views.status().message() << "\n";
     return 1;
   }
-  server::ServerOptions options;
-  if (Status s = options.LoadClasses(); !s.ok()) {
+  server::ServerOptions options;  // the server's own config by default
+  if (Status s = options.FromYamlFile(a.config.empty() ? SourceDir() + "/config/server.yaml"
+                                                        : a.config);
+      !s.ok()) {
     std::cerr << "error: " << s.message() << "\n";
     return 2;
   }
@@ -207,6 +211,7 @@ void RegisterBenchLoadCommand(CLI::App& app) {
   c->add_option("--robot-hz", args->robot_hz, "keyframes per second per robot (0 = unpaced)")
       ->capture_default_str();
   c->add_option("--views", args->views, "distinct rendered views, cycled")->capture_default_str();
+  c->add_option("--config", args->config, "server YAML (default: config/server.yaml)");
   c->add_option("--objects", args->objects, "objects in the synthetic scene")
       ->capture_default_str();
   c->callback([args] { ExitCode() = RunBenchLoad(*args); });

@@ -200,7 +200,8 @@ std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
       continue;
     }
     ++verified;
-    const SE3d T_a_b = RefinedDense(c.keyframe_id, dense, v.T_a_b);
+    const bool refine = static_cast<int>(verified) <= place_.dense.max_per_keyframe;
+    const SE3d T_a_b = RefinedDense(c.keyframe_id, refine ? dense : nullptr, v.T_a_b);
     matches.push_back({c.keyframe_id, kf.keyframe_id, T_a_b, v.inliers, v.rms_m, loop});
   }
   std::lock_guard<std::mutex> lock(stats_mu_);

@@ -200,7 +200,7 @@ class RobotAligner {
   std::vector<VerifiedMatch> Match(const AlignKeyframe& kf, const place::KeyframeFeatures& features,
                                    const place::BowVector& bow, bool loops, bool query_aligned,
                                    const place::DenseFrame* dense);
-  // T_a_b refined by the dense alignment when it can be; counts the outcome.
+  // T_a_b refined by the dense alignment when it can be (b null: not tried); counts the outcome.
   SE3d RefinedDense(int64_t a_id, const place::DenseFrame* b, const SE3d& T_a_b);
   // IslandOf with sessions_mu_ held.
   std::pair<int64_t, SE3d> IslandOfLocked(int64_t session_row) const;

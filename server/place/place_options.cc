@@ -15,7 +15,7 @@ Status CheckPlaceKeys(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
       node["dense"], "place.dense",
       {"enabled", "scale", "levels", "min_depth_m", "max_depth_m", "max_depth_diff_m",
-       "max_correction_m", "max_correction_rad", "cache_keyframes"}));
+       "max_correction_m", "max_correction_rad", "max_per_keyframe", "cache_keyframes"}));
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
       node["features"], "place.features",
       {"max_features", "scale_factor", "levels", "fast_threshold", "min_depth_m", "max_depth_m",
@@ -87,6 +87,7 @@ Status ReadDense(const YAML::Node& n, DenseOptions* o) {
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_depth_diff_m", &o->max_depth_diff_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_correction_m", &o->max_correction_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_correction_rad", &o->max_correction_rad));
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_per_keyframe", &o->max_per_keyframe));
   return ReadOptional(n, "cache_keyframes", &o->cache_keyframes);
 }
 
@@ -104,6 +105,7 @@ Status ValidateDense(const DenseOptions& d) {
     return Bad("dense.max_depth_diff_m, max_correction_m and max_correction_rad > 0");
   }
   if (d.cache_keyframes < 1) return Bad("dense.cache_keyframes >= 1");
+  if (d.max_per_keyframe < 0) return Bad("dense.max_per_keyframe >= 0");
   return absl::OkStatus();
 }
 
