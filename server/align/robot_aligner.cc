@@ -215,7 +215,8 @@ std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
 
 SE3d RobotAligner::RefinedDense(int64_t a_id, const place::DenseFrame* b, const SE3d& T_a_b) {
   if (b == nullptr) return T_a_b;
-  const std::shared_ptr<const place::DenseFrame> a = dense_cache_.Get(a_id);
+  const std::shared_ptr<const place::DenseFrame>* cached = dense_cache_.Get(a_id);
+  const std::shared_ptr<const place::DenseFrame> a = cached ? *cached : nullptr;
   std::optional<SE3d> refined;
   if (a) refined = place::RefineDense(*a, *b, T_a_b, place_.dense);
   std::lock_guard<std::mutex> lock(stats_mu_);

@@ -81,24 +81,4 @@ std::optional<SE3d> RefineDense(const DenseFrame& a, const DenseFrame& b, const 
   return out;
 }
 
-void DenseFrameCache::Put(int64_t keyframe_id, std::shared_ptr<const DenseFrame> frame) {
-  if (auto it = index_.find(keyframe_id); it != index_.end()) {
-    lru_.erase(it->second);
-    index_.erase(it);
-  }
-  lru_.emplace_front(keyframe_id, std::move(frame));
-  index_[keyframe_id] = lru_.begin();
-  while (lru_.size() > capacity_) {
-    index_.erase(lru_.back().first);
-    lru_.pop_back();
-  }
-}
-
-std::shared_ptr<const DenseFrame> DenseFrameCache::Get(int64_t keyframe_id) {
-  auto it = index_.find(keyframe_id);
-  if (it == index_.end()) return nullptr;
-  lru_.splice(lru_.begin(), lru_, it->second);
-  return it->second->second;
-}
-
 }  // namespace loci::place

@@ -9,13 +9,12 @@
 #pragma once
 
 #include <cstdint>
-#include <list>
 #include <memory>
 #include <optional>
-#include <unordered_map>
 #include <opencv2/core.hpp>
 
 #include "common/camera.h"
+#include "common/lru_cache.h"
 #include "common/se3.h"
 #include "server/place/place_options.h"
 
@@ -40,17 +39,6 @@ std::optional<SE3d> RefineDense(const DenseFrame& a, const DenseFrame& b, const 
 
 // The reduced images of the most recently added keyframes (least recently used out). Not
 // thread-safe (RobotAligner calls it under its work lock).
-class DenseFrameCache {
- public:
-  explicit DenseFrameCache(size_t capacity) : capacity_(capacity < 1 ? 1 : capacity) {}
-  void Put(int64_t keyframe_id, std::shared_ptr<const DenseFrame> frame);
-  std::shared_ptr<const DenseFrame> Get(int64_t keyframe_id);  // null when not cached
-
- private:
-  using Entry = std::pair<int64_t, std::shared_ptr<const DenseFrame>>;
-  size_t capacity_;
-  std::list<Entry> lru_;  // most recent first
-  std::unordered_map<int64_t, std::list<Entry>::iterator> index_;
-};
+using DenseFrameCache = LruCache<int64_t, std::shared_ptr<const DenseFrame>>;
 
 }  // namespace loci::place

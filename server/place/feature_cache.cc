@@ -16,7 +16,7 @@ StatusOr<std::optional<KeyframeFeatures>> MemoryFeatureStore::Get(int64_t keyfra
 }
 
 FeatureCache::FeatureCache(FeatureStore* store, size_t capacity)
-    : store_(store), capacity_(capacity < 1 ? 1 : capacity) {}
+    : store_(store), lru_(capacity) {}
 
 Status FeatureCache::Put(int64_t keyframe_id, KeyframeFeatures features) {
   Status stored = store_->Put(keyframe_id, features);
@@ -25,29 +25,13 @@ Status FeatureCache::Put(int64_t keyframe_id, KeyframeFeatures features) {
 }
 
 void FeatureCache::Keep(int64_t keyframe_id, KeyframeFeatures features) {
-  Insert(keyframe_id, std::make_shared<const KeyframeFeatures>(std::move(features)));
-}
-
-void FeatureCache::Insert(int64_t keyframe_id, std::shared_ptr<const KeyframeFeatures> features) {
-  auto it = index_.find(keyframe_id);
-  if (it != index_.end()) {
-    lru_.erase(it->second);
-    index_.erase(it);
-  }
-  lru_.emplace_front(keyframe_id, std::move(features));
-  index_[keyframe_id] = lru_.begin();
-  while (lru_.size() > capacity_) {
-    index_.erase(lru_.back().first);
-    lru_.pop_back();
-  }
+  lru_.Put(keyframe_id, std::make_shared<const KeyframeFeatures>(std::move(features)));
 }
 
 StatusOr<std::shared_ptr<const KeyframeFeatures>> FeatureCache::Get(int64_t keyframe_id) {
-  auto it = index_.find(keyframe_id);
-  if (it != index_.end()) {
+  if (const auto* cached = lru_.Get(keyframe_id)) {
     ++stats_.hits;
-    lru_.splice(lru_.begin(), lru_, it->second);  // most recent now
-    return lru_.front().second;
+    return *cached;
   }
   LOCI_ASSIGN_OR_RETURN(std::optional<KeyframeFeatures> stored, store_->Get(keyframe_id));
   if (!stored) {
@@ -55,7 +39,7 @@ StatusOr<std::shared_ptr<const KeyframeFeatures>> FeatureCache::Get(int64_t keyf
   }
   ++stats_.misses;
   auto features = std::make_shared<const KeyframeFeatures>(std::move(*stored));
-  Insert(keyframe_id, features);
+  lru_.Put(keyframe_id, features);
   return features;
 }
 

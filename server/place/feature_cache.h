@@ -6,11 +6,11 @@
 #pragma once
 
 #include <cstdint>
-#include <list>
 #include <memory>
 #include <optional>
 #include <unordered_map>
 
+#include "common/lru_cache.h"
 #include "common/status.h"
 #include "server/place/keyframe_features.h"
 
@@ -58,13 +58,8 @@ class FeatureCache {
   FeatureCacheStats Stats() const;
 
  private:
-  using Entry = std::pair<int64_t, std::shared_ptr<const KeyframeFeatures>>;
-  void Insert(int64_t keyframe_id, std::shared_ptr<const KeyframeFeatures> features);
-
   FeatureStore* store_;
-  size_t capacity_;
-  std::list<Entry> lru_;  // most recent first
-  std::unordered_map<int64_t, std::list<Entry>::iterator> index_;
+  LruCache<int64_t, std::shared_ptr<const KeyframeFeatures>> lru_;
   FeatureCacheStats stats_;
 };
 

@@ -10,30 +10,17 @@
 #include <iostream>
 
 #include "server/place/geometric_verification.h"
-#include "synth/scene.h"
 #include "tests/place/place_test_util.h"
 
 namespace loci::place::testing {
 namespace {
-
-std::vector<SyntheticFrame> Frames() {
-  synth::SceneOptions so;
-  so.seed = 3;
-  so.depth_noise = true;
-  auto scene = synth::MakeScene(so);
-  EXPECT_TRUE(scene.ok());
-  std::vector<SyntheticFrame> frames;
-  if (!scene.ok()) return frames;
-  for (int i = 0; i < 300; i += 15) frames.push_back(RenderSynthetic(*scene, i, FeatureOptions{}));
-  return frames;
-}
 
 DenseFrame Dense(const SyntheticFrame& f, const DenseOptions& o) {
   return MakeDenseFrame(f.bgr, f.depth_m, f.features.camera, o);
 }
 
 TEST(DenseRefinement, VerifiedMatchesComeCloserToExactTruth) {
-  const std::vector<SyntheticFrame> frames = Frames();
+  const std::vector<SyntheticFrame> frames = NoisyRoomFrames();
   ASSERT_EQ(frames.size(), 20u);
   const DenseOptions o;
   ErrorStats sparse, dense;
@@ -62,7 +49,7 @@ TEST(DenseRefinement, VerifiedMatchesComeCloserToExactTruth) {
 }
 
 TEST(DenseRefinement, ConvergesFromCentimetresOffAndRefusesCorrectionsBeyondItsBounds) {
-  const std::vector<SyntheticFrame> frames = Frames();
+  const std::vector<SyntheticFrame> frames = NoisyRoomFrames();
   ASSERT_GE(frames.size(), 2u);
   DenseOptions o;
   const DenseFrame a = Dense(frames[1], o), b = Dense(frames[0], o);
@@ -95,6 +82,7 @@ TEST(DenseRefinement, CacheKeepsTheMostRecentlyUsed) {
   EXPECT_EQ(cache.Get(2), nullptr);
   EXPECT_NE(cache.Get(1), nullptr);
   EXPECT_NE(cache.Get(3), nullptr);
+  EXPECT_EQ(cache.size(), 2u);
 }
 
 }  // namespace

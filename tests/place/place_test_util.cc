@@ -59,6 +59,17 @@ SyntheticFrame RenderSynthetic(const synth::Scene& scene, int index,
   return out;
 }
 
+std::vector<SyntheticFrame> NoisyRoomFrames() {
+  synth::SceneOptions so;
+  so.seed = 3;
+  so.depth_noise = true;
+  auto scene = synth::MakeScene(so);
+  std::vector<SyntheticFrame> frames;
+  if (!scene.ok()) return frames;
+  for (int i = 0; i < 300; i += 15) frames.push_back(RenderSynthetic(*scene, i, FeatureOptions{}));
+  return frames;
+}
+
 void ShuffleBlocks(const cv::Mat& bgr, const cv::Mat& depth_m, int block_px, uint64_t seed,
                    cv::Mat* bgr_out, cv::Mat* depth_out) {
   const int cols = bgr.cols / block_px, rows = bgr.rows / block_px;

@@ -45,6 +45,10 @@ struct SyntheticFrame {
 // its features.
 SyntheticFrame RenderSynthetic(const synth::Scene& scene, int index, const FeatureOptions& options);
 
+// Every 15th of the first 300 frames (20 frames, 0.5 s apart) of the seed-3 synthetic room with
+// Kinect-like depth noise, rendered with default features; empty when the scene cannot be made.
+std::vector<SyntheticFrame> NoisyRoomFrames();
+
 // Cuts bgr and depth into block_px squares and shuffles them (the same permutation for both).
 void ShuffleBlocks(const cv::Mat& bgr, const cv::Mat& depth_m, int block_px, uint64_t seed,
                    cv::Mat* bgr_out, cv::Mat* depth_out);

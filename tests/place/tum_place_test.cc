@@ -167,13 +167,8 @@ TEST(TumSamplePlaceTest, RejectsASyntheticRoomAgainstTheRealRoom) {
 
 // Exact truth: frames of a synthetic room with Kinect-like depth noise, 2 s or more apart.
 TEST(SyntheticPlaceTest, VerificationIsWithinThreeCentimetresAndOneDegreeOfExactTruth) {
-  synth::SceneOptions so;
-  so.seed = 3;
-  so.depth_noise = true;
-  auto scene = synth::MakeScene(so);
-  ASSERT_TRUE(scene.ok());
-  std::vector<SyntheticFrame> frames;
-  for (int i = 0; i < 300; i += 15) frames.push_back(RenderSynthetic(*scene, i, FeatureOptions{}));
+  const std::vector<SyntheticFrame> frames = NoisyRoomFrames();
+  ASSERT_EQ(frames.size(), 20u);
   ErrorStats errors;
   int tried = 0;
   for (size_t i = 0; i < frames.size(); ++i) {
