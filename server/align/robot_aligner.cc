@@ -167,6 +167,18 @@ Status RobotAligner::IndexStored(const AlignKeyframe& kf, place::KeyframeFeature
   return absl::OkStatus();
 }
 
+bool RobotAligner::KeepDense(int64_t keyframe_id, const cv::Mat& bgr, const cv::Mat& depth_m,
+                             const PinholeCamera& camera) {
+  if (!place_.dense.enabled) return false;
+  auto frame = std::make_shared<const place::DenseFrame>(
+      place::MakeDenseFrame(bgr, depth_m, camera, place_.dense));
+  std::lock_guard<std::mutex> work(work_mu_);
+  if (dense_cache_.size() >= static_cast<size_t>(place_.dense.cache_keyframes)) return false;
+  if (dense_cache_.Get(keyframe_id) != nullptr) return false;
+  dense_cache_.Put(keyframe_id, std::move(frame));
+  return true;
+}
+
 std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
                                                const place::KeyframeFeatures& features,
                                                const place::BowVector& bow, bool loops,

@@ -114,7 +114,7 @@ struct AlignStats {
   uint64_t indexed_from_store = 0;  // keyframes indexed from stored features (IndexStored)
   // Verified matches whose relative pose the dense alignment refined, refused (no convergence
   // or a correction beyond place.dense's bounds: the sparse estimate kept), and could not refine
-  // (the candidate's reduced images no longer cached, e.g. after a restart).
+  // (the candidate's reduced images no longer cached: older than the newest cache_keyframes).
   uint64_t dense_refined = 0;
   uint64_t dense_refused = 0;
   uint64_t dense_uncached = 0;
@@ -159,6 +159,10 @@ class RobotAligner {
   // Indexes a keyframe from features read back from the store (re-indexing after a restart):
   // AddKeyframe with match = false, without extracting or storing them again.
   Status IndexStored(const AlignKeyframe& kf, place::KeyframeFeatures features);
+  // Caches a stored keyframe's reduced images for the dense refinement (after a restart) when
+  // the cache has room: the live keyframes' are never evicted for them. Whether it was cached.
+  bool KeepDense(int64_t keyframe_id, const cv::Mat& bgr, const cv::Mat& depth_m,
+                 const PinholeCamera& camera);
   // Places an aligned session anew (after a pose-graph solve moved its keyframes).
   void SetAlignment(int64_t session_row, const SE3d& T_base_odom);
   bool Indexed(int64_t keyframe_id) const;

@@ -145,12 +145,17 @@ class MapServer {
   void Reindex();
   struct ReindexCounts {
     uint64_t from_features = 0, from_images = 0, without_images = 0;
+    uint64_t dense_frames = 0;  // stored keyframes whose reduced images were cached again
+    int64_t last_id = 0;        // the newest stored keyframe re-indexed
   };
   // Whether Reindex still has to index the keyframe.
   bool ToReindex(const KeyframeRecord& rec);
   // false when the keyframe has no usable stored features.
   bool ReindexFromFeatures(const KeyframeRecord& rec, ReindexCounts* counts);
   void ReindexFromImages(const KeyframeRecord& rec, ReindexCounts* counts);
+  // The newest stored keyframes' reduced images back into the dense refinement's cache
+  // (place.dense.cache_keyframes of them, read from their stored images).
+  Status RefillDenseCache(ReindexCounts* counts);
   // Moves a session's mapped keyframes to its refined placement.
   void MoveSession(const SessionAlignment& alignment);
   // Loop closure (map_server_loops.cc), worker thread with mapping_mu_ held: records the

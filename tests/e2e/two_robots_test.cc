@@ -308,6 +308,9 @@ TEST(TwoRobots, RobotArrivingAfterARestartIsAligned) {
   ASSERT_TRUE(s.ok());
   ASSERT_TRUE(EstimatedAToB(*s).has_value()) << "B not aligned after the restart: "
                                               << s->DebugString();
+  // A's reduced images were cached again from the database: B's matches to them are refined.
+  EXPECT_GT(s->alignment().dense_refined(), 0u) << s->alignment().DebugString();
+  EXPECT_EQ(s->alignment().dense_uncached(), 0u) << s->alignment().DebugString();
   fs::remove_all(dir);
 }
 
