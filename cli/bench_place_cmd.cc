@@ -13,12 +13,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <random>
+#include <span>
 #include <sstream>
 
 #include "cli/commands.h"
@@ -135,10 +135,9 @@ void BenchVerification(const std::vector<KeyframeFeatures>& kfs,
 // The relative pose of frames a and b (p_a = T_a_b p_b) from the ground truth, when it has them.
 std::optional<SE3d> TruthAB(const TumSequence& seq, size_t a, size_t b) {
   auto at = [&](int64_t t_ns) -> std::optional<SE3d> {
-    for (const StampedPose& p : seq.groundtruth) {
-      if (std::llabs(p.t_ns - t_ns) < 10'000'000) return p.T_world_cam;
-    }
-    return std::nullopt;
+    const StampedPose* p =
+        NearestByTime(std::span<const StampedPose>(seq.groundtruth), t_ns, 10'000'000);
+    return p ? std::optional<SE3d>(p->T_world_cam) : std::nullopt;
   };
   const std::optional<SE3d> Ta = at(seq.frames[a].rgb_t_ns), Tb = at(seq.frames[b].rgb_t_ns);
   if (!Ta || !Tb) return std::nullopt;

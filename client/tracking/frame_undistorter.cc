@@ -1,13 +1,16 @@
 #include "client/tracking/frame_undistorter.h"
 
 #include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
 
 namespace loci {
 namespace {
 
 cv::Mat CvK(const PinholeCamera& c) {
-  return (cv::Mat_<double>(3, 3) << c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1);
+  cv::Mat K;
+  cv::eigen2cv(c.K(), K);
+  return K;
 }
 
 Status CheckSize(const cv::Mat* image, const PinholeCamera& c, const char* what) {

@@ -22,7 +22,9 @@ PinholeCamera Scaled(const PinholeCamera& c, double scale) {
 }
 
 cv::Mat CvK(const PinholeCamera& c) {
-  return (cv::Mat_<double>(3, 3) << c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1);
+  cv::Mat K;
+  cv::eigen2cv(c.K(), K);
+  return K;
 }
 
 }  // namespace

@@ -25,7 +25,6 @@ struct DenseFrame {
   cv::Mat grey;     // CV_8UC1
   cv::Mat depth_m;  // CV_32FC1, NaN where there is no reading in [min_depth_m, max_depth_m]
   PinholeCamera camera;  // of these images
-  size_t Bytes() const { return grey.total() + depth_m.total() * sizeof(float); }
 };
 
 // `bgr` CV_8UC3 or CV_8UC1, `depth_m` CV_32FC1 in metres (0 = none), registered, same size.
