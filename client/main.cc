@@ -184,7 +184,10 @@ int main(int argc, char** argv) {
   CLI::App app{"loci-track: RGB-D tracking client of the loci semantic map"};
   loci::Args a;
   std::string log_level = "info";
-  app.add_option("--tum", a.tum_dir, "TUM RGB-D folder (rgb.txt, depth.txt)")->required();
+  app.add_option("--tum", a.tum_dir,
+                 "TUM RGB-D folder (rgb.txt, depth.txt; its camera.yaml, when present, gives the "
+                 "intrinsics and lens distortion, else TUM fr1's; frames are undistorted first)")
+      ->required();
   app.add_option("--server", a.server, "loci-server HOST:PORT")->capture_default_str();
   app.add_option("--robot", a.robot, "robot name")->capture_default_str();
   app.add_option("--token", a.security.token, "bearer token (default: $LOCI_TOKEN)");
