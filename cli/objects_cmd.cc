@@ -89,10 +89,12 @@ void PrintAlignment(const loci::v1::GetStatsResponse& resp) {
     std::printf("features read      %llu from the database (%llu unreadable)\n",
                 static_cast<unsigned long long>(a.features_read()),
                 static_cast<unsigned long long>(a.features_missing()));
-    std::printf("dense refinement   %llu matches refined, %llu refused, %llu not in memory\n",
+    std::printf("dense refinement   %llu matches refined, %llu refused, %llu without images; "
+                "%llu keyframes' images read from the database\n",
                 static_cast<unsigned long long>(a.dense_refined()),
                 static_cast<unsigned long long>(a.dense_refused()),
-                static_cast<unsigned long long>(a.dense_uncached()));
+                static_cast<unsigned long long>(a.dense_without_images()),
+                static_cast<unsigned long long>(a.dense_frames_read()));
     std::printf("merges             %llu accepted, %llu disagreeing matches; %llu verified, "
                 "%llu rejected candidates\n",
                 static_cast<unsigned long long>(a.merges_accepted()),

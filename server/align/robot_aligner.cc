@@ -8,13 +8,14 @@
 namespace loci::server {
 
 RobotAligner::RobotAligner(const place::PlaceOptions& place, const AlignOptions& options,
-                           place::FeatureStore* features)
+                           place::FeatureStore* features, place::KeyframeImageSource* images)
     : place_(place),
       options_(options),
       own_features_(features ? nullptr : std::make_unique<place::MemoryFeatureStore>()),
       cache_(features ? features : own_features_.get(),
              static_cast<size_t>(place.features.cache_keyframes)),
       dense_cache_(static_cast<size_t>(place.dense.cache_keyframes)),
+      images_(images),
       db_(place.vocabulary, place.query),
       gate_(place.consistency) {}
 
@@ -167,18 +168,6 @@ Status RobotAligner::IndexStored(const AlignKeyframe& kf, place::KeyframeFeature
   return absl::OkStatus();
 }
 
-bool RobotAligner::KeepDense(int64_t keyframe_id, const cv::Mat& bgr, const cv::Mat& depth_m,
-                             const PinholeCamera& camera) {
-  if (!place_.dense.enabled) return false;
-  auto frame = std::make_shared<const place::DenseFrame>(
-      place::MakeDenseFrame(bgr, depth_m, camera, place_.dense));
-  std::lock_guard<std::mutex> work(work_mu_);
-  if (dense_cache_.size() >= static_cast<size_t>(place_.dense.cache_keyframes)) return false;
-  if (dense_cache_.Get(keyframe_id) != nullptr) return false;
-  dense_cache_.Put(keyframe_id, std::move(frame));
-  return true;
-}
-
 std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
                                                const place::KeyframeFeatures& features,
                                                const place::BowVector& bow, bool loops,
@@ -227,13 +216,32 @@ std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
 
 SE3d RobotAligner::RefinedDense(int64_t a_id, const place::DenseFrame* b, const SE3d& T_a_b) {
   if (b == nullptr) return T_a_b;
-  const std::shared_ptr<const place::DenseFrame>* cached = dense_cache_.Get(a_id);
-  const std::shared_ptr<const place::DenseFrame> a = cached ? *cached : nullptr;
+  const std::shared_ptr<const place::DenseFrame> a = DenseFrameOf(a_id);
   std::optional<SE3d> refined;
   if (a) refined = place::RefineDense(*a, *b, T_a_b, place_.dense);
   std::lock_guard<std::mutex> lock(stats_mu_);
-  ++(!a ? stats_.dense_uncached : refined ? stats_.dense_refined : stats_.dense_refused);
+  ++(!a ? stats_.dense_without_images : refined ? stats_.dense_refined : stats_.dense_refused);
   return refined.value_or(T_a_b);
+}
+
+std::shared_ptr<const place::DenseFrame> RobotAligner::DenseFrameOf(int64_t a_id) {
+  if (const std::shared_ptr<const place::DenseFrame>* cached = dense_cache_.Get(a_id)) {
+    return *cached;
+  }
+  if (images_ == nullptr) return nullptr;
+  StatusOr<std::optional<place::KeyframeImages>> read = images_->Read(a_id);
+  if (!read.ok()) {
+    spdlog::warn("dense refinement: keyframe {}'s images: {}", a_id, read.status().ToString());
+    return nullptr;
+  }
+  if (!read->has_value()) return nullptr;
+  const place::KeyframeImages& im = **read;
+  auto frame = std::make_shared<const place::DenseFrame>(
+      place::MakeDenseFrame(im.bgr, im.depth_m, im.camera, place_.dense));
+  dense_cache_.Put(a_id, frame);
+  std::lock_guard<std::mutex> lock(stats_mu_);
+  ++stats_.dense_frames_read;
+  return frame;
 }
 
 std::vector<SE3d> RobotAligner::Estimates(const AlignKeyframe& kf,

@@ -114,10 +114,12 @@ struct AlignStats {
   uint64_t indexed_from_store = 0;  // keyframes indexed from stored features (IndexStored)
   // Verified matches whose relative pose the dense alignment refined, refused (no convergence
   // or a correction beyond place.dense's bounds: the sparse estimate kept), and could not refine
-  // (the candidate's reduced images no longer cached: older than the newest cache_keyframes).
+  // (the candidate's images neither in memory nor readable from the store: retention dropped
+  // them, or no store was given).
   uint64_t dense_refined = 0;
   uint64_t dense_refused = 0;
-  uint64_t dense_uncached = 0;
+  uint64_t dense_without_images = 0;
+  uint64_t dense_frames_read = 0;  // candidates' images read back from the store (cache misses)
 };
 
 // T_to_from turned about pivot_to (a point in the `to` frame, kept where it is) so that the
@@ -129,8 +131,11 @@ SE3d LevelOnto(const SE3d& T_to_from, const Vec3d& down_from, const Vec3d& down_
 class RobotAligner {
  public:
   // `features` keeps every keyframe's features (it outlives the aligner); null: in memory.
+  // `images` gives back a keyframe's images when its reduced images have left the dense
+  // refinement's cache (it outlives the aligner); null: such matches are not refined.
   RobotAligner(const place::PlaceOptions& place, const AlignOptions& options,
-               place::FeatureStore* features = nullptr);
+               place::FeatureStore* features = nullptr,
+               place::KeyframeImageSource* images = nullptr);
 
   // Declares a session before its first keyframe: aligned at T_base_odom, or not (nullopt).
   // A session declared again keeps its state.
@@ -159,10 +164,6 @@ class RobotAligner {
   // Indexes a keyframe from features read back from the store (re-indexing after a restart):
   // AddKeyframe with match = false, without extracting or storing them again.
   Status IndexStored(const AlignKeyframe& kf, place::KeyframeFeatures features);
-  // Caches a stored keyframe's reduced images for the dense refinement (after a restart) when
-  // the cache has room: the live keyframes' are never evicted for them. Whether it was cached.
-  bool KeepDense(int64_t keyframe_id, const cv::Mat& bgr, const cv::Mat& depth_m,
-                 const PinholeCamera& camera);
   // Places an aligned session anew (after a pose-graph solve moved its keyframes).
   void SetAlignment(int64_t session_row, const SE3d& T_base_odom);
   bool Indexed(int64_t keyframe_id) const;
@@ -206,6 +207,9 @@ class RobotAligner {
                                    const place::DenseFrame* dense);
   // T_a_b refined by the dense alignment when it can be (b null: not tried); counts the outcome.
   SE3d RefinedDense(int64_t a_id, const place::DenseFrame* b, const SE3d& T_a_b);
+  // Keyframe a_id's reduced images: from the cache, else read back through images_ and cached;
+  // null when neither has them.
+  std::shared_ptr<const place::DenseFrame> DenseFrameOf(int64_t a_id);
   // IslandOf with sessions_mu_ held.
   std::pair<int64_t, SE3d> IslandOfLocked(int64_t session_row) const;
   // Whether two sessions are one unaligned island (sessions_mu_ not held).
@@ -236,6 +240,7 @@ class RobotAligner {
   std::unique_ptr<place::MemoryFeatureStore> own_features_;  // when none was given
   place::FeatureCache cache_;
   place::DenseFrameCache dense_cache_;
+  place::KeyframeImageSource* images_;  // may be null
   place::PlaceDatabase db_;
   place::ConsistencyGate gate_;
   std::map<int64_t, Session> sessions_;

@@ -16,6 +16,7 @@
 #include "common/camera.h"
 #include "common/lru_cache.h"
 #include "common/se3.h"
+#include "common/status.h"
 #include "server/place/place_options.h"
 
 namespace loci::place {
@@ -35,6 +36,23 @@ DenseFrame MakeDenseFrame(const cv::Mat& bgr, const cv::Mat& depth_m, const Pinh
 // options.max_correction_m / max_correction_rad (the sparse estimate is then kept).
 std::optional<SE3d> RefineDense(const DenseFrame& a, const DenseFrame& b, const SE3d& T_a_b,
                                 const DenseOptions& options);
+
+// A stored keyframe's images (the full-resolution, pinhole images it was sent with).
+struct KeyframeImages {
+  cv::Mat bgr;      // CV_8UC3
+  cv::Mat depth_m;  // CV_32FC1, metres, 0 = no reading
+  PinholeCamera camera;
+};
+
+// Where a keyframe whose reduced images are no longer in memory is read back from (the map
+// database on the server).
+class KeyframeImageSource {
+ public:
+  virtual ~KeyframeImageSource() = default;
+  // nullopt when the keyframe's images are not stored (retention dropped them, or no such
+  // keyframe); an error when they are stored but cannot be read or decoded.
+  virtual StatusOr<std::optional<KeyframeImages>> Read(int64_t keyframe_id) = 0;
+};
 
 // The reduced images of the most recently added keyframes (least recently used out). Not
 // thread-safe (RobotAligner calls it under its work lock).

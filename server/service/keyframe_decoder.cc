@@ -169,13 +169,21 @@ MapperKeyframe KeyframeMeta(const KeyframeRecord& rec, const SessionRecord& sess
   return kf;
 }
 
-StatusOr<MapperKeyframe> DecodeKeyframe(const KeyframeRecord& rec, const SessionRecord& session) {
-  MapperKeyframe kf = KeyframeMeta(rec, session);
-  LOCI_ASSIGN_OR_RETURN(kf.bgr,
+StatusOr<StoredImages> DecodeStoredImages(const KeyframeRecord& rec) {
+  StoredImages images;
+  LOCI_ASSIGN_OR_RETURN(images.bgr,
                         DecodeJpeg(rec.rgb_jpeg, rec.camera.width_px, rec.camera.height_px));
   LOCI_ASSIGN_OR_RETURN(cv::Mat depth,
                         DecodeDepthPng(rec.depth_png, rec.camera.width_px, rec.camera.height_px));
-  kf.depth_m = DepthToMetres(depth, rec.depth_scale);
+  images.depth_m = DepthToMetres(depth, rec.depth_scale);
+  return images;
+}
+
+StatusOr<MapperKeyframe> DecodeKeyframe(const KeyframeRecord& rec, const SessionRecord& session) {
+  MapperKeyframe kf = KeyframeMeta(rec, session);
+  LOCI_ASSIGN_OR_RETURN(StoredImages images, DecodeStoredImages(rec));
+  kf.bgr = std::move(images.bgr);
+  kf.depth_m = std::move(images.depth_m);
   kf.detections = rec.detections;
   return kf;
 }

@@ -33,6 +33,13 @@ StatusOr<KeyframeRecord> ValidateKeyframe(const loci::v1::Keyframe& kf,
 // mapped from its products; T_base_kf is BaseFromKeyframe (the corrected pose when stored).
 MapperKeyframe KeyframeMeta(const KeyframeRecord& record, const SessionRecord& session);
 
+// A stored keyframe's images, decoded: BGR and depth in metres (0 = no reading).
+struct StoredImages {
+  cv::Mat bgr;
+  cv::Mat depth_m;
+};
+StatusOr<StoredImages> DecodeStoredImages(const KeyframeRecord& record);
+
 // Decodes a stored keyframe for the mapper: KeyframeMeta plus the images and detections.
 StatusOr<MapperKeyframe> DecodeKeyframe(const KeyframeRecord& record, const SessionRecord& session);
 

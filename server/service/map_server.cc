@@ -38,9 +38,10 @@ MapServer::MapServer(const ServerOptions& options, std::shared_ptr<MapStore> sto
       mapper_(std::make_unique<Mapper>(options.map)),
       features_(std::make_unique<StoreFeatureStore>(store_.get(),
                                                     options.place.features.Fingerprint())),
-      aligner_(options.align.enabled
-                   ? std::make_unique<RobotAligner>(options.place, options.align, features_.get())
-                   : nullptr),
+      images_(std::make_unique<StoreImageSource>(store_.get())),
+      aligner_(options.align.enabled ? std::make_unique<RobotAligner>(options.place, options.align,
+                                                                      features_.get(), images_.get())
+                                     : nullptr),
       closer_(options.align.enabled && options.align.loops.enabled
                   ? std::make_unique<LoopCloser>(options.graph, options.align.loops)
                   : nullptr),

@@ -26,6 +26,7 @@
 #include "server/service/replay.h"
 #include "server/service/server_options.h"
 #include "server/service/store_feature_store.h"
+#include "server/service/store_image_source.h"
 #include "server/storage/map_store.h"
 
 namespace loci::server {
@@ -145,17 +146,12 @@ class MapServer {
   void Reindex();
   struct ReindexCounts {
     uint64_t from_features = 0, from_images = 0, without_images = 0;
-    uint64_t dense_frames = 0;  // stored keyframes whose reduced images were cached again
-    int64_t last_id = 0;        // the newest stored keyframe re-indexed
   };
   // Whether Reindex still has to index the keyframe.
   bool ToReindex(const KeyframeRecord& rec);
   // false when the keyframe has no usable stored features.
   bool ReindexFromFeatures(const KeyframeRecord& rec, ReindexCounts* counts);
   void ReindexFromImages(const KeyframeRecord& rec, ReindexCounts* counts);
-  // The newest stored keyframes' reduced images back into the dense refinement's cache
-  // (place.dense.cache_keyframes of them, read from their stored images).
-  Status RefillDenseCache(ReindexCounts* counts);
   // Moves a session's mapped keyframes to its refined placement.
   void MoveSession(const SessionAlignment& alignment);
   // Loop closure (map_server_loops.cc), worker thread with mapping_mu_ held: records the
@@ -198,6 +194,7 @@ class MapServer {
   std::shared_ptr<detection::Detector> detector_;
   std::unique_ptr<Mapper> mapper_;
   std::unique_ptr<StoreFeatureStore> features_;  // aligner_'s, in store_
+  std::unique_ptr<StoreImageSource> images_;     // aligner_'s dense refinement's, from store_
   std::unique_ptr<RobotAligner> aligner_;  // used by the worker thread only (Stats: any)
   std::unique_ptr<LoopCloser> closer_;     // with aligner_ and align.loops.enabled
   std::unique_ptr<IslandMaps> islands_;    // with aligner_

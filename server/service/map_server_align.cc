@@ -272,7 +272,6 @@ void MapServer::Reindex() {
                                 rec.has_gravity ? rec.gravity_cam : Vec3d::Zero()});
         }
         if (!ToReindex(rec)) return absl::OkStatus();
-        counts.last_id = std::max(counts.last_id, rec.id);
         if (!ReindexFromFeatures(rec, &counts)) need_images.insert(rec.id);
         return absl::OkStatus();
       },
@@ -289,32 +288,13 @@ void MapServer::Reindex() {
         },
         KeyframeScan());
   }
-  if (st.ok()) st = RefillDenseCache(&counts);
   reindexed_ = st.ok();
   spdlog::info("place recognition: {} stored keyframes re-indexed in {:.1f} s ({} from stored "
-               "features, {} without images, {} reduced images cached){}",
+               "features, {} without images){}",
                counts.from_features + counts.from_images,
                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
-               counts.from_features, counts.without_images, counts.dense_frames,
+               counts.from_features, counts.without_images,
                st.ok() ? "" : absl::StrCat("; stopped: ", st.ToString()));
-}
-
-Status MapServer::RefillDenseCache(ReindexCounts* counts) {
-  const place::DenseOptions& o = options_.place.dense;
-  if (!o.enabled || counts->last_id == 0) return absl::OkStatus();
-  return store_->ForEachKeyframe(
-      std::max<int64_t>(0, counts->last_id - o.cache_keyframes),
-      [&](KeyframeRecord rec) -> Status {
-        if (stop_loading_) return absl::CancelledError("the server is stopping");
-        if (rec.id > counts->last_id || rec.rgb_jpeg.empty()) return absl::OkStatus();
-        std::optional<SessionRecord> session = SessionByRow(rec.session_row);
-        if (!session) return absl::OkStatus();
-        auto kf = DecodeKeyframe(rec, *session);
-        if (!kf.ok()) return absl::OkStatus();  // validated on ingest; a corrupt row is skipped
-        counts->dense_frames += aligner_->KeepDense(rec.id, kf->bgr, kf->depth_m, kf->camera);
-        return absl::OkStatus();
-      },
-      KeyframeScan());
 }
 
 namespace {

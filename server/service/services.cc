@@ -360,7 +360,8 @@ grpc::Status QueryService::FillAlignment(const std::vector<SessionRecord>& sessi
   a->set_keyframes_from_stored_features(st->indexed_from_store);
   a->set_dense_refined(st->dense_refined);
   a->set_dense_refused(st->dense_refused);
-  a->set_dense_uncached(st->dense_uncached);
+  a->set_dense_without_images(st->dense_without_images);
+  a->set_dense_frames_read(st->dense_frames_read);
   FillPoseGraph(resp->mutable_pose_graph());
   return grpc::Status::OK;
 }

@@ -88,6 +88,7 @@ struct KeyframeScan {
   // and the images only of keyframes without such products (a restart needs nothing else).
   std::string products_fingerprint;
   std::optional<int64_t> session_row;  // only this session's keyframes
+  std::optional<int64_t> last_id;      // only keyframes with id <= this
 };
 
 // A checkpoint of the derived map.

@@ -34,7 +34,8 @@ std::string ScanSql(const KeyframeScan& scan) {
       " LEFT JOIN keyframe_poses c ON c.keyframe_id = k.id",
       products ? " LEFT JOIN keyframe_products p ON p.keyframe_id = k.id AND p.fingerprint = ?2"
                : "",
-      " WHERE k.id > ?1", scan.session_row ? " AND k.session = ?3" : "", " ORDER BY k.id");
+      " WHERE k.id > ?1", scan.session_row ? " AND k.session = ?3" : "",
+      scan.last_id ? " AND k.id <= ?4" : "", " ORDER BY k.id");
 }
 
 StatusOr<KeyframeRecord> RecordFrom(const Stmt& q) {
@@ -74,6 +75,7 @@ Status SqliteStore::ForEachKeyframe(int64_t after_id,
   q.Bind(1, after_id);
   if (!scan.products_fingerprint.empty()) q.BindText(2, scan.products_fingerprint);
   if (scan.session_row) q.Bind(3, *scan.session_row);
+  if (scan.last_id) q.Bind(4, *scan.last_id);
   int rc;
   while ((rc = q.Step()) == SQLITE_ROW) {
     LOCI_ASSIGN_OR_RETURN(KeyframeRecord kf, RecordFrom(q));

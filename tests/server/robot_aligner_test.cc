@@ -1,8 +1,8 @@
-// RobotAligner with its features out of memory (issue 14): on the shipped real TUM sample, robot
-// A (frames 0-39, aligned: it defines the map) and robot B (frames 20-59, its own odometry from
-// the identity at its first frame, unaligned). B is aligned the same way, to the same transform,
-// whether every keyframe's features stay in memory or only two do and the rest are read back
-// from the store.
+// RobotAligner with its features and images out of memory (issues 14, 15): on the shipped real
+// TUM sample, robot A (frames 0-39, aligned: it defines the map) and robot B (frames 20-59, its
+// own odometry from the identity at its first frame, unaligned). B is aligned the same way, to
+// the same transform, whether every keyframe's features and reduced images stay in memory or
+// only two do and the rest are read back from the store.
 #include <gtest/gtest.h>
 
 #include "common/config.h"
@@ -29,15 +29,32 @@ struct AlignRun {
   AlignStats stats;
 };
 
-// A then B through one aligner whose features live in `store` (null: its own memory).
-AlignRun AlignBToA(int cache_keyframes, place::FeatureStore* store) {
+// The sample's images by keyframe id (1000 * session + frame), as the database gives them back.
+class SampleImages final : public place::KeyframeImageSource {
+ public:
+  StatusOr<std::optional<place::KeyframeImages>> Read(int64_t keyframe_id) override {
+    ++reads;
+    const size_t i = static_cast<size_t>(keyframe_id % 1000);
+    if (i >= Sample().size()) return std::optional<place::KeyframeImages>();
+    const TumKeyframe& kf = Sample()[i];
+    return std::optional<place::KeyframeImages>(
+        place::KeyframeImages{kf.bgr, kf.depth_m, kf.features.camera});
+  }
+  int reads = 0;
+};
+
+// A then B through one aligner whose features live in `store` (null: its own memory) and
+// whose reduced images are read back from `images` (null: none) beyond `dense_cache` of them.
+AlignRun AlignBToA(int cache_keyframes, place::FeatureStore* store, int dense_cache = 256,
+                   place::KeyframeImageSource* images = nullptr) {
   const auto& kfs = Sample();
   place::PlaceOptions place;
   place.features.cache_keyframes = cache_keyframes;
+  place.dense.cache_keyframes = dense_cache;
   AlignOptions options;
   options.loops.enabled = false;
   options.refine_max_matches = 0;
-  RobotAligner aligner(place, options, store);
+  RobotAligner aligner(place, options, store, images);
   aligner.AddSession(1, SE3d::Identity());
   aligner.AddSession(2, std::nullopt);
   const PinholeCamera camera = kfs.front().features.camera;
@@ -70,6 +87,32 @@ TEST(RobotAlignerTest, FeaturesReadBackFromTheStoreAlignLikeFeaturesInMemory) {
   // And it is where the ground truth puts B's start (the sample's truth is good to a few cm).
   const SE3d T_a_b = place::testing::GroundTruthT_a_b(Sample()[0], Sample()[20]);
   EXPECT_LT((stored.alignment->T_base_odom.translation() - T_a_b.translation()).norm(), 0.05);
+}
+
+// Dense refinement of a match to a keyframe whose reduced images left the cache: they are read
+// back and the refinement is the same as with every keyframe in memory; without a source the
+// match keeps its sparse estimate and is counted as without images.
+TEST(RobotAlignerTest, ImagesReadBackFromTheStoreRefineLikeImagesInMemory) {
+  ASSERT_EQ(Sample().size(), 60u);
+  const AlignRun memory = AlignBToA(256, nullptr);
+  SampleImages images;
+  const AlignRun stored = AlignBToA(256, nullptr, /*dense_cache=*/2, &images);
+  const AlignRun none = AlignBToA(256, nullptr, /*dense_cache=*/2, nullptr);
+  ASSERT_TRUE(memory.alignment.has_value());
+  ASSERT_TRUE(stored.alignment.has_value());
+  EXPECT_GT(memory.stats.dense_refined, 0u);
+  EXPECT_EQ(memory.stats.dense_frames_read, 0u);
+  EXPECT_EQ(memory.stats.dense_without_images, 0u);
+  EXPECT_GT(stored.stats.dense_frames_read, 0u);
+  EXPECT_EQ(stored.stats.dense_frames_read, static_cast<uint64_t>(images.reads));
+  EXPECT_EQ(stored.stats.dense_without_images, 0u);
+  EXPECT_EQ(stored.stats.dense_refined, memory.stats.dense_refined);
+  EXPECT_EQ(stored.stats.dense_refused, memory.stats.dense_refused);
+  EXPECT_EQ(stored.alignment->keyframe_id, memory.alignment->keyframe_id);
+  EXPECT_TRUE(stored.alignment->T_base_odom.isApprox(memory.alignment->T_base_odom, 1e-12));
+  EXPECT_GT(none.stats.dense_without_images, 0u);
+  EXPECT_EQ(none.stats.dense_frames_read, 0u);
+  EXPECT_LT(none.stats.dense_refined, memory.stats.dense_refined);
 }
 
 }  // namespace
