@@ -3,20 +3,15 @@
 // by retention) or an error (images that do not decode).
 #include <gtest/gtest.h>
 
-#include <filesystem>
-
 #include "common/image_codec.h"
 #include "server/service/store_image_source.h"
 #include "server/storage/sqlite_store.h"
+#include "tests/support/temp_dir.h"
 
 namespace loci::server {
 namespace {
 
-std::string FreshDb(const std::string& name) {
-  const std::string path = ::testing::TempDir() + "/" + name + ".db";
-  for (const char* s : {"", "-wal", "-shm"}) std::filesystem::remove(path + s);
-  return path;
-}
+const PinholeCamera kCamera{50, 50, 32, 24, 64, 48};
 
 // A 64 x 48 keyframe whose grey level and depth (0.5 m + seq cm) tell it apart.
 KeyframeRecord Keyframe(int64_t session_row, int64_t seq) {
@@ -25,7 +20,7 @@ KeyframeRecord Keyframe(int64_t session_row, int64_t seq) {
   kf.seq = seq;
   kf.t_ns = 1'700'000'000'000'000'000 + seq * 33'000'000;
   kf.T_odom_cam = SE3d::Identity();
-  kf.camera = PinholeCamera{50, 50, 32, 24, 64, 48};
+  kf.camera = kCamera;
   kf.depth_scale = 5000;
   const cv::Mat bgr(48, 64, CV_8UC3, cv::Scalar::all(40 + 50 * static_cast<double>(seq)));
   const cv::Mat depth(48, 64, CV_16UC1, cv::Scalar(5000 * (0.5 + 0.01 * seq)));
@@ -34,21 +29,33 @@ KeyframeRecord Keyframe(int64_t session_row, int64_t seq) {
   return kf;
 }
 
-TEST(StoreImageSource, ReadsTheKeyframesOwnImagesAndNothingForDroppedOrUnknownOnes) {
-  auto store = SqliteStore::Open(FreshDb("image_source"));
-  ASSERT_TRUE(store.ok()) << store.status();
-  SessionRecord s;
-  s.robot_name = "A";
-  s.camera = PinholeCamera{50, 50, 32, 24, 64, 48};
-  auto session = (*store)->CreateSession(s);
-  ASSERT_TRUE(session.ok()) << session.status();
+// A fresh database with robot A's session.
+class StoreImageSourceTest : public testing::TempDirTest {
+ protected:
+  void SetUp() override {
+    TempDirTest::SetUp();
+    auto opened = SqliteStore::Open(Path("loci.db"));
+    ASSERT_TRUE(opened.ok()) << opened.status();
+    store_ = std::move(*opened);
+    SessionRecord s;
+    s.robot_name = "A";
+    s.camera = kCamera;
+    auto session = store_->CreateSession(s);
+    ASSERT_TRUE(session.ok()) << session.status();
+    session_row_ = session->row_id;
+  }
+  std::unique_ptr<SqliteStore> store_;
+  int64_t session_row_ = 0;
+};
+
+TEST_F(StoreImageSourceTest, ReadsTheKeyframesOwnImagesAndNothingForDroppedOrUnknownOnes) {
   std::vector<int64_t> ids;
   for (int seq = 0; seq < 3; ++seq) {
-    auto r = (*store)->InsertKeyframe(Keyframe(session->row_id, seq));
+    auto r = store_->InsertKeyframe(Keyframe(session_row_, seq));
     ASSERT_TRUE(r.ok()) << r.status();
     ids.push_back(r->keyframe_id);
   }
-  StoreImageSource source(store->get());
+  StoreImageSource source(store_.get());
   for (int seq = 0; seq < 3; ++seq) {
     auto images = source.Read(ids[seq]);
     ASSERT_TRUE(images.ok()) << images.status();
@@ -64,8 +71,8 @@ TEST(StoreImageSource, ReadsTheKeyframesOwnImagesAndNothingForDroppedOrUnknownOn
   ASSERT_TRUE(unknown.ok()) << unknown.status();
   EXPECT_FALSE(unknown->has_value());
   // Retention empties the images of keyframes with products: nothing to refine with.
-  ASSERT_TRUE((*store)->PutProducts(ids[0], "fp", "products").ok());
-  auto dropped = (*store)->DropRawImages(/*before_stored_ns=*/INT64_MAX, /*keep_last=*/0);
+  ASSERT_TRUE(store_->PutProducts(ids[0], "fp", "products").ok());
+  auto dropped = store_->DropRawImages(/*before_stored_ns=*/INT64_MAX, /*keep_last=*/0);
   ASSERT_TRUE(dropped.ok()) << dropped.status();
   EXPECT_EQ(*dropped, 1u);
   auto gone = source.Read(ids[0]);
@@ -74,19 +81,12 @@ TEST(StoreImageSource, ReadsTheKeyframesOwnImagesAndNothingForDroppedOrUnknownOn
   EXPECT_TRUE(source.Read(ids[1]).ok() && source.Read(ids[1])->has_value());
 }
 
-TEST(StoreImageSource, ImagesThatDoNotDecodeAreDataLoss) {
-  auto store = SqliteStore::Open(FreshDb("image_source_corrupt"));
-  ASSERT_TRUE(store.ok()) << store.status();
-  SessionRecord s;
-  s.robot_name = "A";
-  s.camera = PinholeCamera{50, 50, 32, 24, 64, 48};
-  auto session = (*store)->CreateSession(s);
-  ASSERT_TRUE(session.ok());
-  KeyframeRecord kf = Keyframe(session->row_id, 0);
+TEST_F(StoreImageSourceTest, ImagesThatDoNotDecodeAreDataLoss) {
+  KeyframeRecord kf = Keyframe(session_row_, 0);
   kf.rgb_jpeg = std::string("\xff\xd8 not a jpeg", 13);
-  auto r = (*store)->InsertKeyframe(kf);
+  auto r = store_->InsertKeyframe(kf);
   ASSERT_TRUE(r.ok()) << r.status();
-  auto read = StoreImageSource(store->get()).Read(r->keyframe_id);
+  auto read = StoreImageSource(store_.get()).Read(r->keyframe_id);
   EXPECT_EQ(read.status().code(), absl::StatusCode::kDataLoss) << read.status();
 }
 
