@@ -508,7 +508,10 @@ TEST_F(Integration, MovingEveryKeyframeMovesTheMapAndTheMoveSurvivesARestart) {
                                         updates.push_back({r.id, T_move * T_base_kf});
                                         return absl::OkStatus();
                                       },
-                                      {.images = false, .products_fingerprint = {}, .session_row = {}})
+                                      {.images = false,
+                                       .products_fingerprint = {},
+                                       .session_row = {},
+                                       .last_id = {}})
                     .ok());
     auto n = server->UpdateKeyframePoses(updates);
     ASSERT_TRUE(n.ok()) << n.status();
