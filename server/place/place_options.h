@@ -103,8 +103,8 @@ struct DenseOptions {
   // estimate (each costs about 17 ms of CPU at scale 0.5; 8 robots on 2 cores afford 1) (1).
   int max_per_keyframe = 1;
   // Keyframes whose reduced images stay in memory (about 0.4 MB each at scale 0.5); a
-  // candidate outside them is read back from the database's images (about 10 ms), or, where
-  // retention dropped them, not refined (256).
+  // candidate outside them is read back from the database's images (about 7 ms of CPU), or,
+  // where retention dropped them, not refined (256).
   int cache_keyframes = 256;
 };
 
