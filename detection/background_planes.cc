@@ -172,6 +172,36 @@ cv::Mat LabelPlanes(const cv::Mat& depth_m, const std::vector<InverseDepthPlane>
   return labels;
 }
 
+// n with n . X = 1 for the camera-frame points X of the plane 1/z = a u' + b v' + c' in roi
+// pixels (u = u' + roi.x): n = (a fx, b fy, a cx + b cy + c'').
+Eigen::Vector3d CameraFrameNormal(const InverseDepthPlane& p, const cv::Rect& roi,
+                                  const PinholeCamera& cam) {
+  const double c_image = p.c - p.a * roi.x - p.b * roi.y;
+  return {p.a * cam.fx, p.b * cam.fy, p.a * cam.cx + p.b * cam.cy + c_image};
+}
+
+struct Around {
+  size_t below = 0, above = 0;
+};
+
+// Points more than margin_m below / above the plane n . X = 1, measured from the plane itself
+// along its normal turned to `up`: a level table seen with a gravity a few degrees off still
+// has all of its own points within the margin, however wide the box.
+Around CountAroundPlane(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& n,
+                        const Eigen::Vector3d& up, double margin_m) {
+  Around out;
+  const double norm = n.norm();
+  if (!(norm > 0)) return out;
+  const Eigen::Vector3d n_up = (n.dot(up) >= 0 ? 1.0 : -1.0) * n / norm;
+  const double offset_up = (n.dot(up) >= 0 ? 1.0 : -1.0) / norm;  // n_up . X on the plane
+  for (const Eigen::Vector3d& X : points) {
+    const double h = n_up.dot(X) - offset_up;
+    out.below += h < -margin_m;
+    out.above += h > margin_m;
+  }
+  return out;
+}
+
 // Horizontal support planes (MaskOptions::horizontal_max_deg), and the height of the top of
 // support furniture. Needs intrinsics and gravity.
 struct Supports {
@@ -180,7 +210,8 @@ struct Supports {
 };
 
 Supports FindSupports(const cv::Rect& roi, const cv::Mat& depth_m, const cv::Mat& labels,
-                      const std::vector<InverseDepthPlane>& planes, const MaskOptions& o,
+                      const std::vector<InverseDepthPlane>& planes,
+                      const std::vector<bool>& continues, const MaskOptions& o,
                       const MaskContext& context) {
   Supports out;
   out.support.assign(planes.size(), false);
@@ -192,8 +223,10 @@ Supports FindSupports(const cv::Rect& roi, const cv::Mat& depth_m, const cv::Mat
   const PinholeCamera& cam = *context.camera;
   const Eigen::Vector3d up = -context.gravity_cam->normalized();
   const double cos_max = std::cos(o.horizontal_max_deg * M_PI / 180.0);
-  // Height above the camera along `up` of every sampled valid pixel, and per plane.
+  // Every sampled valid pixel (camera frame), its height above the camera along `up`, and
+  // each plane's mean height.
   const int stride = std::max(1, std::max(depth_m.cols, depth_m.rows) / 160);
+  std::vector<Eigen::Vector3d> points;
   std::vector<double> heights;
   std::vector<double> plane_height_sum(planes.size(), 0.0);
   std::vector<int> plane_count(planes.size(), 0);
@@ -202,10 +235,10 @@ Supports FindSupports(const cv::Rect& roi, const cv::Mat& depth_m, const cv::Mat
     const int* l = labels.ptr<int>(v);
     for (int u = 0; u < depth_m.cols; u += stride) {
       if (!(d[u] > 0.f)) continue;
-      const double h = up.dot(cam.BackProject(u + roi.x, v + roi.y, d[u]));
-      heights.push_back(h);
+      points.push_back(cam.BackProject(u + roi.x, v + roi.y, d[u]));
+      heights.push_back(up.dot(points.back()));
       if (l[u] >= 0) {
-        plane_height_sum[l[u]] += h;
+        plane_height_sum[l[u]] += heights.back();
         plane_count[l[u]]++;
       }
     }
@@ -213,14 +246,11 @@ Supports FindSupports(const cv::Rect& roi, const cv::Mat& depth_m, const cv::Mat
   if (heights.empty()) return out;
   std::vector<bool> horizontal(planes.size(), false);
   std::vector<double> plane_height(planes.size(), 0.0);
+  std::vector<Eigen::Vector3d> normals(planes.size());
   for (size_t k = 0; k < planes.size(); ++k) {
-    // Normal of 1/z = a u' + b v' + c' in image pixels (u = u' + roi.x): n . X = 1 with
-    // n = (a fx, b fy, a cx + b cy + c'').
-    const InverseDepthPlane& p = planes[k];
-    const double c_image = p.c - p.a * roi.x - p.b * roi.y;
-    const Eigen::Vector3d n(p.a * cam.fx, p.b * cam.fy, p.a * cam.cx + p.b * cam.cy + c_image);
-    horizontal[k] =
-        n.norm() > 0 && std::abs(n.normalized().dot(up)) >= cos_max && plane_count[k] >= 10;
+    normals[k] = CameraFrameNormal(planes[k], roi, cam);
+    horizontal[k] = normals[k].norm() > 0 &&
+                    std::abs(normals[k].normalized().dot(up)) >= cos_max && plane_count[k] >= 10;
     if (plane_count[k] > 0) plane_height[k] = plane_height_sum[k] / plane_count[k];
   }
   const bool support_class = o.IsSupportClass(context.class_name);
@@ -231,12 +261,13 @@ Supports FindSupports(const cv::Rect& roi, const cv::Mat& depth_m, const cv::Mat
         (!out.top_height || plane_height[k] > *out.top_height)) {
       out.top_height = plane_height[k];
     }
-    size_t below = 0, above = 0;
-    for (double h : heights) {
-      below += h < plane_height[k] - margin_m;
-      above += h > plane_height[k] + margin_m;
-    }
-    if (below > 0.02 * heights.size() + 2) continue;  // something of the box hangs below it
+    const Around around = CountAroundPlane(points, normals[k], up, margin_m);
+    const size_t below = around.below, above = around.above;
+    // Something of the box hangs below it: not the support, unless the plane continues outside
+    // the box under an object that is not furniture (what lies below is then past the edge of
+    // a desk: the floor, the desk's front).
+    const bool past_edge = continues[k] && !support_class;
+    if (below > 0.02 * heights.size() + 2 && !past_edge) continue;
     if (support_class) {
       // Keep the furniture's own top: remove only a plane with such a top well above it.
       for (size_t j = 0; j < planes.size(); ++j) {
@@ -262,16 +293,26 @@ cv::Mat BackgroundPlaneMask(const cv::Mat& depth, const cv::Rect& roi, const cv:
   const std::vector<InverseDepthPlane> planes = FindPlanes(depth_m, valid, o);
   if (planes.empty()) return background;
   const cv::Mat labels = LabelPlanes(depth_m, planes, o);
-  const Supports supports = FindSupports(roi, depth_m, labels, planes, o, context);
+  std::vector<double> outside(planes.size()), centre(planes.size());
+  std::vector<bool> continues(planes.size());
+  for (size_t k = 0; k < planes.size(); ++k) {
+    outside[k] = FractionOutsideOnPlane(depth, roi, planes[k], o);
+    centre[k] = FractionCentreOnPlane(depth_m, planes[k], o);
+    continues[k] = outside[k] >= o.min_outside_fraction;
+  }
+  const Supports supports = FindSupports(roi, depth_m, labels, planes, continues, o, context);
   const std::vector<bool>& support = supports.support;
   const bool support_class = o.IsSupportClass(context.class_name);
   std::vector<bool> is_background(planes.size(), false);
   for (size_t k = 0; k < planes.size(); ++k) {
-    const double outside = FractionOutsideOnPlane(depth, roi, planes[k], o);
-    const double centre = FractionCentreOnPlane(depth_m, planes[k], o);
-    // A support under furniture may hold the box centre (the floor seen between table legs).
-    is_background[k] = (support[k] && (support_class || centre < o.max_centre_fraction)) ||
-                       (outside >= o.min_outside_fraction && centre < o.max_centre_fraction);
+    // A plane holding the box centre is the object's own face, except a support: under
+    // furniture (the floor seen between table legs), or under anything when the support also
+    // continues outside the box (a loose box over a keyboard and the desk around it; a face
+    // of the object itself would end at its edges, and a flat object thinner than the plane
+    // tolerance is left whole by min_object_fraction).
+    const bool holds_centre = centre[k] >= o.max_centre_fraction;
+    is_background[k] = (support[k] && (support_class || continues[k] || !holds_centre)) ||
+                       (continues[k] && !holds_centre);
   }
   // Furniture with a flat top: what stands on the top is other objects.
   std::optional<double> max_height;

@@ -64,9 +64,12 @@ struct MaskOptions {
   // the box's valid pixels. Default 0.05.
   float min_object_fraction = 0.05f;
   // With gravity and intrinsics (MaskContext): a horizontal plane (normal within
-  // horizontal_max_deg of gravity) with nothing of the box below it is the support the object
-  // stands on and is removed, even where the box is cut by the image border so that the ring
-  // test cannot see it continue. Furniture that is itself a support (support_classes) keeps
+  // horizontal_max_deg of gravity) with part of the object above it and nothing of the box
+  // more than 3 cm below it (measured from the plane) is the support the object stands on and
+  // is removed, even where the box is cut by the image border so that the ring test cannot see
+  // it continue. A support that continues outside the box is removed even when it holds the
+  // box centre (a loose box over a keyboard and the desk around it), and for objects that are
+  // not furniture what lies below it does not count (the floor past the desk's edge). Furniture that is itself a support (support_classes) keeps
   // its top: only a horizontal plane with such a top at least support_min_rise_m above it is
   // removed (the floor under a table). Defaults 20 deg, 0.2 m, the COCO support furniture.
   float horizontal_max_deg = 20.f;

@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <random>
@@ -125,6 +127,71 @@ TEST(SegmentObjectDepth, MetresInputAndEdgeCases) {
   EXPECT_EQ(cv::countNonZero(dets[0].mask), 40 * 40);
   EXPECT_TRUE(dets[1].mask.empty());
   EXPECT_EQ(cv::countNonZero(dets[2].mask), 50 * 50);
+}
+
+// A camera 0.6 m above a desk, pitched 40 deg down; the desk ends 0.35 m to the left of the
+// camera and the floor, 0.75 m lower, shows past its edge. A 3 cm slab (a keyboard, 40 x 20
+// cm) lies 0.8 m ahead and 0.15 m to the right. Metres; `keyboard` marks the slab's pixels.
+struct DeskView {
+  cv::Mat depth_m;
+  cv::Mat keyboard;
+  Eigen::Vector3d up;  // true up, camera frame
+};
+
+DeskView RenderDesk(const PinholeCamera& cam) {
+  const double tilt = 40.0 * M_PI / 180.0;
+  DeskView view;
+  view.up = Eigen::Vector3d(0, -std::cos(tilt), -std::sin(tilt));  // cam: y down, z forward
+  const Eigen::Vector3d right(1, 0, 0), fwd = view.up.cross(right);  // level, away from camera
+  view.depth_m = cv::Mat(cam.height_px, cam.width_px, CV_32FC1, cv::Scalar(0.0f));
+  view.keyboard = cv::Mat::zeros(view.depth_m.size(), CV_8UC1);
+  for (int v = 0; v < cam.height_px; ++v) {
+    for (int u = 0; u < cam.width_px; ++u) {
+      const Eigen::Vector3d ray = cam.BackProject(u, v, 1.0);
+      const double down = -view.up.dot(ray);  // > 0: the ray descends
+      if (!(down > 0)) continue;
+      const Eigen::Vector3d on_desk = (0.6 / down) * ray;
+      double z = on_desk.z();
+      if (on_desk.dot(right) < -0.35) {
+        z = 1.35 / down * ray.z();  // past the desk's edge: the floor
+      } else {
+        const Eigen::Vector3d d = on_desk - (-0.6 * view.up + 0.8 * fwd + 0.15 * right);
+        if (std::abs(d.dot(right)) < 0.2 && std::abs(d.dot(fwd)) < 0.1) {
+          z = 0.57 / down * ray.z();  // the slab's top, 3 cm up
+          view.keyboard.at<uint8_t>(v, u) = 255;
+        }
+      }
+      view.depth_m.at<float>(v, u) = static_cast<float>(z);
+    }
+  }
+  return view;
+}
+
+TEST(SegmentObjectDepth, LeavesOutADeskHoldingTheCentreOfALooseBox) {
+  // A detector's loose box (a "laptop" over a keyboard and the desk around it): its centre lies
+  // on the desk, the slab fills its right part and the floor its lower left corner. The desk
+  // plane is the support (level, the slab above it, the desk continuing past the box), so it
+  // is background although it holds the centre; what lies below it is past the desk's edge.
+  const PinholeCamera cam = PinholeCamera::TumFr1();
+  const DeskView view = RenderDesk(cam);
+  const cv::Rect slab = cv::boundingRect(view.keyboard);
+  ASSERT_GT(slab.area(), 2000);
+  const cv::Rect2f box(60, slab.y - 60, slab.br().x + 12 - 60, slab.height + 90);
+  const cv::Rect roi = MaskRect(box, cam.width_px, cam.height_px);
+  cv::Mat floor_in_box = view.depth_m(roi) > 1.2f;
+  ASSERT_GT(cv::countNonZero(floor_in_box), 0.03 * roi.area());  // the floor is in the box
+  // Gravity 3 deg off the truth, as an accelerometer in motion gives it.
+  const Eigen::Vector3d gravity =
+      -(Eigen::AngleAxisd(3.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()) * view.up);
+  MaskOptions o;
+  const cv::Mat with = SegmentObjectDepth(view.depth_m, box, o, {"laptop", cam, gravity});
+  const cv::Mat without = SegmentObjectDepth(view.depth_m, box, o, {"laptop", cam, {}});
+  const double iou_with = MaskIou(with, view.keyboard(roi));
+  const double iou_without = MaskIou(without, view.keyboard(roi));
+  std::printf("keyboard in a loose box: IoU %.3f with gravity, %.3f without\n", iou_with,
+              iou_without);
+  EXPECT_GT(iou_with, 0.85);
+  EXPECT_LT(iou_without, 0.5);  // without gravity the desk holding the centre is the object
 }
 
 TEST(InverseDepthPlane, FitsAnyPlaneWithoutIntrinsics) {
