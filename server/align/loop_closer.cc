@@ -64,11 +64,26 @@ LoopStats LoopCloser::Stats() const {
 StatusOr<GraphResult> LoopCloser::Optimize(const std::vector<MappedKeyframe>& mapped,
                                            bool gravity_aligned) {
   const auto t0 = std::chrono::steady_clock::now();
+  std::lock_guard<std::mutex> solving(solve_mu_);
+  PoseGraph graph(graph_);
+  graph.SetPcmCache(&pcm_cache_);
+  LOCI_RETURN_IF_ERROR(BuildGraph(mapped, gravity_aligned, &graph));
+  // Without mu_: the mapping worker records keyframes and matches while the graph solves.
+  LOCI_ASSIGN_OR_RETURN(GraphResult result, graph.Optimize());
+  std::lock_guard<std::mutex> lock(mu_);
+  ++stats_.optimizations;
+  stats_.keyframes_moved += result.updates.size();
+  stats_.solve_ms_total +=
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  stats_.last = result.stats;
+  return result;
+}
+
+Status LoopCloser::BuildGraph(const std::vector<MappedKeyframe>& mapped, bool gravity_aligned,
+                              PoseGraph* graph) {
   std::lock_guard<std::mutex> lock(mu_);
   new_matches_ = 0;
   recognised_since_ = 0;
-  PoseGraph graph(graph_);
-  graph.SetPcmCache(&pcm_cache_);
   // Nodes in id order: the first is the map's first keyframe (the gauge's reference chain).
   std::map<int64_t, const LoopKeyframe*> last_of_chain;  // by session row: the previous node
   std::map<int64_t, int64_t> session_of;                 // node id -> session row
@@ -76,14 +91,14 @@ StatusOr<GraphResult> LoopCloser::Optimize(const std::vector<MappedKeyframe>& ma
     auto it = keyframes_.find(m.keyframe_id);
     if (it == keyframes_.end()) continue;  // not recorded (its images could not be read)
     const LoopKeyframe& kf = it->second;
-    LOCI_RETURN_IF_ERROR(graph.AddKeyframe({kf.keyframe_id, ChainName(kf.session_row), kf.t_ns,
-                                            m.T_map_kf, gravity_aligned, -kf.gravity_kf}));
+    LOCI_RETURN_IF_ERROR(graph->AddKeyframe({kf.keyframe_id, ChainName(kf.session_row), kf.t_ns,
+                                             m.T_map_kf, gravity_aligned, -kf.gravity_kf}));
     session_of[kf.keyframe_id] = kf.session_row;
     const LoopKeyframe*& prev = last_of_chain[kf.session_row];
     if (prev != nullptr && prev->segment == kf.segment) {
-      LOCI_RETURN_IF_ERROR(graph.AddOdometryEdge(prev->keyframe_id, kf.keyframe_id,
-                                                 prev->T_odom_kf.inverse() * kf.T_odom_kf,
-                                                 Quality(kf)));
+      LOCI_RETURN_IF_ERROR(graph->AddOdometryEdge(prev->keyframe_id, kf.keyframe_id,
+                                                  prev->T_odom_kf.inverse() * kf.T_odom_kf,
+                                                  Quality(kf)));
     }
     prev = &kf;
   }
@@ -92,18 +107,12 @@ StatusOr<GraphResult> LoopCloser::Optimize(const std::vector<MappedKeyframe>& ma
     auto a = session_of.find(ids.first), b = session_of.find(ids.second);
     if (a == session_of.end() || b == session_of.end()) continue;  // not both mapped
     if (a->second == b->second) {
-      LOCI_RETURN_IF_ERROR(graph.AddLoopEdge(ids.first, ids.second, T_a_b, info));
+      LOCI_RETURN_IF_ERROR(graph->AddLoopEdge(ids.first, ids.second, T_a_b, info));
     } else {
-      LOCI_RETURN_IF_ERROR(graph.AddMergeEdge(ids.first, ids.second, T_a_b, info));
+      LOCI_RETURN_IF_ERROR(graph->AddMergeEdge(ids.first, ids.second, T_a_b, info));
     }
   }
-  LOCI_ASSIGN_OR_RETURN(GraphResult result, graph.Optimize());
-  ++stats_.optimizations;
-  stats_.keyframes_moved += result.updates.size();
-  stats_.solve_ms_total +=
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  stats_.last = result.stats;
-  return result;
+  return absl::OkStatus();
 }
 
 }  // namespace loci::server

@@ -15,7 +15,7 @@
 // `keyframes`, matches in `place_matches`) is all a restart needs. The only state kept between
 // solves is the guard's pairwise results (server/graph/pcm_cache.h), which gives the same
 // selection as testing every pair again; a restart tests every pair once.
-// Thread-safe: the mapping worker records and solves, GetStats reads Stats().
+// Thread-safe: the mapping worker records, the aligning thread solves, GetStats reads Stats().
 #pragma once
 
 #include <cstdint>
@@ -33,6 +33,8 @@
 #include "server/graph/pcm_cache.h"
 
 namespace loci::server {
+
+class PoseGraph;
 
 struct LoopKeyframe {
   int64_t keyframe_id = 0;
@@ -76,7 +78,8 @@ class LoopCloser {
   bool Due() const;
 
   // Builds the graph over `mapped` (map frame; all z up from gravity when `gravity_aligned`)
-  // and solves it. The updates are the keyframes that moved (T_map_kf). Resets Due().
+  // and solves it. The updates are the keyframes that moved (T_map_kf). Resets Due(). One
+  // solve at a time; recording goes on while it solves (only the build holds the records).
   StatusOr<GraphResult> Optimize(const std::vector<MappedKeyframe>& mapped, bool gravity_aligned);
 
   LoopStats Stats() const;
@@ -85,14 +88,19 @@ class LoopCloser {
  private:
   GraphOptions graph_;
   LoopOptions options_;
-  mutable std::mutex mu_;
+  // The graph over the records (mu_ held by the caller's lock inside).
+  Status BuildGraph(const std::vector<MappedKeyframe>& mapped, bool gravity_aligned,
+                    PoseGraph* graph);
+
+  mutable std::mutex mu_;     // the records and stats
+  std::mutex solve_mu_;       // one solve at a time; guards pcm_cache_
   std::map<int64_t, LoopKeyframe> keyframes_;                // by id
   // T_a_b by (a, b); loop or merge is decided by the keyframes' sessions when solving.
   std::map<std::pair<int64_t, int64_t>, SE3d> matches_;
   int new_matches_ = 0;
   int recognised_since_ = 0;
   LoopStats stats_;
-  PcmCache pcm_cache_;
+  PcmCache pcm_cache_;  // solve_mu_
 };
 
 }  // namespace loci::server

@@ -154,11 +154,16 @@ class MapServer {
   void ReindexFromImages(const KeyframeRecord& rec, ReindexCounts* counts);
   // Moves a session's mapped keyframes to its refined placement.
   void MoveSession(const SessionAlignment& alignment);
-  // Loop closure (map_server_loops.cc), worker thread with mapping_mu_ held: records the
-  // keyframe and its verified matches (stored), and solves the pose graph when due.
+  // Loop closure (map_server_loops.cc), mapping_mu_ held: records the keyframe (worker) and
+  // its verified matches (aligning thread; stored).
   void RecordForLoops(const MapperKeyframe& kf);
   void RecordMatches(const std::vector<VerifiedMatch>& matches);
+  // Aligning thread, without mapping_mu_: solves the pose graph when due (the lock is taken
+  // for the snapshot and to apply the solution, not while solving).
   void MaybeCloseLoops();
+  // mapping_mu_ held: moves the solved keyframes and those mapped during the solve.
+  void ApplySolution(const std::vector<Mapper::KeyframePoseUpdate>& solved,
+                     const GraphResult& result);
   // After a solve: each moved session's placement follows its newest mapped keyframe, so the
   // keyframes it sends next continue from the corrected pose.
   // `mapped`: the keyframes the solve saw (id order); `moved`: their corrected poses.

@@ -53,12 +53,14 @@ void MapServer::RecognisePlace(const MapperKeyframe& kf) {
                  outcome.status().ToString());
     outcome = AlignOutcome();
   }
-  std::lock_guard<std::mutex> mapping(mapping_mu_);
-  RecordMatches(outcome->matches);
-  if (outcome->alignment) ApplyAlignment(*outcome->alignment);
-  for (const SessionAlignment& a : outcome->island_alignments) ApplyAlignment(a);
-  if (outcome->join) ApplyJoin(*outcome->join);
-  MaybeCloseLoops();
+  {
+    std::lock_guard<std::mutex> mapping(mapping_mu_);
+    RecordMatches(outcome->matches);
+    if (outcome->alignment) ApplyAlignment(*outcome->alignment);
+    for (const SessionAlignment& a : outcome->island_alignments) ApplyAlignment(a);
+    if (outcome->join) ApplyJoin(*outcome->join);
+  }
+  MaybeCloseLoops();  // takes mapping_mu_ itself, but not while the graph solves
 }
 
 std::optional<SessionRecord> MapServer::SessionByRow(int64_t session_row) {

@@ -1,17 +1,19 @@
 // MapServer: loop closure and robot merges through the keyframe pose graph (server/align/
 // loop_closer.h). The mapping worker records every keyframe's odometry, the aligning thread
 // every verified place-recognition match (stored in `place_matches`); when enough new matches
-// are in, the
-// graph over the mapped keyframes is solved in the map frame (z up: 4-DoF when gravity fixed
-// it), the moved keyframes are re-derived (Mapper::UpdateKeyframePoses, which emits the object
-// events), and each moved session's placement follows its newest keyframe, so the robot's own
-// pose stream needs no change.
+// are in, the aligning thread solves the graph over a snapshot of the mapped keyframes in the
+// map frame (z up: 4-DoF when gravity fixed it) without the mapping lock, then, with it, the
+// moved keyframes are re-derived (Mapper::UpdateKeyframePoses, which emits the object events),
+// those mapped during the solve follow their session (late_keyframes.h), and each moved
+// session's placement follows its newest keyframe, so the robot's own pose stream needs no
+// change.
 #include <spdlog/spdlog.h>
 
 #include <chrono>
 #include <map>
 
 #include "common/malloc_tuning.h"
+#include "server/service/late_keyframes.h"
 #include "server/service/map_server.h"
 
 namespace loci::server {
@@ -51,44 +53,71 @@ void MapServer::LoadPlaceMatches() {
 }
 
 void MapServer::MaybeCloseLoops() {
-  // After a start the graph waits for every stored keyframe's odometry (Reindex), and for the
-  // map frame, whose z the 4-DoF solve holds.
-  if (!closer_ || !reindexed_ || !closer_->Due() || !mapper_->FrameSettled()) return;
-  const SE3d T_map_base = mapper_->MapFromBaseFrame();
-  const std::vector<Mapper::KeyframePoseUpdate> poses = mapper_->KeyframePoses();
+  if (!closer_) return;
+  // A snapshot of the mapped keyframes under mapping_mu_; the solve runs without it, so the
+  // mapping worker goes on (a solve takes seconds at 10k keyframes). After a start the graph
+  // waits for every stored keyframe's odometry (Reindex), and for the map frame, whose z the
+  // 4-DoF solve holds.
+  SE3d T_map_base;
+  std::vector<Mapper::KeyframePoseUpdate> solved;
+  bool gravity = false;
+  {
+    std::lock_guard<std::mutex> mapping(mapping_mu_);
+    if (!reindexed_ || !closer_->Due() || !mapper_->FrameSettled()) return;
+    T_map_base = mapper_->MapFromBaseFrame();
+    solved = mapper_->KeyframePoses();
+    gravity = mapper_->FrameSource().find("gravity") != std::string::npos;
+  }
   std::vector<MappedKeyframe> mapped;
-  mapped.reserve(poses.size());
-  for (const Mapper::KeyframePoseUpdate& p : poses) {
+  mapped.reserve(solved.size());
+  for (const Mapper::KeyframePoseUpdate& p : solved) {
     mapped.push_back({p.keyframe_id, T_map_base * p.T_base_kf});
   }
-  const bool gravity = mapper_->FrameSource().find("gravity") != std::string::npos;
   auto result = closer_->Optimize(mapped, gravity);
   if (!result.ok()) {
     spdlog::warn("pose graph not solved: {}", result.status().ToString());
     return;
   }
-  const GraphStats& g = result->stats;
+  std::lock_guard<std::mutex> mapping(mapping_mu_);
+  if (!mapper_->MapFromBaseFrame().matrix().isApprox(T_map_base.matrix(), 1e-12)) {
+    spdlog::warn("pose graph solution dropped: the map frame changed while it solved");
+    return;
+  }
+  ApplySolution(solved, *result);
+}
+
+void MapServer::ApplySolution(const std::vector<Mapper::KeyframePoseUpdate>& solved,
+                              const GraphResult& result) {
+  const SE3d T_base_map = mapper_->MapFromBaseFrame().inverse();
   std::vector<Mapper::KeyframePoseUpdate> updates;
-  updates.reserve(result->updates.size());
-  const SE3d T_base_map = T_map_base.inverse();
-  for (const KeyframePoseUpdate& u : result->updates) {
+  updates.reserve(result.updates.size());
+  for (const KeyframePoseUpdate& u : result.updates) {
     updates.push_back({u.keyframe_id, T_base_map * u.T_map_kf});
   }
+  // Keyframes mapped while the graph solved follow their session's correction.
+  const std::vector<Mapper::KeyframePoseUpdate> late =
+      LateKeyframeUpdates(solved, updates, mapper_->KeyframePoses(), [&](int64_t id) {
+        const std::optional<LoopKeyframe> kf = closer_->Keyframe(id);
+        return kf ? std::optional<int64_t>(kf->session_row) : std::nullopt;
+      });
+  const size_t solved_moved = updates.size();
+  updates.insert(updates.end(), late.begin(), late.end());
   const auto t0 = std::chrono::steady_clock::now();
   auto moved = updates.empty() ? StatusOr<size_t>(0) : UpdateKeyframePosesLocked(updates);
+  const GraphStats& g = result.stats;
   spdlog::info(
       "pose graph: {} keyframes, loops {} kept / {} rejected, merges {} kept / {} rejected, "
       "{} unconnected parts, {}{} gravity priors, guard {:.0f} ms + solve {:.0f} ms; {} keyframes "
-      "moved in {:.0f} ms",
+      "moved ({} of them mapped during the solve) in {:.0f} ms",
       g.nodes, g.loops_accepted, g.loops_rejected, g.merges_accepted, g.merges_rejected,
       g.islands, g.four_dof ? "4-DoF, " : "", g.gravity_priors, g.pcm_ms, g.solve_ms,
-      moved.ok() ? *moved : 0,
+      moved.ok() ? *moved : 0, updates.size() - solved_moved,
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   if (!moved.ok()) {
     spdlog::warn("pose graph solution not applied: {}", moved.status().ToString());
     return;
   }
-  FollowCorrections(poses, updates);
+  FollowCorrections(solved, updates);
   ReleaseFreeHeapPages();  // the solve's graph (common/malloc_tuning.h)
 }
 
