@@ -9,14 +9,43 @@
 
 namespace loci::server {
 
-void FusedObject::AddPoints(const std::vector<ColoredPoint>& points_m) {
+uint32_t FusedObjectCell::Of(int label) const {
+  for (const auto& [l, n] : by_label) {
+    if (l == label) return n;
+  }
+  return 0;
+}
+
+void FusedObjectCell::Add(int label, int64_t delta) {
+  for (auto it = by_label.begin(); it != by_label.end(); ++it) {
+    if (it->first != label) continue;
+    it->second = static_cast<uint32_t>(std::max<int64_t>(0, it->second + delta));
+    if (it->second == 0) by_label.erase(it);
+    return;
+  }
+  if (delta > 0) by_label.emplace_back(static_cast<uint16_t>(label), static_cast<uint32_t>(delta));
+}
+
+int FusedObject::PointLabel(const std::string& class_name) {
+  auto it = std::find(point_labels_.begin(), point_labels_.end(), class_name);
+  if (it != point_labels_.end()) return static_cast<int>(it - point_labels_.begin());
+  point_labels_.push_back(class_name);
+  label_point_observations_.push_back(0);
+  return static_cast<int>(point_labels_.size()) - 1;
+}
+
+void FusedObject::AddPoints(const std::vector<ColoredPoint>& points_m,
+                            const std::string& class_name) {
   ++point_observations_;
+  const int label = PointLabel(class_name);
+  ++label_point_observations_[label];
   for (const ColoredPoint& cp : points_m) {
     const Eigen::Vector3d p = cp.p_m.cast<double>();
     Cell& cell = cells_[KeyOf(p, support_.cell_m)];
     if (cell.last != point_observations_) {
       cell.last = point_observations_;
       ++cell.observations;
+      cell.Add(label, 1);
     }
     Voxel& v = voxels_[KeyOf(p, voxel_m_)];
     v.sum_m += p;
@@ -27,15 +56,18 @@ void FusedObject::AddPoints(const std::vector<ColoredPoint>& points_m) {
 }
 
 void FusedObject::MovePoints(const std::vector<ColoredPoint>& old_m,
-                             const std::vector<ColoredPoint>& new_m) {
+                             const std::vector<ColoredPoint>& new_m,
+                             const std::string& class_name) {
   // Each cell counts an observation once: a stamp per pass marks the cells already counted
   // (as AddPoints does with `last`, which a move leaves alone).
   const uint32_t out_stamp = ++move_stamp_, in_stamp = ++move_stamp_;
+  const int label = PointLabel(class_name);
   for (const ColoredPoint& cp : old_m) {
     const Eigen::Vector3d p = cp.p_m.cast<double>();
     auto cell = cells_.find(KeyOf(p, support_.cell_m));
     if (cell != cells_.end() && cell->second.moved != out_stamp) {
       cell->second.moved = out_stamp;
+      cell->second.Add(label, -1);
       if (--cell->second.observations == 0) cells_.erase(cell);
     }
     auto it = voxels_.find(KeyOf(p, voxel_m_));
@@ -51,6 +83,7 @@ void FusedObject::MovePoints(const std::vector<ColoredPoint>& old_m,
     if (cell.moved != in_stamp) {
       cell.moved = in_stamp;
       ++cell.observations;
+      cell.Add(label, 1);
     }
     Voxel& v = voxels_[KeyOf(p, voxel_m_)];
     v.sum_m += p;
@@ -66,7 +99,16 @@ void FusedObject::Absorb(const FusedObject& other) {
     v.rgb_sum += ov.rgb_sum;
     v.count += ov.count;
   }
-  for (const auto& [key, oc] : other.cells_) cells_[key].observations += oc.observations;
+  std::vector<int> label_of(other.point_labels_.size());  // other's point label -> ours
+  for (size_t i = 0; i < other.point_labels_.size(); ++i) {
+    label_of[i] = PointLabel(other.point_labels_[i]);
+    label_point_observations_[label_of[i]] += other.label_point_observations_[i];
+  }
+  for (const auto& [key, oc] : other.cells_) {
+    Cell& cell = cells_[key];
+    cell.observations += oc.observations;
+    for (const auto& [l, n] : oc.by_label) cell.Add(label_of[l], n);
+  }
   point_observations_ += other.point_observations_;
   labels_.Merge(other.labels_);
   first_seen_ns_ = std::min(first_seen_ns_, other.first_seen_ns_);
@@ -126,25 +168,40 @@ VoxelSet FusedObject::KeysAt(double voxel_m) const {
   return keys;
 }
 
-uint32_t FusedObject::MinSupport() const {
-  if (point_observations_ < 3 || support_.min_fraction <= 0) return 1;
-  return std::max<uint32_t>(
-      2, static_cast<uint32_t>(std::ceil(support_.min_fraction * point_observations_)));
+FusedObject::SupportRule FusedObject::CurrentSupportRule() const {
+  SupportRule rule;
+  uint32_t observations = point_observations_;
+  if (support_.min_label_views > 0) {
+    auto it = std::find(point_labels_.begin(), point_labels_.end(), labels_.Argmax());
+    const int label = it == point_labels_.end() ? -1 : static_cast<int>(it - point_labels_.begin());
+    if (label >= 0 && label_point_observations_[label] >=
+                          static_cast<uint32_t>(support_.min_label_views)) {
+      rule.label = label;
+      observations = label_point_observations_[label];
+    }
+  }
+  if (observations >= 3 && support_.min_fraction > 0) {
+    rule.min_observations = std::max<uint32_t>(
+        2, static_cast<uint32_t>(std::ceil(support_.min_fraction * observations)));
+  }
+  return rule;
 }
 
-bool FusedObject::Supported(const Eigen::Vector3d& p) const {
-  const uint32_t min_support = MinSupport();
-  if (min_support <= 1) return true;
+bool FusedObject::Supported(const Eigen::Vector3d& p, const SupportRule& rule) const {
+  if (rule.label < 0 && rule.min_observations <= 1) return true;
   const auto it = cells_.find(KeyOf(p, support_.cell_m));
-  return it != cells_.end() && it->second.observations >= min_support;
+  if (it == cells_.end()) return false;
+  const uint32_t n = rule.label >= 0 ? it->second.Of(rule.label) : it->second.observations;
+  return n >= rule.min_observations;
 }
 
 std::vector<ColoredPoint> FusedObject::Cloud() const {
   std::vector<ColoredPoint> out;
   out.reserve(voxels_.size());
   const bool any_supported = supported_voxels_ > 0;
+  const SupportRule rule = CurrentSupportRule();
   for (const auto& [key, v] : voxels_) {
-    if (any_supported && !Supported(v.sum_m / v.count)) continue;
+    if (any_supported && !Supported(v.sum_m / v.count, rule)) continue;
     const Eigen::Vector3d rgb = v.rgb_sum / v.count;
     out.push_back({(v.sum_m / v.count).cast<float>(), (static_cast<uint32_t>(rgb.x()) << 16) |
                                                           (static_cast<uint32_t>(rgb.y()) << 8) |
@@ -193,8 +250,9 @@ void FusedObject::RecomputeGeometry() {
   aabb_max_m_.setConstant(std::numeric_limits<double>::lowest());
   std::vector<Eigen::Vector3d> pts;
   pts.reserve(voxels_.size());
+  const SupportRule rule = CurrentSupportRule();
   for (const auto& [key, v] : voxels_) {
-    if (Supported(v.sum_m / v.count)) pts.push_back(v.sum_m / v.count);
+    if (Supported(v.sum_m / v.count, rule)) pts.push_back(v.sum_m / v.count);
   }
   supported_voxels_ = pts.size();
   if (pts.empty()) {  // no cell has the support yet: every voxel counts

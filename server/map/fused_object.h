@@ -38,6 +38,10 @@ struct ColoredPoint {
 // that at least max(2, ceil(min_fraction * observations)) observations put points in, once the
 // object has 3 observations or more. One bad mask (the wall behind a cup) or a misaligned view
 // then no longer stretches the object. min_fraction 0 = every voxel counts.
+// Once the object's most likely class has min_label_views observations with points, only those
+// count (cells and observations both): views of another class fused in (a monitor and the
+// keyboard before it, called "laptop") add evidence for the label and existence, not shape
+// (0 = every observation counts).
 struct SupportOptions {
   double cell_m = 0.05;
   double min_fraction = 0.1;
@@ -49,6 +53,7 @@ struct SupportOptions {
   // flat_top_margin_m above its top surface (the densest level layer).
   std::vector<std::string> flat_top_classes;
   double flat_top_margin_m = 0.03;
+  int min_label_views = 3;
 };
 
 // A FusedObject's voxel and support cell (at namespace scope: a nested struct with member
@@ -63,6 +68,10 @@ struct FusedObjectCell {
   uint32_t observations = 0;  // observations with points in the cell
   uint32_t last = 0;          // index of the last observation counted
   uint32_t moved = 0;         // stamp of the last MovePoints pass that counted it (not saved)
+  // The same per class (index into FusedObject's point labels), small: (label, observations).
+  std::vector<std::pair<uint16_t, uint32_t>> by_label;
+  uint32_t Of(int label) const;
+  void Add(int label, int64_t delta);
 };
 
 class FusedObject {
@@ -76,12 +85,14 @@ class FusedObject {
         support_(support),
         labels_(labels) {}
 
-  // Adds one observation's points (map frame); each voxel keeps the mean of its points.
-  void AddPoints(const std::vector<ColoredPoint>& points_m);
+  // Adds one observation's points (map frame) detected as class_name; each voxel keeps the mean
+  // of its points.
+  void AddPoints(const std::vector<ColoredPoint>& points_m, const std::string& class_name);
   // Moves one earlier observation: takes out its points as they were added (old_m, exactly the
   // same values) and adds them at their new place (new_m); labels and bookkeeping stay. The
   // geometry (centroid, boxes) is stale until RecomputeGeometry (once after many moves).
-  void MovePoints(const std::vector<ColoredPoint>& old_m, const std::vector<ColoredPoint>& new_m);
+  void MovePoints(const std::vector<ColoredPoint>& old_m, const std::vector<ColoredPoint>& new_m,
+                  const std::string& class_name);
   void RecomputeGeometry();
   // Absorbs another object (duplicate merge): points, labels, bookkeeping.
   void Absorb(const FusedObject& other);
@@ -136,12 +147,21 @@ class FusedObject {
 
  private:
   using Voxel = FusedObjectVoxel;
+  using Cell = FusedObjectCell;
+  // Which observations shape the object now: those of one point label (-1: all), and how many
+  // of them a cell needs.
+  struct SupportRule {
+    int label = -1;
+    uint32_t min_observations = 1;
+  };
+  SupportRule CurrentSupportRule() const;
   // Whether a voxel (mean point p) lies in a cell with enough observations.
-  bool Supported(const Eigen::Vector3d& p) const;
+  bool Supported(const Eigen::Vector3d& p, const SupportRule& rule) const;
   // Its most likely class is flat-topped furniture (SupportOptions::flat_top_classes).
   bool IsFlatTop() const;
-  uint32_t MinSupport() const;
-  using Cell = FusedObjectCell;
+  // Index of a class among the point labels (added when new).
+  int PointLabel(const std::string& class_name);
+  Status LoadCells(const loci::store::v1::FusedObjectState& in);
 
   int64_t id_;
   double voxel_m_;
@@ -151,6 +171,8 @@ class FusedObject {
   VoxelMap<Voxel> voxels_;
   VoxelMap<Cell> cells_;
   uint32_t point_observations_ = 0;  // AddPoints calls (absorbed objects' included)
+  std::vector<std::string> point_labels_;            // classes of the observations with points
+  std::vector<uint32_t> label_point_observations_;   // AddPoints calls per point label
   uint32_t move_stamp_ = 0;          // MovePoints passes (two per call)
   size_t supported_voxels_ = 0;      // voxels the geometry used at the last recompute
   Eigen::Vector3d centroid_m_ = Eigen::Vector3d::Zero();

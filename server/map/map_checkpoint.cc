@@ -50,7 +50,14 @@ void FusedObject::SaveState(loci::store::v1::FusedObjectState* out) const {
     out->add_cell_key(key);
     out->add_cell_observations(c.observations);
     out->add_cell_last(c.last);
+    out->add_cell_label_pairs(static_cast<uint32_t>(c.by_label.size()));
+    for (const auto& [label, n] : c.by_label) {
+      out->add_cell_label(label);
+      out->add_cell_label_observations(n);
+    }
   }
+  for (const std::string& l : point_labels_) out->add_point_label(l);
+  for (uint32_t n : label_point_observations_) out->add_label_point_observations(n);
   labels_.SaveState(out->mutable_labels());
   out->set_point_observations(point_observations_);
   out->set_first_seen_ns(first_seen_ns_);
@@ -67,6 +74,35 @@ void FusedObject::SaveState(loci::store::v1::FusedObjectState* out) const {
   out->set_nearest_range_m(nearest_range_m_);
 }
 
+Status FusedObject::LoadCells(const loci::store::v1::FusedObjectState& in) {
+  const auto bad = [&] {
+    return absl::DataLossError(absl::StrCat("checkpoint: object ", in.id(), "'s cells are inconsistent"));
+  };
+  if (in.point_label_size() != in.label_point_observations_size() ||
+      in.cell_label_pairs_size() != in.cell_key_size() ||
+      in.cell_label_size() != in.cell_label_observations_size()) {
+    return bad();
+  }
+  point_labels_ = {in.point_label().begin(), in.point_label().end()};
+  label_point_observations_ = {in.label_point_observations().begin(),
+                               in.label_point_observations().end()};
+  int pair = 0;
+  for (int i = 0; i < in.cell_key_size(); ++i) {
+    Cell& cell = cells_[in.cell_key(i)];
+    cell.observations = in.cell_observations(i);
+    cell.last = in.cell_last(i);
+    for (uint32_t k = 0; k < in.cell_label_pairs(i); ++k, ++pair) {
+      if (pair >= in.cell_label_size() ||
+          in.cell_label(pair) >= static_cast<uint32_t>(point_labels_.size())) {
+        return bad();
+      }
+      cell.by_label.emplace_back(static_cast<uint16_t>(in.cell_label(pair)),
+                                 in.cell_label_observations(pair));
+    }
+  }
+  return pair == in.cell_label_size() ? absl::OkStatus() : bad();
+}
+
 Status FusedObject::LoadState(const loci::store::v1::FusedObjectState& in) {
   const int nv = in.voxel_key_size();
   if (in.voxel_sum_m_size() != 3 * nv || in.voxel_rgb_sum_size() != 3 * nv ||
@@ -81,9 +117,7 @@ Status FusedObject::LoadState(const loci::store::v1::FusedObjectState& in) {
         Vec3d(in.voxel_rgb_sum(3 * i), in.voxel_rgb_sum(3 * i + 1), in.voxel_rgb_sum(3 * i + 2));
     v.count = in.voxel_count(i);
   }
-  for (int i = 0; i < in.cell_key_size(); ++i) {
-    cells_[in.cell_key(i)] = {in.cell_observations(i), in.cell_last(i)};
-  }
+  LOCI_RETURN_IF_ERROR(LoadCells(in));
   labels_.LoadState(in.labels());
   point_observations_ = in.point_observations();
   first_seen_ns_ = in.first_seen_ns();

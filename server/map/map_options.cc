@@ -19,7 +19,7 @@ constexpr const char* kFusionKeys[] = {
     "max_size_ratio",          "label_universe",    "min_likelihood",       "existence_p_real",
     "existence_p_false",       "confirm_llr",       "remove_llr",           "visibility",
     "centroid_min_part",       "class_size_slack",  "merge_box_containment",
-    "merge_sigmas",            "depth_sigma_at_1m", "view_sigma_rad"};
+    "merge_sigmas",            "depth_sigma_at_1m", "view_sigma_rad",       "shape_min_label_views"};
 
 Status CheckMapKeys(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
@@ -127,6 +127,8 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "support_cell_m", &fusion.support_cell_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_support_fraction", &fusion.min_support_fraction));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "centroid_min_part", &fusion.centroid_min_part));
+    LOCI_RETURN_IF_ERROR(
+        ReadOptional(n, "shape_min_label_views", &fusion.shape_min_label_views));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "class_size_slack", &fusion.class_size_slack));
     LOCI_RETURN_IF_ERROR(
         ReadOptional(n, "merge_box_containment", &fusion.merge_box_containment));
@@ -242,6 +244,9 @@ Status MapOptions::Validate() const {
   if (!std::isfinite(fusion.class_size_slack)) return bad("fusion.class_size_slack finite");
   if (!(fusion.centroid_min_part >= 0 && fusion.centroid_min_part < 0.5)) {
     return bad("fusion.centroid_min_part in [0, 0.5)");
+  }
+  if (fusion.shape_min_label_views < 0) {
+    return bad("fusion.shape_min_label_views >= 0");
   }
   if (!(fusion.existence_p_false > 0 && fusion.existence_p_false < fusion.existence_p_real &&
         fusion.existence_p_real < 1)) {

@@ -89,6 +89,10 @@ struct FusionOptions {
   // The box-centre centroid ignores disconnected parts of the supported points smaller than
   // this fraction of them (FusedObject SupportOptions); 0 = the full box (0.05).
   double centroid_min_part = 0.05;
+  // Once an object's most likely class has this many observations with points, only those
+  // shape it (support cells, centroid, boxes); views of other classes fused in still count for
+  // its label and existence. 0 = every observation shapes it (3).
+  int shape_min_label_views = 3;
   int label_universe = 13;       // K, classes the detector can report (mapped classes) (13)
   double min_likelihood = 0.05;  // detection scores are clamped to [this, 1 - this] (0.05)
   // Existence from negative evidence (visibility.h): every keyframe that should have seen an

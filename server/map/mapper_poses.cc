@@ -92,7 +92,7 @@ void Mapper::MoveKeyframe(size_t index, const SE3d& T_base_kf, const KeyframePro
   for (size_t i = 0; i < n; ++i) {
     const ObjectObservation& o = products.observations[i];
     if (objects_.MoveObservation(k.observation_object_ids[i], ObservationPointsMap(o, T_old),
-                                 ObservationPointsMap(o, T_new))) {
+                                 ObservationPointsMap(o, T_new), o.class_name)) {
       moved_objects->push_back(k.observation_object_ids[i]);
     }
   }

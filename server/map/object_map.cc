@@ -33,7 +33,7 @@ FusedObject ObjectMap::NewObject(int64_t id) const {
                      LabelDistribution(options_.label_universe, options_.min_likelihood),
                      {options_.support_cell_m, options_.min_support_fraction,
                       options_.centroid_min_part, options_.flat_top_classes,
-                      options_.flat_top_margin_m});
+                      options_.flat_top_margin_m, options_.shape_min_label_views});
 }
 
 namespace {
@@ -140,7 +140,7 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
       kind = ObjectChange::Kind::kCreated;
     }
     FusedObject& object = objects_.at(best_id);
-    object.AddPoints(obs.points_m);
+    object.AddPoints(obs.points_m, obs.class_name);
     object.Observe(obs.class_name, obs.score, obs.session_row, obs.track_id, obs.robot,
                    obs.keyframe_id, obs.t_ns);
     object.ObserveRange(obs.range_m);
@@ -207,11 +207,12 @@ int64_t ObjectMap::MergeDuplicates(int64_t id, std::vector<ObjectChange>* change
 }
 
 bool ObjectMap::MoveObservation(int64_t object_id, const std::vector<ColoredPoint>& old_m,
-                                const std::vector<ColoredPoint>& new_m) {
+                                const std::vector<ColoredPoint>& new_m,
+                                const std::string& class_name) {
   const int64_t id = Resolve(object_id);
   auto it = objects_.find(id);
   if (it == objects_.end()) return false;
-  it->second.MovePoints(old_m, new_m);
+  it->second.MovePoints(old_m, new_m, class_name);
   return true;
 }
 

@@ -76,8 +76,9 @@ class ObjectMap {
   // A keyframe moved: its observation of `object_id` (merges followed) takes its points out
   // (old_m, as added) and back in at new_m. False when the object is gone (removed for lack of
   // evidence). Call MergeMoved after the last move.
+  // class_name: the observation's detected class.
   bool MoveObservation(int64_t object_id, const std::vector<ColoredPoint>& old_m,
-                       const std::vector<ColoredPoint>& new_m);
+                       const std::vector<ColoredPoint>& new_m, const std::string& class_name);
   // After moves: recomputes the moved objects' geometry (one kUpdated each), then merges those
   // that now coincide with others (kMerged + kRemoved).
   void MergeMoved(const std::vector<int64_t>& object_ids, std::vector<ObjectChange>* changes);
