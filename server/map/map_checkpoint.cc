@@ -76,7 +76,8 @@ void FusedObject::SaveState(loci::store::v1::FusedObjectState* out) const {
 
 Status FusedObject::LoadCells(const loci::store::v1::FusedObjectState& in) {
   const auto bad = [&] {
-    return absl::DataLossError(absl::StrCat("checkpoint: object ", in.id(), "'s cells are inconsistent"));
+    return absl::DataLossError(
+        absl::StrCat("checkpoint: object ", in.id(), "'s cells are inconsistent"));
   };
   if (in.point_label_size() != in.label_point_observations_size() ||
       in.cell_label_pairs_size() != in.cell_key_size() ||

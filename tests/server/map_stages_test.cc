@@ -8,7 +8,6 @@
 #include <random>
 #include <unordered_map>
 
-#include "loci/store/v1/map_state.pb.h"
 #include "server/map/fused_object.h"
 #include "server/map/grid_outlier_filter.h"
 #include "server/map/keyframe_products.h"
@@ -389,123 +388,6 @@ TEST(ObjectMap, MergesDuplicatesThatEndUpOverlapping) {
   EXPECT_EQ(l[0], a[0]);
   EXPECT_EQ(map.size(), 2u);
   EXPECT_EQ(map.Find(a[0])->labels().Argmax(), "cup");
-}
-
-TEST(FusedObject, OneStrayObservationDoesNotStretchTheObject) {
-  // Ten views of a 10 cm cup (1 cm noise) and one view whose mask also held 40 cm of the wall
-  // 0.5 m behind it.
-  std::mt19937 rng(4);
-  std::normal_distribution<float> noise(0.f, 0.01f);
-  std::uniform_real_distribution<float> u(-0.05f, 0.05f);
-  const auto view = [&](bool with_wall) {
-    std::vector<ColoredPoint> pts;
-    for (int i = 0; i < 400; ++i) {
-      pts.push_back({Eigen::Vector3f(1.f + u(rng) + noise(rng), u(rng) + noise(rng),
-                                     0.8f + u(rng) + noise(rng)),
-                     0x808080});
-    }
-    for (int i = 0; with_wall && i < 400; ++i) {
-      pts.push_back({Eigen::Vector3f(1.5f, 4 * u(rng), 0.8f + 4 * u(rng)), 0xffffff});
-    }
-    return pts;
-  };
-  for (double min_fraction : {0.1, 0.0}) {
-    FusedObject cup(1, 0.01, true, LabelDistribution(13, 0.05),
-                    {0.05, min_fraction, 0.0, {}, 0.03});
-    for (int k = 0; k < 11; ++k) cup.AddPoints(view(k == 5), "cup");
-    const MapObject o = cup.Snapshot();
-    const Eigen::Vector3d extent = o.aabb_max_m - o.aabb_min_m;
-    std::printf("min_support_fraction %.1f: extent (%.2f, %.2f, %.2f) m, centroid x %.2f m\n",
-                min_fraction, extent.x(), extent.y(), extent.z(), o.centroid_m.x());
-    if (min_fraction > 0) {
-      EXPECT_LT(extent.maxCoeff(), 0.2);
-      EXPECT_NEAR(o.centroid_m.x(), 1.0, 0.03);
-      EXPECT_LT(cup.Cloud().size(), cup.voxel_count());  // the wall is not exported either
-    } else {
-      EXPECT_GT(extent.x(), 0.5);  // every voxel counts: the wall stretches the box
-    }
-  }
-}
-
-TEST(FusedObject, ViewsOfAnotherClassDoNotShapeTheObject) {
-  // A monitor panel (0.55 x 0.02 x 0.35 m, at x = 0.5) seen 8 times as "tv"; 6 blurred views
-  // call it "laptop" with a box that also takes in the keyboard 0.3 m in front of it. The
-  // laptop views count for the label and existence; with shape_min_label_views the object's
-  // shape is the tv views' panel, without it the keyboard stretches it.
-  std::mt19937 rng(5);
-  std::normal_distribution<float> noise(0.f, 0.004f);
-  const auto panel = [&] {
-    std::vector<ColoredPoint> pts;
-    for (int i = 0; i < 55; ++i) {
-      for (int k = 0; k < 35; ++k) {
-        pts.push_back({Eigen::Vector3f(0.5f + noise(rng), -0.275f + 0.01f * i, 0.15f + 0.01f * k),
-                       0x202020});
-      }
-    }
-    return pts;
-  };
-  const auto laptop_view = [&] {
-    std::vector<ColoredPoint> pts = panel();
-    for (int i = 0; i < 45; ++i) {  // the keyboard: 0.45 x 0.15 m on the desk (z 0.02)
-      for (int j = 0; j < 15; ++j) {
-        pts.push_back({Eigen::Vector3f(0.72f + 0.01f * j, -0.225f + 0.01f * i, 0.02f + noise(rng)),
-                       0xe0e0e0});
-      }
-    }
-    return pts;
-  };
-  for (int min_views : {3, 0}) {
-    FusedObject monitor(1, 0.01, true, LabelDistribution(13, 0.05),
-                        {0.05, 0.1, 0.0, {}, 0.03, min_views});
-    for (int k = 0; k < 14; ++k) {
-      const bool laptop = k % 7 >= 4;  // views 4-6 and 11-13
-      const std::string cls = laptop ? "laptop" : "tv";
-      monitor.AddPoints(laptop ? laptop_view() : panel(), cls);
-      monitor.Observe(cls, 0.6, 1, 0, "A", k + 1, k + 1);
-    }
-    const MapObject o = monitor.Snapshot();
-    std::printf("shape_min_label_views %d: %s, centroid x %.3f m, depth %.2f m\n", min_views,
-                o.class_name.c_str(), o.centroid_m.x(), o.aabb_max_m.x() - o.aabb_min_m.x());
-    EXPECT_EQ(o.class_name, "tv");
-    if (min_views > 0) {
-      EXPECT_NEAR(o.centroid_m.x(), 0.5, 0.02);
-      EXPECT_LT(o.aabb_max_m.x() - o.aabb_min_m.x(), 0.1);
-      // The checkpoint keeps the per-class evidence: the restored object has the same shape.
-      loci::store::v1::FusedObjectState state;
-      monitor.SaveState(&state);
-      FusedObject restored(1, 0.01, true, LabelDistribution(13, 0.05),
-                           {0.05, 0.1, 0.0, {}, 0.03, min_views});
-      ASSERT_TRUE(restored.LoadState(state).ok());
-      EXPECT_TRUE(restored.Snapshot().centroid_m.isApprox(o.centroid_m, 1e-9));
-      EXPECT_EQ(restored.Cloud().size(), monitor.Cloud().size());
-      state.add_cell_label(0);  // a pair the counts do not announce
-      FusedObject broken(1, 0.01, true, LabelDistribution(13, 0.05));
-      EXPECT_FALSE(broken.LoadState(state).ok());
-    } else {
-      EXPECT_GT(o.aabb_max_m.x() - o.aabb_min_m.x(), 0.3);  // the keyboard stretches it
-    }
-  }
-}
-
-TEST(FusedObject, BoxCentreKeepsContiguousLegsAndDropsAStrayCluster) {
-  // A 1.0 x 0.6 m table top at 0.72 m on four 1 cm legs: the legs are under 5 % of the voxels
-  // but contiguous, so the box still reaches the floor. 40 stray voxels float 0.3 m above the
-  // top, split off by an empty gap: they do not raise it.
-  std::vector<ColoredPoint> pts;
-  for (int i = 0; i < 100; ++i) {
-    for (int j = 0; j < 60; ++j) pts.push_back({Eigen::Vector3f(0.01f * i, 0.01f * j, 0.72f), 0});
-  }
-  for (const auto& [x, y] : {std::pair{0.f, 0.f}, {0.99f, 0.f}, {0.f, 0.59f}, {0.99f, 0.59f}}) {
-    for (int k = 0; k < 72; ++k) pts.push_back({Eigen::Vector3f(x, y, 0.01f * k), 0});
-  }
-  for (int i = 0; i < 40; ++i) pts.push_back({Eigen::Vector3f(0.5f, 0.3f, 1.02f + 0.005f * i), 0});
-  FusedObject table(1, 0.01, true, LabelDistribution(13, 0.05), {0.05, 0.0, 0.05, {}, 0.03});
-  table.AddPoints(pts, "dining table");
-  const MapObject o = table.Snapshot();
-  EXPECT_NEAR(o.centroid_m.z(), 0.36, 0.01);
-  EXPECT_NEAR(o.centroid_m.x(), 0.495, 0.01);
-  EXPECT_NEAR(o.centroid_m.y(), 0.295, 0.01);
-  EXPECT_GT(o.aabb_max_m.z(), 1.1);  // the box itself keeps every supported voxel
 }
 
 TEST(ObjectEval, CountErrorMatchingFalsePositivesAndMisses) {
