@@ -3,8 +3,9 @@
 // keyframe, its products, the map, a checkpoint after keyframe N - T, so T keyframes are left to
 // re-derive from products as after a crash), then starts the loci-server binary on it and prints
 // the time from process start to "listening on" and to health SERVING, the server's peak RSS,
-// and the database bytes per keyframe; --move N also times moving the last N keyframes
-// (Mapper::UpdateKeyframePoses) in the building process. --small renders 160x120 keyframes (say so when quoting).
+// and the database bytes per keyframe; --move N [--chunk K] also times moving the last N
+// keyframes (Mapper::UpdateKeyframePoses) in the building process, in chunks of K, while
+// another thread maps keyframes (cli/bench_move.h). --small renders 160x120 keyframes (say so when quoting).
 #include <grpcpp/create_channel.h>
 #include <signal.h>
 #include <spawn.h>
@@ -18,6 +19,7 @@
 #include <iostream>
 #include <thread>
 
+#include "cli/bench_move.h"
 #include "cli/bench_views.h"
 #include "cli/commands.h"
 #include "common/time.h"
@@ -38,6 +40,7 @@ struct BenchRestartArgs {
   int64_t keyframes = 1000;
   int64_t tail = 0;
   int64_t move = 0;
+  int64_t chunk = 0;
   bool small = false;
   std::string keep_dir;
 };
@@ -66,45 +69,6 @@ StatusOr<std::vector<View>> PrepareViews(const std::vector<loci::v1::Keyframe>& 
     out.push_back(std::move(v));
   }
   return out;
-}
-
-// Moves the last `n` keyframes by a small rigid transform (as a loop closure would) and prints
-// the re-derivation time, products read from the database included.
-Status TimeMove(int64_t n, server::Mapper& mapper, server::MapStore& store,
-                const std::string& fingerprint) {
-  const int64_t last = mapper.last_keyframe_id();
-  SE3d T_fix = SE3d::Identity();
-  T_fix.linear() = Eigen::AngleAxisd(0.02, Vec3d::UnitZ()).toRotationMatrix();
-  T_fix.translation() = Vec3d(0.05, -0.03, 0.0);
-  std::vector<server::Mapper::KeyframePoseUpdate> updates;
-  for (const auto& [robot, traj] : mapper.Trajectories()) {
-    (void)robot;
-    const int64_t first_id = last - static_cast<int64_t>(traj.size()) + 1;  // one robot, ids dense
-    const SE3d T_base_map = mapper.MapFromBaseFrame().inverse();
-    for (size_t i = traj.size() - static_cast<size_t>(std::min<int64_t>(n, traj.size()));
-         i < traj.size(); ++i) {
-      updates.push_back({first_id + static_cast<int64_t>(i),
-                         T_fix * T_base_map * traj[i].T_world_cam});
-    }
-  }
-  auto source = [&store, fingerprint](int64_t id) -> StatusOr<server::KeyframeProducts> {
-    LOCI_ASSIGN_OR_RETURN(std::optional<std::string> bytes, store.GetProducts(id, fingerprint));
-    if (!bytes) return absl::NotFoundError(absl::StrCat("no products for keyframe ", id));
-    return server::DecodeProducts(*bytes, fingerprint, /*with_visibility=*/false);
-  };
-  mapper.FlushOctomap();  // the build's OctoMap backlog would share the cores with the move
-  const auto t0 = Clock::now();
-  const double cpu0_ms = ThreadCpuMs();
-  LOCI_ASSIGN_OR_RETURN(size_t moved, mapper.UpdateKeyframePoses(updates, source));
-  const double s = std::chrono::duration<double>(Clock::now() - t0).count();
-  std::printf("  moved %zu keyframes (products read from the database) in %.3f s (%.3f s CPU on "
-              "the calling thread; products are read and the cloud moved on pool threads)\n",
-              moved, s, (ThreadCpuMs() - cpu0_ms) / 1000.0);
-  mapper.FlushOctomap();
-  std::printf("  OctoMap rebuilt from all %zu keyframes' products %.3f s after the move\n",
-              mapper.Trajectories().begin()->second.size(),
-              std::chrono::duration<double>(Clock::now() - t0).count() - s);
-  return absl::OkStatus();
 }
 
 // Writes N keyframes with products and a checkpoint after keyframe N - tail.
@@ -146,7 +110,18 @@ Status BuildDatabase(const BenchRestartArgs& a, const std::vector<loci::v1::Keyf
     }
   }
   std::fprintf(stderr, "\n");
-  if (a.move > 0) LOCI_RETURN_IF_ERROR(TimeMove(a.move, mapper, *store, fingerprint));
+  if (a.move == 0) return absl::OkStatus();
+  // The mapping thread of the move bench maps the views again, as new keyframes.
+  int64_t next = a.keyframes;
+  auto map_next = [&] {
+    const View& v = prepared[static_cast<size_t>(next) % prepared.size()];
+    server::MapperKeyframe meta = v.meta;
+    meta.keyframe_id = mapper.last_keyframe_id() + 1;
+    meta.session_row = session.row_id;
+    meta.t_ns = NthKeyframe(views, next++, "").t_ns();
+    mapper.Integrate(meta, v.products);
+  };
+  return TimeMoveWhileMapping(a.move, a.chunk, mapper, *store, fingerprint, map_next);
   return absl::OkStatus();
 }
 
@@ -278,12 +253,17 @@ void RegisterBenchRestartCommand(CLI::App& app) {
       ->capture_default_str();
   c->add_flag("--small", args->small, "160x120 keyframes (for 100k-keyframe runs)");
   c->add_option("--move", args->move,
-                "after building, move the last N keyframes and time the re-derivation")
+                "after building, move the last N keyframes and time the re-derivation while "
+                "another thread maps keyframes under the same lock (cli/bench_move.h)")
+      ->capture_default_str();
+  c->add_option("--chunk", args->chunk,
+                "with --move: keyframes moved per hold of the lock (0 = all at once; the "
+                "server's align.loops.apply_chunk_keyframes)")
       ->capture_default_str();
   c->add_option("--keep", args->keep_dir, "keep the scene and database in this directory");
   c->callback([args] {
-    if (args->keyframes < 1 || args->tail < 0 || args->tail >= args->keyframes) {
-      std::cerr << "error: need --keyframes >= 1 and 0 <= --tail < --keyframes\n";
+    if (args->keyframes < 1 || args->tail < 0 || args->tail >= args->keyframes || args->chunk < 0) {
+      std::cerr << "error: need --keyframes >= 1, 0 <= --tail < --keyframes, --chunk >= 0\n";
       ExitCode() = 2;
       return;
     }

@@ -122,6 +122,10 @@ void PrintAlignment(const loci::v1::GetStatsResponse& resp) {
                   static_cast<unsigned long long>(g.merges_rejected()),
                   static_cast<unsigned long long>(g.islands()), g.four_dof() ? ", 4-DoF" : "",
                   static_cast<unsigned long long>(g.gravity_priors()), g.last_solve_ms());
+      std::printf("map moved          in %.0f ms, %llu chunks; mapping paused at most %.0f ms "
+                  "(%.0f ms since start)\n",
+                  g.last_apply_ms(), static_cast<unsigned long long>(g.last_apply_chunks()),
+                  g.last_apply_longest_hold_ms(), g.longest_hold_ms());
     }
   }
   for (const loci::v1::SessionAlignment& s : resp.session_alignments()) {

@@ -23,7 +23,7 @@ Status LoopOptions::FromYaml(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node, "align.loops",
                                       {"enabled", "min_gap_s", "sigma_trans_m", "sigma_rot_rad",
                                        "optimize_every_edges", "optimize_min_keyframes",
-                                       "optimize_growth"}));
+                                       "optimize_growth", "apply_chunk_keyframes"}));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "enabled", &enabled));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "min_gap_s", &min_gap_s));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "sigma_trans_m", &sigma_trans_m));
@@ -31,6 +31,7 @@ Status LoopOptions::FromYaml(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "optimize_every_edges", &optimize_every_edges));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "optimize_min_keyframes", &optimize_min_keyframes));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "optimize_growth", &optimize_growth));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "apply_chunk_keyframes", &apply_chunk_keyframes));
   return Validate();
 }
 
@@ -45,6 +46,9 @@ Status LoopOptions::Validate() const {
   }
   if (!(optimize_growth >= 0 && optimize_growth <= 1)) {
     return absl::InvalidArgumentError("align.loops.optimize_growth must be in [0, 1]");
+  }
+  if (apply_chunk_keyframes < 0) {
+    return absl::InvalidArgumentError("align.loops.apply_chunk_keyframes must be >= 0");
   }
   return absl::OkStatus();
 }

@@ -31,6 +31,10 @@ struct LoopOptions {
   // the whole graph, so spacing solves in proportion to its size keeps the cost per keyframe
   // flat (1000 keyframes: a solve every 50, not every 10).
   double optimize_growth = 0.05;
+  // The solution moves the map this many keyframes per hold of the mapping lock, newest first
+  // (64; 0 = all at once): the mapping worker waits for one chunk at most (about 0.5-1.5 ms per
+  // keyframe moved), not for the whole move (seconds at 10k keyframes).
+  int apply_chunk_keyframes = 64;
 
   int64_t min_gap_ns() const { return static_cast<int64_t>(min_gap_s * 1e9); }
   Status FromYaml(const YAML::Node& node);

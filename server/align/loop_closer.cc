@@ -2,6 +2,7 @@
 
 #include <absl/strings/str_cat.h>
 
+#include <algorithm>
 #include <chrono>
 
 #include "server/graph/pose_graph.h"
@@ -59,6 +60,14 @@ std::optional<LoopKeyframe> LoopCloser::Keyframe(int64_t keyframe_id) const {
 LoopStats LoopCloser::Stats() const {
   std::lock_guard<std::mutex> lock(mu_);
   return stats_;
+}
+
+void LoopCloser::NoteApplied(double apply_ms, uint64_t chunks, double longest_hold_ms) {
+  std::lock_guard<std::mutex> lock(mu_);
+  stats_.last_apply_ms = apply_ms;
+  stats_.last_apply_chunks = chunks;
+  stats_.last_apply_longest_hold_ms = longest_hold_ms;
+  stats_.longest_hold_ms = std::max(stats_.longest_hold_ms, longest_hold_ms);
 }
 
 StatusOr<GraphResult> LoopCloser::Optimize(const std::vector<MappedKeyframe>& mapped,

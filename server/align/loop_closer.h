@@ -59,6 +59,13 @@ struct LoopStats {
   uint64_t keyframes_moved = 0;  // summed over the solves
   double solve_ms_total = 0;   // PCM + Ceres, wall ms, summed
   GraphStats last;             // of the latest solve
+  // Moving the map to the latest solution (in chunks, MapServer): wall ms from the first chunk
+  // to the last, chunks, and the longest the mapping lock was held for one chunk; the longest
+  // such hold since start.
+  double last_apply_ms = 0;
+  uint64_t last_apply_chunks = 0;
+  double last_apply_longest_hold_ms = 0;
+  double longest_hold_ms = 0;
 };
 
 class LoopCloser {
@@ -83,6 +90,8 @@ class LoopCloser {
   StatusOr<GraphResult> Optimize(const std::vector<MappedKeyframe>& mapped, bool gravity_aligned);
 
   LoopStats Stats() const;
+  // Records how the latest solution was moved into the map (LoopStats' apply figures).
+  void NoteApplied(double apply_ms, uint64_t chunks, double longest_hold_ms);
   std::optional<LoopKeyframe> Keyframe(int64_t keyframe_id) const;
 
  private:

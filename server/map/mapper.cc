@@ -33,41 +33,22 @@ Mapper::Mapper(const MapOptions& options)
   // octomap_ is non-null exactly when options_.octomap.enabled, but the OctoMap thread replaces
   // it (RebuildOctomap), as does SettleFrame: read the pointer only under octo_mu_, and test
   // options_.octomap.enabled instead of the pointer.
-  if (options_.octomap.enabled) octomap_thread_ = std::thread([this] { OctomapLoop(); });
+  if (options_.octomap.enabled) {
+    octomap_thread_ = std::thread([this] { OctomapLoop(); });
+    rebuild_thread_ = std::thread([this] { RebuildLoop(); });
+  }
 }
 
 Mapper::~Mapper() {
   ++octomap_generation_;  // a queued or running rebuild stops (its product source may be gone)
+  {
+    std::lock_guard<std::mutex> lock(rebuild_mu_);
+    rebuild_stop_ = true;
+  }
+  rebuild_cv_.notify_all();
+  if (rebuild_thread_.joinable()) rebuild_thread_.join();
   octomap_queue_.Close();
   if (octomap_thread_.joinable()) octomap_thread_.join();
-}
-
-void Mapper::OctomapLoop() {
-  while (std::optional<OctomapJob> job = octomap_queue_.Pop()) {
-    const double t0 = ThreadCpuMs();
-    if (job->scan) {
-      std::lock_guard<std::mutex> lock(octo_mu_);
-      octomap_->Insert(job->scan->points_m, job->scan->origin_m);
-    } else if (job->rebuild && job->rebuild->generation == octomap_generation_.load()) {
-      RebuildOctomap(*job->rebuild);
-    }
-    const double ms = ThreadCpuMs() - t0;
-    {
-      std::lock_guard<std::mutex> lock(mu_);
-      stats_.total.octomap_ms += ms;
-    }
-    std::lock_guard<std::mutex> lock(octomap_progress_mu_);
-    ++octomap_done_;
-    octomap_progress_cv_.notify_all();
-  }
-}
-
-void Mapper::FlushOctomap() const {
-  // Waits for the scans pushed before this call only: a reader must not wait for keyframes the
-  // worker maps meanwhile (under a steady stream that wait would never end).
-  std::unique_lock<std::mutex> lock(octomap_progress_mu_);
-  const uint64_t target = octomap_pushed_;
-  octomap_progress_cv_.wait(lock, [&] { return octomap_done_ >= target; });
 }
 
 Status Mapper::SetFirstObjectId(int64_t first_id) {
@@ -307,9 +288,9 @@ std::vector<int64_t> Mapper::IntegrateProducts(const MapperKeyframe& kf,
     ++stats_.keyframes;
   }
   if (options_.octomap.enabled) {
-    OctomapJob job;
-    job.scan = ThinScan(points, T_map_kf.translation(), options_.octomap.resolution_m);
-    PushOctomap(std::move(job));
+    OctomapScan scan = ThinScan(points, T_map_kf.translation(), options_.octomap.resolution_m);
+    scan.keyframe_id = kf.keyframe_id;
+    PushOctomap(std::move(scan));
   }
   AddTimes(*times);
   return ids;
@@ -335,12 +316,12 @@ Mapper::OctomapScan Mapper::ThinScan(const std::vector<SemanticPoint>& static_po
   return scan;
 }
 
-void Mapper::PushOctomap(OctomapJob job) {
+void Mapper::PushOctomap(OctomapScan scan) {
   {
     std::lock_guard<std::mutex> lock(octomap_progress_mu_);
     ++octomap_pushed_;
   }
-  octomap_queue_.Push(std::move(job));
+  octomap_queue_.Push(std::move(scan));
 }
 
 void Mapper::AddTimes(const StageTimes& times) {

@@ -121,14 +121,17 @@ class Mapper {
   // the mapping thread, between Integrate calls. NotFound for an unmapped keyframe (nothing
   // moves). The OctoMap follows on its own thread: it is rebuilt from every keyframe's products
   // at the current poses (log-odds clamping makes taking scans back out inexact), while the old
-  // one keeps answering; FlushOctomap waits for it. `source` must stay valid until then.
+  // one keeps answering and keyframes mapped meanwhile do not wait for it (their scans join the
+  // new tree); FlushOctomap waits for it. `source` must stay valid until then.
   using ProductSource = std::function<StatusOr<KeyframeProducts>(int64_t keyframe_id)>;
   struct KeyframePoseUpdate {
     int64_t keyframe_id = 0;
     SE3d T_base_kf = SE3d::Identity();
   };
+  // rebuild_octomap false: the OctoMap keeps the old poses until a later call rebuilds it (a
+  // move in chunks rebuilds once, after its last chunk).
   StatusOr<size_t> UpdateKeyframePoses(const std::vector<KeyframePoseUpdate>& updates,
-                                       const ProductSource& source);
+                                       const ProductSource& source, bool rebuild_octomap = true);
 
   // Ids of the map's objects start here (ObjectMap::SetFirstId): before the first keyframe.
   Status SetFirstObjectId(int64_t first_id);
@@ -169,6 +172,7 @@ class Mapper {
 
  private:
   struct OctomapScan {
+    int64_t keyframe_id = 0;
     std::vector<Eigen::Vector3f> points_m;  // static points at the OctoMap resolution
     Vec3d origin_m = Vec3d::Zero();         // camera centre
   };
@@ -178,13 +182,18 @@ class Mapper {
     ProductSource source;
     uint64_t generation = 0;  // a later rebuild makes this one moot
   };
-  struct OctomapJob {
-    std::optional<OctomapScan> scan;  // a new keyframe
-    std::optional<OctomapRebuild> rebuild;
-  };
   static OctomapScan ThinScan(const std::vector<SemanticPoint>& static_points_m,
                               const Vec3d& origin_m, double resolution_m);
+  // The OctoMap's two threads (mapper_octomap.cc). OctomapLoop inserts new keyframes' scans
+  // into the live tree; RebuildLoop builds a new tree after a pose update from every keyframe's
+  // products (seconds per 1000 keyframes) beside it, then adds the scans of the keyframes mapped
+  // since the update was requested, and swaps it in. New keyframes never wait for a rebuild.
+  void RebuildLoop();
   void RebuildOctomap(const OctomapRebuild& rebuild);
+  // mu_ held, when a rebuild's keyframe list is taken: scans inserted from now on are also kept
+  // for the new tree.
+  void CollectScansForRebuild();
+  void RequestRebuild(OctomapRebuild rebuild);
   void OctomapLoop();
   // A keyframe kept until the map frame is settled, to re-derive the map from.
   struct Settling {
@@ -207,8 +216,9 @@ class Mapper {
   void FixFirstFrame(const MapperKeyframe& kf, const std::optional<Vec3d>& gravity_cam);
   void CollectFrameEvidence(const MapperKeyframe& kf, const std::optional<Vec3d>& gravity_cam,
                             const KeyframeProducts& products);
-  // Queues OctoMap work (call without mu_: the queue is bounded and its thread takes mu_).
-  void PushOctomap(OctomapJob job);
+  // Queues a scan for the OctoMap (call without mu_: the queue is bounded and its thread takes
+  // mu_).
+  void PushOctomap(OctomapScan scan);
   // Where a keyframe's pose goes in keyframe_poses_ (id order) / where it is (end() when
   // absent); mu_ held.
   std::vector<KeyframePose>::iterator KeyframePoseAfter(int64_t keyframe_id);
@@ -242,12 +252,21 @@ class Mapper {
 
   mutable std::mutex octo_mu_;  // the OctoMap alone, so ray casting does not block queries
   std::unique_ptr<OccupancyMap> octomap_;
-  BoundedQueue<OctomapJob> octomap_queue_{8};
+  BoundedQueue<OctomapScan> octomap_queue_{8};
+  // Scans inserted since a rebuild was requested, for the new tree (guarded by octo_mu_).
+  bool collecting_scans_ = false;
+  std::vector<OctomapScan> scans_since_request_;
+  std::mutex rebuild_mu_;
+  std::condition_variable rebuild_cv_;
+  std::optional<OctomapRebuild> rebuild_request_;  // the newest; guarded by rebuild_mu_
+  bool rebuild_stop_ = false;                       // guarded by rebuild_mu_
+  uint64_t rebuilt_generation_ = 0;  // of the last rebuild swapped in; octomap_progress_mu_
+  std::thread rebuild_thread_;
   mutable std::mutex octomap_progress_mu_;
   mutable std::condition_variable octomap_progress_cv_;
   uint64_t octomap_pushed_ = 0;  // guarded by octomap_progress_mu_
   uint64_t octomap_done_ = 0;    // guarded by octomap_progress_mu_
-  std::atomic<uint64_t> octomap_generation_{0};  // of the latest queued rebuild
+  std::atomic<uint64_t> octomap_generation_{0};  // of the latest requested rebuild
   std::thread octomap_thread_;
 };
 

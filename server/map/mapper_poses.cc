@@ -2,8 +2,6 @@
 // move their contribution to the objects and the cloud: what they added at the old pose comes
 // out, the same products go back in at the new pose, and moved objects that now coincide with
 // others merge. Only the moved keyframes' products are read.
-#include <spdlog/spdlog.h>
-
 #include <algorithm>
 #include <future>
 
@@ -14,7 +12,7 @@
 namespace loci::server {
 
 StatusOr<size_t> Mapper::UpdateKeyframePoses(const std::vector<KeyframePoseUpdate>& updates,
-                                             const ProductSource& source) {
+                                             const ProductSource& source, bool rebuild_octomap) {
   if (!frame_settled_) {
     return absl::FailedPreconditionError(
         "keyframe poses can change once the map frame is settled (the first keyframes)");
@@ -56,21 +54,21 @@ StatusOr<size_t> Mapper::UpdateKeyframePoses(const std::vector<KeyframePoseUpdat
     ++moved;
   }
   std::vector<ObjectEventOut> events;
-  OctomapJob octo;
+  std::optional<OctomapRebuild> rebuild;
   {
     std::lock_guard<std::mutex> lock(mu_);
     objects_.MergeMoved(moved_objects, &changes);
     AppendEvents(changes, &events);
-    if (options_.octomap.enabled && moved > 0) {
-      OctomapRebuild rebuild{{}, source, ++octomap_generation_};
-      rebuild.T_map_kf.reserve(keyframe_poses_.size());
+    if (options_.octomap.enabled && rebuild_octomap && moved > 0) {
+      rebuild = OctomapRebuild{{}, source, ++octomap_generation_};
+      rebuild->T_map_kf.reserve(keyframe_poses_.size());
       for (const KeyframePose& k : keyframe_poses_) {
-        rebuild.T_map_kf.emplace_back(k.keyframe_id, T_map_base_ * k.T_base_kf);
+        rebuild->T_map_kf.emplace_back(k.keyframe_id, T_map_base_ * k.T_base_kf);
       }
-      octo.rebuild = std::move(rebuild);
+      CollectScansForRebuild();  // keyframes mapped from here on are not in the list
     }
   }
-  if (octo.rebuild) PushOctomap(std::move(octo));
+  if (rebuild) RequestRebuild(std::move(*rebuild));
   if (listener_ && !events.empty()) listener_(events);
   if (!status.ok()) return status;
   return moved;
@@ -104,28 +102,3 @@ void Mapper::MoveKeyframe(size_t index, const SE3d& T_base_kf, const KeyframePro
 
 }  // namespace loci::server
 
-namespace loci::server {
-
-void Mapper::RebuildOctomap(const OctomapRebuild& rebuild) {
-  auto tree = std::make_unique<OccupancyMap>(options_.octomap);
-  size_t skipped = 0;
-  for (const auto& [id, T_map_kf] : rebuild.T_map_kf) {
-    if (rebuild.generation != octomap_generation_.load()) return;  // a newer rebuild is queued
-    StatusOr<KeyframeProducts> products = rebuild.source(id);
-    if (!products.ok()) {
-      ++skipped;
-      continue;
-    }
-    const OctomapScan scan = ThinScan(StaticPointsMap(*products, T_map_kf.cast<float>(), {}),
-                                      T_map_kf.translation(), options_.octomap.resolution_m);
-    tree->Insert(scan.points_m, scan.origin_m);
-  }
-  if (skipped > 0) {
-    spdlog::warn("OctoMap rebuilt without {} of {} keyframes (their products are missing)",
-                 skipped, rebuild.T_map_kf.size());
-  }
-  std::lock_guard<std::mutex> lock(octo_mu_);
-  octomap_ = std::move(tree);
-}
-
-}  // namespace loci::server

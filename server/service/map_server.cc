@@ -164,12 +164,12 @@ void MapServer::OnReady(std::function<void()> fn) {
 StatusOr<size_t> MapServer::UpdateKeyframePoses(
     const std::vector<Mapper::KeyframePoseUpdate>& updates) {
   LOCI_RETURN_IF_ERROR(CheckReady());
-  std::lock_guard<std::mutex> lock(mapping_mu_);
+  std::lock_guard<HandoffMutex> lock(mapping_mu_);
   return UpdateKeyframePosesLocked(updates);
 }
 
 StatusOr<size_t> MapServer::UpdateKeyframePosesLocked(
-    const std::vector<Mapper::KeyframePoseUpdate>& updates) {
+    const std::vector<Mapper::KeyframePoseUpdate>& updates, bool rebuild_octomap) {
   // By value: the OctoMap rebuild reads products on its own thread after this call returns
   // (the store is shared with it).
   auto source = [store = store_, fingerprint = mapper_->options().ProductsFingerprint()](
@@ -181,7 +181,7 @@ StatusOr<size_t> MapServer::UpdateKeyframePosesLocked(
     }
     return DecodeProducts(*bytes, fingerprint, /*with_visibility=*/false);
   };
-  auto moved = mapper_->UpdateKeyframePoses(updates, source);
+  auto moved = mapper_->UpdateKeyframePoses(updates, source, rebuild_octomap);
   if (!moved.ok()) return moved;
   since_checkpoint_ += *moved;  // the next checkpoint keeps the moved map
   // The poses themselves, so that a restart from an older checkpoint, a replay and a reprocess
@@ -454,7 +454,7 @@ void MapServer::WorkerLoop() {
     const auto t0 = std::chrono::steady_clock::now();
     bool recognise = false;
     {
-      std::lock_guard<std::mutex> mapping(mapping_mu_);
+      std::lock_guard<HandoffMutex> mapping(mapping_mu_);
       recognise = MapQueued(*kf);
       mapping_ms_total_.fetch_add(
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
@@ -462,6 +462,7 @@ void MapServer::WorkerLoop() {
       ++mapping_count_;
       MaybeCheckpoint();
     }
+    mapping_mu_.LetWaitersIn();  // a chunked pose-graph move waiting for the lock goes next
     if (recognise) {  // outside mapping_mu_: the aligning thread takes it after each keyframe
       {
         std::lock_guard<std::mutex> lock(progress_mu_);

@@ -21,6 +21,7 @@
 #include "server/align/loop_closer.h"
 #include "server/align/robot_aligner.h"
 #include "common/bounded_queue.h"
+#include "common/handoff_mutex.h"
 #include "server/map/mapper.h"
 #include "server/service/island_maps.h"
 #include "server/service/replay.h"
@@ -117,7 +118,8 @@ class MapServer {
             std::shared_ptr<detection::Detector> detector);
   void WorkerLoop();
   // UpdateKeyframePoses with mapping_mu_ held by the caller.
-  StatusOr<size_t> UpdateKeyframePosesLocked(const std::vector<Mapper::KeyframePoseUpdate>& updates);
+  StatusOr<size_t> UpdateKeyframePosesLocked(const std::vector<Mapper::KeyframePoseUpdate>& updates,
+                                             bool rebuild_octomap = true);
   // Maps (or, for an unaligned session, holds back) one queued keyframe (map_server_align.cc);
   // worker thread, mapping_mu_ held. True when the keyframe goes on to place recognition.
   bool MapQueued(MapperKeyframe& kf);
@@ -161,9 +163,15 @@ class MapServer {
   // Aligning thread, without mapping_mu_: solves the pose graph when due (the lock is taken
   // for the snapshot and to apply the solution, not while solving).
   void MaybeCloseLoops();
-  // mapping_mu_ held: moves the solved keyframes and those mapped during the solve.
-  void ApplySolution(const std::vector<Mapper::KeyframePoseUpdate>& solved,
+  // Moves the solved keyframes and those mapped during the solve, in chunks of
+  // align.loops.apply_chunk_keyframes, each under mapping_mu_ (not held by the caller).
+  void ApplySolution(const SE3d& T_map_base, const std::vector<Mapper::KeyframePoseUpdate>& solved,
                      const GraphResult& result);
+  // mapping_mu_ held: the solution's moves in the base frame, plus those of the keyframes mapped
+  // during the solve (their number in *late_count).
+  std::vector<Mapper::KeyframePoseUpdate> SolutionUpdates(
+      const std::vector<Mapper::KeyframePoseUpdate>& solved, const GraphResult& result,
+      size_t* late_count);
   // After a solve: each moved session's placement follows its newest mapped keyframe, so the
   // keyframes it sends next continue from the corrected pose.
   // `mapped`: the keyframes the solve saw (id order); `moved`: their corrected poses.
@@ -222,7 +230,7 @@ class MapServer {
   uint64_t since_checkpoint_ = 0;
   std::chrono::steady_clock::time_point last_checkpoint_ = std::chrono::steady_clock::now();
   std::mutex checkpoint_mu_;  // one checkpoint at a time
-  std::mutex mapping_mu_;     // held by the worker per keyframe and by UpdateKeyframePoses
+  HandoffMutex mapping_mu_;   // held by the worker per keyframe and by UpdateKeyframePoses
   // Held from storing a keyframe until it is queued, so the worker maps keyframes in id order
   // (the order a restart loads them in).
   std::mutex ingest_order_mu_;

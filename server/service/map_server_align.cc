@@ -54,7 +54,7 @@ void MapServer::RecognisePlace(const MapperKeyframe& kf) {
     outcome = AlignOutcome();
   }
   {
-    std::lock_guard<std::mutex> mapping(mapping_mu_);
+    std::lock_guard<HandoffMutex> mapping(mapping_mu_);
     RecordMatches(outcome->matches);
     if (outcome->alignment) ApplyAlignment(*outcome->alignment);
     for (const SessionAlignment& a : outcome->island_alignments) ApplyAlignment(a);

@@ -2,17 +2,18 @@
 // loop_closer.h). The mapping worker records every keyframe's odometry, the aligning thread
 // every verified place-recognition match (stored in `place_matches`); when enough new matches
 // are in, the aligning thread solves the graph over a snapshot of the mapped keyframes in the
-// map frame (z up: 4-DoF when gravity fixed it) without the mapping lock, then, with it, the
-// moved keyframes are re-derived (Mapper::UpdateKeyframePoses, which emits the object events),
-// those mapped during the solve follow their session (late_keyframes.h), and each moved
+// map frame (z up: 4-DoF when gravity fixed it) without the mapping lock. Then each moved
 // session's placement follows its newest keyframe, so the robot's own pose stream needs no
-// change.
+// change, and the moved keyframes are re-derived (Mapper::UpdateKeyframePoses, which emits the
+// object events) in chunks, each under the mapping lock (chunked_move.h); those mapped during
+// the solve follow their session (late_keyframes.h).
 #include <spdlog/spdlog.h>
 
 #include <chrono>
 #include <map>
 
 #include "common/malloc_tuning.h"
+#include "server/service/chunked_move.h"
 #include "server/service/late_keyframes.h"
 #include "server/service/map_server.h"
 
@@ -62,7 +63,7 @@ void MapServer::MaybeCloseLoops() {
   std::vector<Mapper::KeyframePoseUpdate> solved;
   bool gravity = false;
   {
-    std::lock_guard<std::mutex> mapping(mapping_mu_);
+    std::lock_guard<HandoffMutex> mapping(mapping_mu_);
     if (!reindexed_ || !closer_->Due() || !mapper_->FrameSettled()) return;
     T_map_base = mapper_->MapFromBaseFrame();
     solved = mapper_->KeyframePoses();
@@ -78,16 +79,59 @@ void MapServer::MaybeCloseLoops() {
     spdlog::warn("pose graph not solved: {}", result.status().ToString());
     return;
   }
-  std::lock_guard<std::mutex> mapping(mapping_mu_);
-  if (!mapper_->MapFromBaseFrame().matrix().isApprox(T_map_base.matrix(), 1e-12)) {
-    spdlog::warn("pose graph solution dropped: the map frame changed while it solved");
-    return;
-  }
-  ApplySolution(solved, *result);
+  ApplySolution(T_map_base, solved, *result);
+  ReleaseFreeHeapPages();  // the solve's graph (common/malloc_tuning.h)
 }
 
-void MapServer::ApplySolution(const std::vector<Mapper::KeyframePoseUpdate>& solved,
+// The lock is taken to check the frame, place the sessions and collect the moves, then for
+// each chunk of the move (chunked_move.h).
+void MapServer::ApplySolution(const SE3d& T_map_base,
+                              const std::vector<Mapper::KeyframePoseUpdate>& solved,
                               const GraphResult& result) {
+  auto same_frame = [&]() -> Status {
+    if (mapper_->MapFromBaseFrame().matrix().isApprox(T_map_base.matrix(), 1e-12)) {
+      return absl::OkStatus();
+    }
+    return absl::AbortedError("the map frame changed while the pose graph solved");
+  };
+  std::vector<Mapper::KeyframePoseUpdate> updates;
+  size_t late = 0;
+  {
+    std::lock_guard<HandoffMutex> mapping(mapping_mu_);
+    if (Status st = same_frame(); !st.ok()) {
+      spdlog::warn("pose graph solution dropped: {}", st.ToString());
+      return;
+    }
+    updates = SolutionUpdates(solved, result, &late);
+    // Sessions are placed by the correction first: what the worker maps between two chunks is
+    // mapped where the solution puts it.
+    FollowCorrections(solved, updates);
+  }
+  const ChunkedMoveFigures moved = MoveInChunks(
+      std::move(updates), static_cast<size_t>(options_.align.loops.apply_chunk_keyframes),
+      mapping_mu_, same_frame,
+      [this](const std::vector<Mapper::KeyframePoseUpdate>& chunk, bool last) {
+        return UpdateKeyframePosesLocked(chunk, /*rebuild_octomap=*/last);
+      });
+  closer_->NoteApplied(moved.total_ms, moved.chunks, moved.longest_hold_ms);
+  const GraphStats& g = result.stats;
+  spdlog::info(
+      "pose graph: {} keyframes, loops {} kept / {} rejected, merges {} kept / {} rejected, "
+      "{} unconnected parts, {}{} gravity priors, guard {:.0f} ms + solve {:.0f} ms; {} keyframes "
+      "moved ({} of them mapped during the solve) in {:.0f} ms, {} chunks, mapping paused at most "
+      "{:.0f} ms",
+      g.nodes, g.loops_accepted, g.loops_rejected, g.merges_accepted, g.merges_rejected,
+      g.islands, g.four_dof ? "4-DoF, " : "", g.gravity_priors, g.pcm_ms, g.solve_ms,
+      moved.moved, late, moved.total_ms, moved.chunks, moved.longest_hold_ms);
+  if (!moved.status.ok()) {
+    spdlog::warn("pose graph solution partly applied ({} keyframes moved): {}", moved.moved,
+                 moved.status.ToString());
+  }
+}
+
+std::vector<Mapper::KeyframePoseUpdate> MapServer::SolutionUpdates(
+    const std::vector<Mapper::KeyframePoseUpdate>& solved, const GraphResult& result,
+    size_t* late_count) {
   const SE3d T_base_map = mapper_->MapFromBaseFrame().inverse();
   std::vector<Mapper::KeyframePoseUpdate> updates;
   updates.reserve(result.updates.size());
@@ -100,25 +144,9 @@ void MapServer::ApplySolution(const std::vector<Mapper::KeyframePoseUpdate>& sol
         const std::optional<LoopKeyframe> kf = closer_->Keyframe(id);
         return kf ? std::optional<int64_t>(kf->session_row) : std::nullopt;
       });
-  const size_t solved_moved = updates.size();
+  *late_count = late.size();
   updates.insert(updates.end(), late.begin(), late.end());
-  const auto t0 = std::chrono::steady_clock::now();
-  auto moved = updates.empty() ? StatusOr<size_t>(0) : UpdateKeyframePosesLocked(updates);
-  const GraphStats& g = result.stats;
-  spdlog::info(
-      "pose graph: {} keyframes, loops {} kept / {} rejected, merges {} kept / {} rejected, "
-      "{} unconnected parts, {}{} gravity priors, guard {:.0f} ms + solve {:.0f} ms; {} keyframes "
-      "moved ({} of them mapped during the solve) in {:.0f} ms",
-      g.nodes, g.loops_accepted, g.loops_rejected, g.merges_accepted, g.merges_rejected,
-      g.islands, g.four_dof ? "4-DoF, " : "", g.gravity_priors, g.pcm_ms, g.solve_ms,
-      moved.ok() ? *moved : 0, updates.size() - solved_moved,
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-  if (!moved.ok()) {
-    spdlog::warn("pose graph solution not applied: {}", moved.status().ToString());
-    return;
-  }
-  FollowCorrections(solved, updates);
-  ReleaseFreeHeapPages();  // the solve's graph (common/malloc_tuning.h)
+  return updates;
 }
 
 void MapServer::FollowCorrections(const std::vector<Mapper::KeyframePoseUpdate>& mapped,

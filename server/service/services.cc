@@ -387,6 +387,10 @@ void QueryService::FillPoseGraph(loci::v1::PoseGraphStats* out) {
   out->set_four_dof(g.four_dof);
   out->set_gravity_priors(g.gravity_priors);
   out->set_last_solve_ms(g.pcm_ms + g.solve_ms);
+  out->set_last_apply_ms(st->last_apply_ms);
+  out->set_last_apply_chunks(st->last_apply_chunks);
+  out->set_last_apply_longest_hold_ms(st->last_apply_longest_hold_ms);
+  out->set_longest_hold_ms(st->longest_hold_ms);
 }
 
 grpc::Status QueryService::GetTrajectories(grpc::ServerContext* ctx,

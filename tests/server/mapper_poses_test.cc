@@ -1,9 +1,11 @@
 // Keyframes whose poses change move what they contributed: a moved block of keyframes leaves
 // the map exactly as if it had had the new poses from the start, objects only the other block
-// saw stay put, the OctoMap follows, and a block moved onto objects the map already holds merges
-// into them.
+// saw stay put, the OctoMap follows (without holding up the keyframes mapped meanwhile), and a
+// block moved onto objects the map already holds merges into them.
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <future>
 #include <map>
 
 #include "server/map/mapper.h"
@@ -125,6 +127,50 @@ TEST(MapperPoses, AMovedBlockEndsAsIfItHadItsNewPosesFromTheStart) {
     updated += moved.events[i].kind == ObjectChange::Kind::kUpdated;
   }
   EXPECT_GE(updated, 3);
+}
+
+// The OctoMap rebuild after a move reads every keyframe's products (seconds per 1000 keyframes).
+// Keyframes mapped meanwhile do not wait for it on the OctoMap's bounded queue: their scans go
+// into the new tree after it, which ends as if they had been mapped after the move.
+TEST(MapperPoses, KeyframesMappedDuringAnOctomapRebuildDoNotWaitForIt) {
+  const auto boxes = TwoRooms();
+  const auto room_a = Views(boxes, 12, true, kTargetA, 1);
+  const auto room_b = Views(boxes, 12, true, kTargetA + kOffset, 13);
+  const auto again_a = Views(boxes, 12, true, kTargetA, 25);  // more than the 8 queued scans
+  const SE3d T_move = YawAbout(kTargetA + kOffset, 10.0, {0.30, -0.20, 0.0});
+  MappedRun run;
+  run.Add(room_a);
+  run.Add(room_b);
+  const std::map<int64_t, KeyframeProducts> products = run.products;
+  std::vector<Mapper::KeyframePoseUpdate> updates;
+  for (const MapperKeyframe& kf : room_b) updates.push_back({kf.keyframe_id, T_move * kf.T_base_kf});
+  // The move reads its keyframes' products; the rebuild after it stops at its first read until
+  // the gate opens.
+  std::promise<void> gate;
+  const std::shared_future<void> open = gate.get_future().share();
+  std::atomic<size_t> reads{0};
+  auto gated = [&](int64_t id) -> StatusOr<KeyframeProducts> {
+    if (++reads > updates.size()) open.wait();
+    return products.at(id);
+  };
+  ASSERT_TRUE(run.mapper.UpdateKeyframePoses(updates, gated).ok());
+  auto mapping = std::async(std::launch::async, [&] { run.Add(again_a); });
+  const bool mapped = mapping.wait_for(std::chrono::seconds(60)) == std::future_status::ready;
+  gate.set_value();
+  mapping.get();
+  EXPECT_TRUE(mapped) << "mapping the next keyframes waited for the OctoMap rebuild";
+  EXPECT_GT(reads.load(), updates.size()) << "the rebuild had started";
+
+  MappedRun fresh;  // room B at the new poses from the start, then the same next keyframes
+  fresh.Add(room_a);
+  std::vector<MapperKeyframe> room_b_moved = room_b;
+  for (MapperKeyframe& kf : room_b_moved) kf.T_base_kf = T_move * kf.T_base_kf;
+  fresh.Add(room_b_moved);
+  fresh.Add(again_a);
+  run.mapper.FlushOctomap();
+  fresh.mapper.FlushOctomap();
+  EXPECT_TRUE(run.mapper.OctomapBt() == fresh.mapper.OctomapBt())
+      << "the rebuilt OctoMap differs from the one mapped at the new poses";
 }
 
 TEST(MapperPoses, ABlockMovedOntoKnownObjectsMergesIntoThem) {

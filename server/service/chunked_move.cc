@@ -1,0 +1,48 @@
+#include "server/service/chunked_move.h"
+
+#include <algorithm>
+#include <chrono>
+
+namespace loci::server {
+
+using Clock = std::chrono::steady_clock;
+
+static double MsSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+ChunkedMoveFigures MoveInChunks(
+    std::vector<Mapper::KeyframePoseUpdate> updates, size_t chunk_keyframes, HandoffMutex& mu,
+    const std::function<Status()>& still_valid,
+    const std::function<StatusOr<size_t>(const std::vector<Mapper::KeyframePoseUpdate>&, bool last)>&
+        move) {
+  std::stable_sort(updates.begin(), updates.end(),
+                   [](const Mapper::KeyframePoseUpdate& a, const Mapper::KeyframePoseUpdate& b) {
+                     return a.keyframe_id > b.keyframe_id;
+                   });
+  const size_t step = chunk_keyframes == 0 ? std::max<size_t>(updates.size(), 1) : chunk_keyframes;
+  ChunkedMoveFigures f;
+  const Clock::time_point start = Clock::now();
+  for (size_t begin = 0; begin < updates.size(); begin += step) {
+    if (begin > 0) mu.LetWaitersIn();
+    const std::vector<Mapper::KeyframePoseUpdate> chunk(
+        updates.begin() + static_cast<std::ptrdiff_t>(begin),
+        updates.begin() + static_cast<std::ptrdiff_t>(std::min(begin + step, updates.size())));
+    std::lock_guard<HandoffMutex> lock(mu);
+    const Clock::time_point held = Clock::now();
+    f.status = still_valid();
+    const bool last = begin + step >= updates.size();
+    StatusOr<size_t> moved = f.status.ok() ? move(chunk, last) : StatusOr<size_t>(f.status);
+    f.longest_hold_ms = std::max(f.longest_hold_ms, MsSince(held));
+    if (!moved.ok()) {
+      f.status = moved.status();
+      break;
+    }
+    f.moved += *moved;
+    ++f.chunks;
+  }
+  f.total_ms = updates.empty() ? 0.0 : MsSince(start);
+  return f;
+}
+
+}  // namespace loci::server
