@@ -8,6 +8,7 @@
 #include <thread>
 #include <vector>
 
+#include "common/time.h"
 #include "server/map/product_codec.h"
 #include "server/service/chunked_move.h"
 
@@ -15,10 +16,6 @@ namespace loci::cli {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double MsSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 // The last n keyframes, moved by a small rigid correction (as a loop closure would move them).
 std::vector<server::Mapper::KeyframePoseUpdate> LastKeyframesMoved(int64_t n,

@@ -66,9 +66,6 @@ double PeakRssMib() {
   return static_cast<double>(usage.ru_maxrss) / 1024.0;
 }
 
-double MsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 std::string DefaultTumDir() {
   const std::string full = SourceDir() + "/../shared/data/tum_fr1_rpy";

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -23,6 +24,11 @@ inline double NsToSeconds(int64_t t_ns) { return static_cast<double>(t_ns) * 1e-
 inline int64_t SecondsToNs(double s) { return static_cast<int64_t>(std::llround(s * 1e9)); }
 // Wall-clock now, ns since the Unix epoch.
 int64_t NowNs();
+// Wall milliseconds since `start` (steady clock): a stage's duration as a caller waits for it.
+inline double MsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
 // CPU time of the calling thread in milliseconds (CLOCK_THREAD_CPUTIME_ID): a stage's own cost,
 // unaffected by other load on the machine.
 double ThreadCpuMs();

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 
+#include "common/time.h"
 #include "server/graph/graph_islands.h"
 #include "server/graph/graph_math.h"
 #include "server/graph/graph_problem.h"
@@ -12,11 +13,6 @@
 
 namespace loci::server {
 namespace {
-
-double MsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-      .count();
-}
 
 bool IsConstraint(const GraphEdge& e) { return e.kind != EdgeKind::kOdometry; }
 

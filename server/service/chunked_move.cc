@@ -3,13 +3,11 @@
 #include <algorithm>
 #include <chrono>
 
+#include "common/time.h"
+
 namespace loci::server {
 
 using Clock = std::chrono::steady_clock;
-
-static double MsSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 ChunkedMoveFigures MoveInChunks(
     std::vector<Mapper::KeyframePoseUpdate> updates, size_t chunk_keyframes, HandoffMutex& mu,
