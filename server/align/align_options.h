@@ -32,9 +32,11 @@ struct LoopOptions {
   // flat (1000 keyframes: a solve every 50, not every 10).
   double optimize_growth = 0.05;
   // The solution moves the map this many keyframes per hold of the mapping lock, newest first
-  // (64; 0 = all at once): the mapping worker waits for one chunk at most (about 0.5-1.5 ms per
-  // keyframe moved), not for the whole move (seconds at 10k keyframes).
-  int apply_chunk_keyframes = 64;
+  // (256; 0 = all at once): the mapping worker waits for one chunk at most (0.2-1.5 ms per
+  // keyframe moved), not for the whole move (seconds at 10k keyframes). Keyframes the worker maps
+  // between chunks meet a partly moved map, which can change associations (on fr1_rpy, 64 fused
+  // a book into its neighbour); 256 keeps moves of a few hundred keyframes in one hold.
+  int apply_chunk_keyframes = 256;
 
   int64_t min_gap_ns() const { return static_cast<int64_t>(min_gap_s * 1e9); }
   Status FromYaml(const YAML::Node& node);

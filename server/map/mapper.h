@@ -128,8 +128,8 @@ class Mapper {
     int64_t keyframe_id = 0;
     SE3d T_base_kf = SE3d::Identity();
   };
-  // rebuild_octomap false: the OctoMap keeps the old poses until a later call rebuilds it (a
-  // move in chunks rebuilds once, after its last chunk).
+  // rebuild_octomap false: a part of a larger move; moved objects are merged and the OctoMap
+  // rebuilt by the call that ends it (a move in chunks does both once, after its last chunk).
   StatusOr<size_t> UpdateKeyframePoses(const std::vector<KeyframePoseUpdate>& updates,
                                        const ProductSource& source, bool rebuild_octomap = true);
 
@@ -243,6 +243,7 @@ class Mapper {
   FrameEvidence evidence_;            // mapping thread only
   std::vector<Settling> settling_;    // mapping thread only
   std::vector<KeyframePose> keyframe_poses_;
+  std::vector<int64_t> moved_since_merge_;  // objects moved by the parts of a move so far (mu_)
   ObjectMap objects_;
   SemanticCloud cloud_;
   Vec3d gravity_sum_map_ = Vec3d::Zero();

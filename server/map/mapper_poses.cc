@@ -57,7 +57,14 @@ StatusOr<size_t> Mapper::UpdateKeyframePoses(const std::vector<KeyframePoseUpdat
   std::optional<OctomapRebuild> rebuild;
   {
     std::lock_guard<std::mutex> lock(mu_);
-    objects_.MergeMoved(moved_objects, &changes);
+    // A move in parts merges once, after its last part: a part moved onto objects that the rest
+    // has not reached yet would merge what the whole move keeps apart (objects do not split).
+    moved_since_merge_.insert(moved_since_merge_.end(), moved_objects.begin(),
+                              moved_objects.end());
+    if (rebuild_octomap) {
+      objects_.MergeMoved(moved_since_merge_, &changes);
+      moved_since_merge_.clear();
+    }
     AppendEvents(changes, &events);
     if (options_.octomap.enabled && rebuild_octomap && moved > 0) {
       rebuild = OctomapRebuild{{}, source, ++octomap_generation_};
