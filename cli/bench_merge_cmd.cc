@@ -1,12 +1,15 @@
-// `loci bench merge [--views 60] [--objects 8] [--start 30] [--robot-hz 5] [--config FILE]`:
-// how fast a robot that starts anywhere joins the shared map (issue 15). An in-process
-// loci-server on loopback gRPC; robot A streams a rendered synthetic room (a `loci synth`
-// scene) and is mapped; then robot B, under its own name, streams the same room from view
-// --start on with its own odometry (identity at its first view), paced at --robot-hz. Every
-// keyframe of B overlaps A's map, so B's first keyframe is the first overlapping one. Prints
-// B's keyframes and wall time from its first keyframe to its session aligned (GetStats, polled
-// every 10 ms), the capture time the server reports, the alignment's error against the truth,
-// and the server's place-recognition and pose-graph figures. Place-recognition time at 1k and
+// `loci bench merge [--views 60] [--objects 8] [--start 30] [--robot-hz 5] [--held N]
+// [--config FILE]`: how fast a robot that starts anywhere joins the shared map (issue 15). An
+// in-process loci-server on loopback gRPC; robot A streams a rendered synthetic room (a `loci
+// synth` scene) and is mapped; then robot B, under its own name, streams the same room from view
+// --start on with its own odometry (identity at its first view), paced at --robot-hz. With
+// --held N, B first streams N keyframes of another room (its views cycled, 100 m away in B's
+// odometry), which the server holds back until B is aligned and then maps. B's first keyframe
+// in A's room is the first overlapping one. Prints B's keyframes and wall time from that
+// keyframe to its session aligned (GetStats, polled every 10 ms), the capture time the server
+// reports, the alignment's error against the truth, how the held keyframes entered the map
+// (time, chunks, the longest hold of the mapping lock), and the server's place-recognition and
+// pose-graph figures. Place-recognition time at 1k and
 // 10k keyframes: `loci bench place`; solve time at 1k and 10k keyframes: `loci bench graph`.
 #include <grpcpp/create_channel.h>
 #include <unistd.h>
@@ -40,27 +43,19 @@ struct BenchMergeArgs {
   double robot_hz = 5.0;  // B's keyframes per second (0 = as fast as acknowledged)
   std::string config;  // "" = config/server.yaml
   uint64_t other_room = 0;  // B streams a room rendered with this seed instead (0 = A's room)
+  int held = 0;             // B's keyframes in another room before it enters A's
 };
 
-// A session streaming `views` (from `first`) with poses re-based on view `first`'s pose when
-// `own_odometry`; paced at `hz`; `on_sent(i)` after each write. Returns the session id.
-struct Robot {
-  std::string name;
-  size_t first = 0;
-  bool own_odometry = false;
-  double hz = 0;
-};
-
-StatusOr<std::string> Stream(loci::v1::Mapping::Stub& stub, const Robot& r,
+// A session of robot `robot` streaming `views` as they are, paced at `hz` (0: as fast as
+// acknowledged); `on_sent(i)` after each write. Returns the session id.
+StatusOr<std::string> Stream(loci::v1::Mapping::Stub& stub, const std::string& robot, double hz,
                              const std::vector<loci::v1::Keyframe>& views,
                              const std::function<void(size_t)>& on_sent) {
   grpc::ClientContext open_ctx;
   loci::v1::OpenSessionResponse session;
   const grpc::Status opened =
-      stub.OpenSession(&open_ctx, BenchOpenRequest(r.name, 5000.0), &session);
+      stub.OpenSession(&open_ctx, BenchOpenRequest(robot, 5000.0), &session);
   if (!opened.ok()) return absl::UnavailableError("OpenSession: " + opened.error_message());
-  const SE3d T_odom_world = r.own_odometry ? PoseFromProto(views[r.first].t_odom_cam()).inverse()
-                                           : SE3d::Identity();
   grpc::ClientContext ctx;
   auto stream = stub.StreamKeyframes(&ctx);
   std::thread reader([&] {
@@ -68,15 +63,14 @@ StatusOr<std::string> Stream(loci::v1::Mapping::Stub& stub, const Robot& r,
     while (stream->Read(&ack)) {
     }
   });
-  const auto period = std::chrono::duration<double>(r.hz > 0 ? 1.0 / r.hz : 0.0);
+  const auto period = std::chrono::duration<double>(hz > 0 ? 1.0 / hz : 0.0);
   auto next = Clock::now();
-  for (size_t i = r.first; i < views.size(); ++i) {
+  for (size_t i = 0; i < views.size(); ++i) {
     loci::v1::Keyframe kf = views[i];
     kf.set_session_id(session.session_id());
-    kf.set_seq(static_cast<int64_t>(i - r.first));
-    ToProto(T_odom_world * PoseFromProto(kf.t_odom_cam()), kf.mutable_t_odom_cam());
+    kf.set_seq(static_cast<int64_t>(i));
     if (!stream->Write(kf)) break;
-    on_sent(i - r.first);
+    on_sent(i);
     next += std::chrono::duration_cast<Clock::duration>(period);
     std::this_thread::sleep_until(next);  // a robot's keyframe rate
   }
@@ -133,6 +127,38 @@ void PrintFigures(const loci::v1::GetStatsResponse& stats, const SE3d& T_map_odo
               static_cast<unsigned long long>(g.islands()));
 }
 
+// B's keyframes in B's odometry frame (identity at view `start` of A's room): `held` views of
+// `other` (cycled, 100 m away along x) first, then `room` from `start` on; stamps 200 ms apart.
+std::vector<loci::v1::Keyframe> RobotBViews(const std::vector<loci::v1::Keyframe>& room,
+                                            const std::vector<loci::v1::Keyframe>& other,
+                                            size_t start, int held) {
+  const SE3d T_odom_world = PoseFromProto(room[start].t_odom_cam()).inverse();
+  SE3d T_far = SE3d::Identity();
+  T_far.translation() = Vec3d(100.0, 0.0, 0.0);
+  std::vector<loci::v1::Keyframe> out;
+  for (int j = 0; j < held; ++j) {
+    out.push_back(other[static_cast<size_t>(j) % other.size()]);
+    ToProto(T_far * T_odom_world * PoseFromProto(out.back().t_odom_cam()),
+            out.back().mutable_t_odom_cam());
+  }
+  for (size_t i = start; i < room.size(); ++i) {
+    out.push_back(room[i]);
+    ToProto(T_odom_world * PoseFromProto(out.back().t_odom_cam()), out.back().mutable_t_odom_cam());
+  }
+  for (size_t i = 0; i < out.size(); ++i) {
+    out[i].set_t_ns(room[start].t_ns() + static_cast<int64_t>(i) * 200'000'000);
+  }
+  return out;
+}
+
+void PrintHeldFigures(const loci::v1::GetStatsResponse& stats) {
+  const auto& a = stats.alignment();
+  std::printf("  held keyframes mapped on the alignment: %llu in %.0f ms, %llu chunks; the mapping "
+              "lock was held at most %.0f ms at a time\n",
+              static_cast<unsigned long long>(a.merged_keyframes()), a.last_merge_ms(),
+              static_cast<unsigned long long>(a.last_merge_chunks()), a.merge_longest_hold_ms());
+}
+
 Status RunMerge(const BenchMergeArgs& a, const std::string& dir) {
   synth::SceneOptions so;
   so.num_frames = a.views;
@@ -147,6 +173,14 @@ Status RunMerge(const BenchMergeArgs& a, const std::string& dir) {
   if (a.start < 0 || static_cast<size_t>(a.start) + 3 > views.size()) {
     return absl::InvalidArgumentError("--start must leave B at least 3 views");
   }
+  if (a.held < 0) return absl::InvalidArgumentError("--held must be >= 0");
+  std::vector<loci::v1::Keyframe> elsewhere;
+  if (a.held > 0) {
+    so.seed = a.other_room != 0 ? a.other_room + 1 : 8;
+    LOCI_ASSIGN_OR_RETURN(elsewhere, RenderViews(so, dir + "/elsewhere"));
+  }
+  const std::vector<loci::v1::Keyframe> b_views =
+      RobotBViews(views_b, elsewhere, static_cast<size_t>(a.start), a.held);
   server::ServerOptions options;  // the server's own config by default
   LOCI_RETURN_IF_ERROR(options.FromYamlFile(
       a.config.empty() ? SourceDir() + "/config/server.yaml" : a.config));
@@ -164,25 +198,25 @@ Status RunMerge(const BenchMergeArgs& a, const std::string& dir) {
                                            grpc::InsecureChannelCredentials(), args);
   auto mapping = loci::v1::Mapping::NewStub(channel);
   auto query = loci::v1::Query::NewStub(channel);
-  std::printf("loci bench merge: %zu synthetic views; A streams all, then B streams views %d-%zu "
-              "of %s at %.1f keyframes/s with its own odometry\n",
-              views.size(), a.start, views.size() - 1,
+  std::printf("loci bench merge: %zu synthetic views; A streams all, then B streams %d keyframes "
+              "of a room elsewhere and views %d-%zu of %s at %.1f keyframes/s with its own "
+              "odometry\n",
+              views.size(), a.held, a.start, views.size() - 1,
               a.other_room != 0 ? "ANOTHER room (a different place: B must stay an island)"
                                 : "the same room",
               a.robot_hz);
 
-  LOCI_RETURN_IF_ERROR(Stream(*mapping, {"A", 0, false, 0}, views, [](size_t) {}).status());
+  LOCI_RETURN_IF_ERROR(Stream(*mapping, "A", 0, views, [](size_t) {}).status());
   srv->Flush();
 
   Clock::time_point first_sent, aligned_at;
   std::atomic<size_t> sent{0};
   std::atomic<bool> streaming{true};
   std::thread b([&] {
-    auto id = Stream(*mapping, {"B", static_cast<size_t>(a.start), true, a.robot_hz}, views_b,
-                     [&](size_t i) {
-                       if (i == 0) first_sent = Clock::now();
-                       sent = i + 1;
-                     });
+    auto id = Stream(*mapping, "B", a.robot_hz, b_views, [&](size_t i) {
+      if (i == static_cast<size_t>(a.held)) first_sent = Clock::now();  // first in A's room
+      sent = i + 1;
+    });
     if (!id.ok()) std::cerr << "error: B: " << id.status().message() << "\n";
     streaming = false;
   });
@@ -204,8 +238,8 @@ Status RunMerge(const BenchMergeArgs& a, const std::string& dir) {
   srv->Flush();
   LOCI_ASSIGN_OR_RETURN(loci::v1::GetStatsResponse stats, GetStats(*query));
   if (sent_at_alignment > 0) {
-    std::printf("  wall time from B's first keyframe to aligned: %.2f s (B had sent %zu "
-                "keyframes)\n",
+    std::printf("  wall time from B's first keyframe in A's room to aligned: %.2f s (B had sent "
+                "%zu keyframes)\n",
                 std::chrono::duration<double>(aligned_at - first_sent).count(),
                 sent_at_alignment);
   }
@@ -213,6 +247,7 @@ Status RunMerge(const BenchMergeArgs& a, const std::string& dir) {
   const SE3d T_map_odomA = sa != nullptr ? PoseFromProto(sa->t_map_odom()) : SE3d::Identity();
   PrintFigures(stats,
                T_map_odomA * PoseFromProto(views_b[static_cast<size_t>(a.start)].t_odom_cam()));
+  PrintHeldFigures(stats);
   grpc_server.reset();
   srv.reset();
   return absl::OkStatus();
@@ -231,6 +266,10 @@ void RegisterBenchMergeCommand(CLI::App& app) {
   c->add_option("--robot-hz", args->robot_hz, "B's keyframes per second (0 = unpaced)")
       ->capture_default_str();
   c->add_option("--config", args->config, "server YAML (default: config/server.yaml)");
+  c->add_option("--held", args->held,
+                "keyframes B streams in a room elsewhere before it enters A's (held back until it "
+                "is aligned)")
+      ->capture_default_str();
   c->add_option("--other-room", args->other_room,
                 "B streams a room rendered with this seed: a different place that must not merge");
   c->callback([args] {

@@ -8,12 +8,13 @@ Status AlignOptions::FromYaml(const YAML::Node& node) {
   if (!node) return absl::OkStatus();
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
       node, "align", {"enabled", "max_verify", "level_with_gravity", "min_gravity_keyframes",
-                 "refine_max_matches", "loops"}));
+                 "refine_max_matches", "held_chunk_keyframes", "loops"}));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "enabled", &enabled));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "max_verify", &max_verify));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "level_with_gravity", &level_with_gravity));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "min_gravity_keyframes", &min_gravity_keyframes));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "refine_max_matches", &refine_max_matches));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "held_chunk_keyframes", &held_chunk_keyframes));
   LOCI_RETURN_IF_ERROR(loops.FromYaml(node["loops"]));
   return Validate();
 }
@@ -63,6 +64,9 @@ Status AlignOptions::Validate() const {
   LOCI_RETURN_IF_ERROR(loops.Validate());
   if (refine_max_matches < 0) {
     return absl::InvalidArgumentError("align.refine_max_matches must be >= 0 (0 = off)");
+  }
+  if (held_chunk_keyframes < 0) {
+    return absl::InvalidArgumentError("align.held_chunk_keyframes must be >= 0 (0 = all at once)");
   }
   return absl::OkStatus();
 }

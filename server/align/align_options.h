@@ -64,6 +64,11 @@ struct AlignOptions {
   // matches are in (48; 0 = no refinement). One match's error grows with the camera's speed
   // (docs/results.md): the mean of many is steadier than that of the first three.
   int refine_max_matches = 48;
+  // When a robot is aligned, the keyframes the server held back enter the map this many per
+  // hold of the mapping lock (8; 0 = all at once). Each is mapped from its stored products, about
+  // 10 ms (docs/results.md): the mapping worker, and through it every robot's stream, waits for
+  // one chunk, not for all of them (about 10 s for 1000 held keyframes).
+  int held_chunk_keyframes = 8;
   LoopOptions loops;
 
   // Reads the keys of `align`; unknown keys are errors.

@@ -43,4 +43,30 @@ ChunkedMoveFigures MoveInChunks(
   return f;
 }
 
+ChunkedMoveFigures MapInChunks(
+    const std::vector<int64_t>& ids, size_t chunk_keyframes, HandoffMutex& mu,
+    const std::function<StatusOr<std::vector<LoadedKeyframe>>(int64_t first_id, int64_t last_id)>&
+        load,
+    const std::function<bool(const LoadedKeyframe&)>& integrate) {
+  const size_t step = chunk_keyframes == 0 ? std::max<size_t>(ids.size(), 1) : chunk_keyframes;
+  ChunkedMoveFigures f;
+  const Clock::time_point start = Clock::now();
+  for (size_t begin = 0; begin < ids.size(); begin += step) {
+    const size_t end = std::min(begin + step, ids.size());
+    StatusOr<std::vector<LoadedKeyframe>> loaded = load(ids[begin], ids[end - 1]);
+    if (!loaded.ok()) {
+      f.status = loaded.status();
+      break;
+    }
+    if (begin > 0) mu.LetWaitersIn();
+    std::lock_guard<HandoffMutex> lock(mu);
+    const Clock::time_point held = Clock::now();
+    for (const LoadedKeyframe& kf : *loaded) f.moved += integrate(kf) ? 1 : 0;
+    f.longest_hold_ms = std::max(f.longest_hold_ms, MsSince(held));
+    ++f.chunks;
+  }
+  f.total_ms = ids.empty() ? 0.0 : MsSince(start);
+  return f;
+}
+
 }  // namespace loci::server

@@ -224,6 +224,7 @@ Status MapServer::ApplyRetention() {
 
 void MapServer::MaybeCheckpoint() {
   ++since_checkpoint_;
+  if (merging_held_) return;  // MapHeldKeyframes checkpoints when they are all in
   const auto now = std::chrono::steady_clock::now();
   if (since_checkpoint_ < static_cast<uint64_t>(options_.checkpoint_keyframes) &&
       now - last_checkpoint_ < std::chrono::duration<double>(options_.checkpoint_interval_s)) {

@@ -23,6 +23,7 @@
 #include "common/bounded_queue.h"
 #include "common/handoff_mutex.h"
 #include "server/map/mapper.h"
+#include "server/service/chunked_move.h"
 #include "server/service/island_maps.h"
 #include "server/service/replay.h"
 #include "server/service/server_options.h"
@@ -106,6 +107,14 @@ class MapServer {
   bool reindexed() const { return reindexed_; }
   // Keyframes of robots that were held back and entered the map when their robot was aligned.
   uint64_t merged_keyframes() const { return merged_keyframes_; }
+  // How the latest aligned session's held keyframes entered the map (map_server_align.cc).
+  struct HeldMergeStats {
+    double last_ms = 0;               // wall time, first chunk to the checkpoint after the last
+    uint64_t last_chunks = 0;
+    double last_longest_hold_ms = 0;  // the longest single hold of the mapping lock
+    double longest_hold_ms = 0;       // ... since start
+  };
+  HeldMergeStats held_merge_stats() const;
   // Mean mapping time per keyframe mapped by the worker since start (replay excluded), ms.
   double ingest_ms_mean() const;
   // Mean time of the handler-side stages per accepted keyframe, ms: validation with image
@@ -130,14 +139,41 @@ class MapServer {
   // Tells the aligner about a session on its first keyframe; the map's first keyframe makes its
   // session the origin.
   void DeclareSession(int64_t session_row);
-  // Stores the session's placement and maps its held keyframes (those the worker has seen and
-  // not mapped).
-  void ApplyAlignment(const SessionAlignment& alignment);
-  // Stores where the joining island's sessions now sit, drops that island and maps their
-  // keyframes the worker has seen into the island they joined.
-  void ApplyJoin(const IslandJoin& join);
+  // An aligned session's keyframes held back from the map: those up to upto_keyframe_id (the
+  // worker has seen them) that the map lacks.
+  struct HeldKeyframes {
+    SessionRecord session;
+    int64_t upto_keyframe_id = 0;
+  };
+  // mapping_mu_ held: stores the session's placement (the worker maps its next keyframes at
+  // it) and drops its island; its held keyframes are for MapHeldKeyframes. An alignment that
+  // only refines the placement has none: its mapped keyframes' moves go to `moves`.
+  std::optional<HeldKeyframes> ApplyAlignment(const SessionAlignment& alignment,
+                                              std::vector<Mapper::KeyframePoseUpdate>* moves);
+  // Maps the held keyframes into the shared map in chunks of align.held_chunk_keyframes, each
+  // under mapping_mu_ (not held by the caller), then checkpoints.
+  void MapHeldKeyframes(const std::vector<HeldKeyframes>& sessions);
+  // The session's stored keyframes up to upto_keyframe_id that `mapped` says are not mapped
+  // (metadata only; without mapping_mu_).
+  std::vector<int64_t> UnmappedKeyframeIds(const SessionRecord& session, int64_t upto_keyframe_id,
+                                           const std::function<bool(int64_t)>& mapped);
+  // The session's stored keyframes with ids in [first_id, last_id], read back (products, or
+  // built from images) without mapping_mu_; skipped ones are counted in `report`.
+  StatusOr<std::vector<LoadedKeyframe>> LoadStored(const SessionRecord& session, int64_t first_id,
+                                                   int64_t last_id, LoadReport* report);
+  // An island join whose sessions' keyframes up to upto_keyframe_id (the worker has seen them)
+  // are to be mapped into the island they joined.
+  struct JoinedIsland {
+    IslandJoin join;
+    int64_t upto_keyframe_id = 0;
+  };
+  // mapping_mu_ held: stores where the joining island's sessions now sit and drops that island.
+  JoinedIsland ApplyJoin(const IslandJoin& join);
+  // Maps the joined sessions' keyframes into the island they joined (mapping_mu_ not held).
+  void MapJoinedIsland(const JoinedIsland& joined);
   // Maps a session's stored keyframes up to upto_keyframe_id that the island lacks into it, at
-  // T_island_odom; how many.
+  // T_island_odom, in chunks of align.held_chunk_keyframes, each under mapping_mu_ (not held by
+  // the caller); how many.
   uint64_t MapIntoIsland(int64_t session_row, int64_t island_row, const SE3d& T_island_odom,
                          int64_t upto_keyframe_id);
   // An island's name: its first session's id.
@@ -154,8 +190,11 @@ class MapServer {
   // false when the keyframe has no usable stored features.
   bool ReindexFromFeatures(const KeyframeRecord& rec, ReindexCounts* counts);
   void ReindexFromImages(const KeyframeRecord& rec, ReindexCounts* counts);
-  // Moves a session's mapped keyframes to its refined placement.
-  void MoveSession(const SessionAlignment& alignment);
+  // A session's mapped keyframes at its refined placement (mapping_mu_ held).
+  std::vector<Mapper::KeyframePoseUpdate> SessionMoves(const SessionAlignment& alignment);
+  // Applies such moves in chunks of align.loops.apply_chunk_keyframes, each under mapping_mu_
+  // (not held by the caller).
+  void MoveSessions(std::vector<Mapper::KeyframePoseUpdate> moves);
   // Loop closure (map_server_loops.cc), mapping_mu_ held: records the keyframe (worker) and
   // its verified matches (aligning thread; stored).
   void RecordForLoops(const MapperKeyframe& kf);
@@ -213,6 +252,8 @@ class MapServer {
   std::unique_ptr<IslandMaps> islands_;    // with aligner_
   std::atomic<bool> reindexed_{false};
   std::atomic<uint64_t> merged_keyframes_{0};
+  mutable std::mutex held_merge_mu_;
+  HeldMergeStats held_merge_stats_;  // guarded by held_merge_mu_
   uint64_t replayed_ = 0;
 
   std::thread loader_;
@@ -228,6 +269,9 @@ class MapServer {
   // Keyframes mapped (or moved) and time since the last checkpoint; guarded by mapping_mu_
   // once the worker runs.
   uint64_t since_checkpoint_ = 0;
+  // While an aligned robot's held keyframes enter the map (MapHeldKeyframes) the worker does
+  // not checkpoint; guarded by mapping_mu_.
+  bool merging_held_ = false;
   std::chrono::steady_clock::time_point last_checkpoint_ = std::chrono::steady_clock::now();
   std::mutex checkpoint_mu_;  // one checkpoint at a time
   HandoffMutex mapping_mu_;   // held by the worker per keyframe and by UpdateKeyframePoses

@@ -10,6 +10,8 @@
 #include <map>
 #include <set>
 
+#include "common/time.h"
+#include "server/service/chunked_move.h"
 #include "server/service/keyframe_decoder.h"
 #include "server/service/map_server.h"
 #include "server/service/replay.h"
@@ -53,13 +55,27 @@ void MapServer::RecognisePlace(const MapperKeyframe& kf) {
                  outcome.status().ToString());
     outcome = AlignOutcome();
   }
+  std::vector<HeldKeyframes> held;
+  std::optional<JoinedIsland> joined;
+  std::vector<Mapper::KeyframePoseUpdate> moves;  // refined placements
   {
     std::lock_guard<HandoffMutex> mapping(mapping_mu_);
     RecordMatches(outcome->matches);
-    if (outcome->alignment) ApplyAlignment(*outcome->alignment);
-    for (const SessionAlignment& a : outcome->island_alignments) ApplyAlignment(a);
-    if (outcome->join) ApplyJoin(*outcome->join);
+    auto apply = [&](const SessionAlignment& a) {
+      if (std::optional<HeldKeyframes> h = ApplyAlignment(a, &moves)) {
+        held.push_back(std::move(*h));
+      }
+    };
+    if (outcome->alignment) apply(*outcome->alignment);
+    for (const SessionAlignment& a : outcome->island_alignments) apply(a);
+    if (outcome->join) joined = ApplyJoin(*outcome->join);
+    // No checkpoint until they are all in: one taken between two chunks would hold a later
+    // keyframe id than held keyframes it lacks, which a restart would then not map.
+    merging_held_ = !held.empty();
   }
+  if (!held.empty()) MapHeldKeyframes(held);
+  if (joined) MapJoinedIsland(*joined);
+  if (!moves.empty()) MoveSessions(std::move(moves));
   MaybeCloseLoops();  // takes mapping_mu_ itself, but not while the graph solves
 }
 
@@ -114,7 +130,7 @@ std::string MapServer::IslandName(int64_t island_row) {
   return s ? s->session_id : std::to_string(island_row);
 }
 
-void MapServer::ApplyJoin(const IslandJoin& join) {
+MapServer::JoinedIsland MapServer::ApplyJoin(const IslandJoin& join) {
   for (const auto& [row, T] : join.T_island_odom) {
     if (Status st = store_->SetSessionIsland(row, join.island_row, T); !st.ok()) {
       spdlog::warn("session row {}: island join not stored ({}); it joins again after a restart "
@@ -127,13 +143,17 @@ void MapServer::ApplyJoin(const IslandJoin& join) {
     }
   }
   Publish(islands_->Drop(join.from_island_row));
+  // The keyframes the worker has seen (it may map newer ones there before these are in).
+  return {join, worker_last_id_};
+}
+
+void MapServer::MapJoinedIsland(const JoinedIsland& joined) {
   uint64_t remapped = 0;
-  // The keyframes the worker has seen (it may have mapped one there since the aligner decided).
-  for (const auto& [row, T] : join.T_island_odom) {
-    remapped += MapIntoIsland(row, join.island_row, T, worker_last_id_);
+  for (const auto& [row, T] : joined.join.T_island_odom) {
+    remapped += MapIntoIsland(row, joined.join.island_row, T, joined.upto_keyframe_id);
   }
-  spdlog::info("island {} joined island {}: {} keyframes mapped again", join.from_island_row,
-               join.island_row, remapped);
+  spdlog::info("island {} joined island {}: {} keyframes mapped again", joined.join.from_island_row,
+               joined.join.island_row, remapped);
 }
 
 uint64_t MapServer::MapIntoIsland(int64_t session_row, int64_t island_row,
@@ -141,33 +161,35 @@ uint64_t MapServer::MapIntoIsland(int64_t session_row, int64_t island_row,
   std::optional<SessionRecord> s = SessionByRow(session_row);
   if (!s) return 0;
   const std::string name = IslandName(island_row);
-  const std::optional<IslandMaps::Island> target = islands_->Find(island_row);
-  KeyframeScan scan;
-  scan.products_fingerprint = mapper_->options().ProductsFingerprint();
-  scan.session_row = session_row;
+  auto in_island = [&](int64_t id) {
+    const std::optional<IslandMaps::Island> target = islands_->Find(island_row);
+    return target && target->map->HasKeyframe(id);
+  };
   LoadReport report;
-  const Status st = store_->ForEachKeyframe(
-      0,
-      [&](KeyframeRecord rec) -> Status {
+  const ChunkedMoveFigures f = MapInChunks(
+      UnmappedKeyframeIds(*s, upto_keyframe_id, in_island),
+      static_cast<size_t>(options_.align.held_chunk_keyframes), mapping_mu_,
+      [&](int64_t first_id, int64_t last_id) -> StatusOr<std::vector<LoadedKeyframe>> {
+        // An island is mapped again on every start: it can stop part-way at shutdown.
         if (stop_loading_) return absl::CancelledError("the server is stopping");
-        if (rec.id > upto_keyframe_id || (target && target->map->HasKeyframe(rec.id))) {
-          return absl::OkStatus();
-        }
-        MapperKeyframe meta;
-        const std::optional<KeyframeProducts> products =
-            StoredProducts(rec, *s, *mapper_, detector_.get(), store_.get(), &report, &meta);
-        if (products) islands_->Integrate(island_row, name, meta, *products, T_island_odom);
-        return absl::OkStatus();
+        return LoadStored(*s, first_id, last_id, &report);
       },
-      scan);
-  if (!st.ok()) spdlog::warn("session {}: not all keyframes mapped into its island: {}",
-                             s->session_id, st.ToString());
-  return report.keyframes();
+      [&](const LoadedKeyframe& kf) {
+        if (in_island(kf.meta.keyframe_id)) return false;
+        islands_->Integrate(island_row, name, kf.meta, kf.products, T_island_odom);
+        return true;
+      });
+  if (!f.status.ok()) {
+    spdlog::warn("session {}: not all keyframes mapped into its island: {}", s->session_id,
+                 f.status.ToString());
+  }
+  return f.moved;
 }
 
-void MapServer::ApplyAlignment(const SessionAlignment& a) {
+std::optional<MapServer::HeldKeyframes> MapServer::ApplyAlignment(
+    const SessionAlignment& a, std::vector<Mapper::KeyframePoseUpdate>* moves) {
   std::optional<SessionRecord> s = SessionByRow(a.session_row);
-  if (!s) return;
+  if (!s) return std::nullopt;
   s->T_base_odom = a.T_base_odom;
   s->aligned = true;
   if (Status st = store_->SetSessionAlignment(s->row_id, s->T_base_odom); !st.ok()) {
@@ -179,41 +201,120 @@ void MapServer::ApplyAlignment(const SessionAlignment& a) {
   // aligned with it).
   Publish(islands_->Drop(s->island_row != 0 ? s->island_row : s->row_id));
   if (a.refined) {
-    MoveSession(a);
-    return;
+    if (moves != nullptr) {
+      std::vector<Mapper::KeyframePoseUpdate> m = SessionMoves(a);
+      moves->insert(moves->end(), m.begin(), m.end());
+    }
+    return std::nullopt;
   }
   // The held keyframes: those the worker has seen and not mapped (later ones are still queued
-  // and are mapped at the new placement when the worker reaches them; the worker may also have
-  // mapped some directly since the aligner set the placement).
-  const int64_t upto_keyframe_id = worker_last_id_;
+  // and are mapped at the new placement when the worker reaches them; the worker may also map
+  // some directly before the held ones are in).
+  return HeldKeyframes{*s, worker_last_id_};
+}
+
+void MapServer::MapHeldKeyframes(const std::vector<HeldKeyframes>& sessions) {
+  const auto start = std::chrono::steady_clock::now();
+  ChunkedMoveFigures all;
+  for (const HeldKeyframes& h : sessions) {
+    LoadReport report;
+    const ChunkedMoveFigures f = MapInChunks(
+        UnmappedKeyframeIds(h.session, h.upto_keyframe_id,
+                            [&](int64_t id) { return mapper_->HasKeyframe(id); }),
+        static_cast<size_t>(options_.align.held_chunk_keyframes), mapping_mu_,
+        [&](int64_t first_id, int64_t last_id) {
+          return LoadStored(h.session, first_id, last_id, &report);
+        },
+        [&](const LoadedKeyframe& kf) {
+          if (mapper_->HasKeyframe(kf.meta.keyframe_id)) return false;
+          mapper_->Integrate(kf.meta, kf.products);
+          return true;
+        });
+    if (!f.status.ok()) {
+      spdlog::warn("session {}: held keyframes not all mapped: {}", h.session.session_id,
+                   f.status.ToString());
+    }
+    spdlog::info("robot {} (session {}) aligned to the map: {} held keyframes mapped ({} skipped) "
+                 "in {:.0f} ms, {} chunks, mapping paused at most {:.0f} ms",
+                 h.session.robot_name, h.session.session_id, f.moved, report.skipped, f.total_ms,
+                 f.chunks, f.longest_hold_ms);
+    merged_keyframes_ += f.moved;
+    all.moved += f.moved;
+    all.chunks += f.chunks;
+    all.longest_hold_ms = std::max(all.longest_hold_ms, f.longest_hold_ms);
+  }
+  {
+    std::lock_guard<HandoffMutex> mapping(mapping_mu_);
+    merging_held_ = false;
+    // The keyframes just mapped have ids below the last checkpoint's: checkpoint now, so a
+    // restart does not lose them from the map.
+    if (Status c = Checkpoint(); !c.ok()) {
+      spdlog::warn("checkpoint: {}", c.ToString());
+      since_checkpoint_ += all.moved;
+    } else {
+      since_checkpoint_ = 0;
+      last_checkpoint_ = std::chrono::steady_clock::now();
+    }
+  }
+  std::lock_guard<std::mutex> lock(held_merge_mu_);
+  held_merge_stats_.last_ms = MsSince(start);
+  held_merge_stats_.last_chunks = all.chunks;
+  held_merge_stats_.last_longest_hold_ms = all.longest_hold_ms;
+  held_merge_stats_.longest_hold_ms =
+      std::max(held_merge_stats_.longest_hold_ms, all.longest_hold_ms);
+}
+
+std::vector<int64_t> MapServer::UnmappedKeyframeIds(
+    const SessionRecord& session, int64_t upto_keyframe_id,
+    const std::function<bool(int64_t)>& mapped) {
+  std::vector<int64_t> ids;
   KeyframeScan scan;
-  scan.products_fingerprint = mapper_->options().ProductsFingerprint();
-  scan.session_row = s->row_id;
-  LoadReport report;
-  Status st = store_->ForEachKeyframe(
+  scan.images = false;
+  scan.session_row = session.row_id;
+  scan.last_id = upto_keyframe_id;
+  const Status st = store_->ForEachKeyframe(
       0,
       [&](KeyframeRecord rec) -> Status {
-        if (rec.id > upto_keyframe_id || mapper_->HasKeyframe(rec.id)) return absl::OkStatus();
-        if (!LoadKeyframe(rec, *s, *mapper_, detector_.get(), store_.get(), &report)) {
-          ++report.skipped;
-        }
+        if (!mapped(rec.id)) ids.push_back(rec.id);
         return absl::OkStatus();
       },
       scan);
-  if (!st.ok()) spdlog::warn("session {}: held keyframes not all mapped: {}", s->session_id,
-                             st.ToString());
-  spdlog::info("robot {} (session {}) aligned to the map: {} keyframes mapped, {} skipped",
-               s->robot_name, s->session_id, report.keyframes(), report.skipped);
-  merged_keyframes_ += report.keyframes();
-  // The keyframes just mapped have ids below the checkpoint's last one: checkpoint now, so a
-  // restart does not lose them from the map.
-  if (Status c = Checkpoint(); !c.ok()) {
-    spdlog::warn("checkpoint: {}", c.ToString());
-    since_checkpoint_ += report.keyframes();
-  } else {
-    since_checkpoint_ = 0;
-    last_checkpoint_ = std::chrono::steady_clock::now();
+  if (!st.ok()) {
+    spdlog::warn("session {}: keyframes to map not all listed: {}", session.session_id,
+                 st.ToString());
   }
+  return ids;
+}
+
+StatusOr<std::vector<LoadedKeyframe>> MapServer::LoadStored(const SessionRecord& session,
+                                                             int64_t first_id, int64_t last_id,
+                                                             LoadReport* report) {
+  std::vector<LoadedKeyframe> out;
+  KeyframeScan scan;
+  scan.products_fingerprint = mapper_->options().ProductsFingerprint();
+  scan.session_row = session.row_id;
+  scan.last_id = last_id;
+  LOCI_RETURN_IF_ERROR(store_->ForEachKeyframe(
+      first_id - 1,
+      [&](KeyframeRecord rec) -> Status {
+        LoadedKeyframe kf;
+        std::optional<KeyframeProducts> products = StoredProducts(
+            rec, session, *mapper_, detector_.get(), store_.get(), report, &kf.meta);
+        if (!products) {
+          ++report->skipped;
+          return absl::OkStatus();
+        }
+        kf.products = std::move(*products);
+        out.push_back(std::move(kf));
+        return absl::OkStatus();
+      },
+      scan));
+  return out;
+}
+
+MapServer::HeldMergeStats MapServer::held_merge_stats() const {
+  std::lock_guard<std::mutex> lock(held_merge_mu_);
+  return held_merge_stats_;
 }
 
 void MapServer::DeclareStoredSessions() {
@@ -352,7 +453,7 @@ void MapServer::ReindexFromImages(const KeyframeRecord& rec, ReindexCounts* coun
   }
 }
 
-void MapServer::MoveSession(const SessionAlignment& a) {
+std::vector<Mapper::KeyframePoseUpdate> MapServer::SessionMoves(const SessionAlignment& a) {
   // The session's mapped keyframes (place recognition may not have indexed the newest yet).
   std::vector<Mapper::KeyframePoseUpdate> updates;
   KeyframeScan scan;
@@ -368,12 +469,21 @@ void MapServer::MoveSession(const SessionAlignment& a) {
   if (!st.ok()) {
     spdlog::warn("refined placement of session row {} not applied: {}", a.session_row,
                  st.ToString());
-    return;
+    return {};
   }
-  auto moved = UpdateKeyframePosesLocked(updates);
-  if (!moved.ok()) {
-    spdlog::warn("refined placement of session row {} not applied to its mapped keyframes: {}",
-                 a.session_row, moved.status().ToString());
+  return updates;
+}
+
+void MapServer::MoveSessions(std::vector<Mapper::KeyframePoseUpdate> moves) {
+  const ChunkedMoveFigures moved = MoveInChunks(
+      std::move(moves), static_cast<size_t>(options_.align.loops.apply_chunk_keyframes),
+      mapping_mu_, [] { return absl::OkStatus(); },
+      [this](const std::vector<Mapper::KeyframePoseUpdate>& chunk, bool last) {
+        return UpdateKeyframePosesLocked(chunk, /*rebuild_octomap=*/last);
+      });
+  if (!moved.status.ok()) {
+    spdlog::warn("refined placement applied to {} mapped keyframes only: {}", moved.moved,
+                 moved.status.ToString());
   }
 }
 

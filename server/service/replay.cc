@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <map>
 
 #include "server/map/product_codec.h"
@@ -68,6 +69,52 @@ int64_t RestoreCheckpoint(MapStore& store, std::unique_ptr<Mapper>* mapper, Load
   }
   report->checkpoint_keyframe_id = (*checkpoint)->last_keyframe_id;
   return (*checkpoint)->last_keyframe_id;
+}
+
+// Keyframes of aligned sessions up to the checkpoint's last id that the checkpoint lacks: those
+// of a robot aligned just before the server stopped, held back until then while other robots'
+// keyframes went on (so their ids lie below the checkpoint's), and not all mapped when the
+// checkpoint was written. They are mapped now, in id order per session.
+Status MapMissedByCheckpoint(MapStore& store, Mapper& mapper,
+                             const std::map<int64_t, SessionRecord>& by_row, int64_t checkpoint_id,
+                             detection::Detector* detector, MapStore* product_store,
+                             LoadReport* report) {
+  std::map<int64_t, std::vector<int64_t>> missed;  // session row -> keyframe ids
+  KeyframeScan metadata;
+  metadata.images = false;
+  metadata.last_id = checkpoint_id;
+  LOCI_RETURN_IF_ERROR(store.ForEachKeyframe(
+      0,
+      [&](KeyframeRecord rec) -> Status {
+        auto it = by_row.find(rec.session_row);
+        if (it != by_row.end() && it->second.aligned && !mapper.HasKeyframe(rec.id)) {
+          missed[rec.session_row].push_back(rec.id);
+        }
+        return absl::OkStatus();
+      },
+      metadata));
+  for (const auto& [row, ids] : missed) {
+    KeyframeScan scan;
+    scan.products_fingerprint = mapper.options().ProductsFingerprint();
+    scan.session_row = row;
+    scan.last_id = ids.back();
+    const uint64_t before = report->keyframes();
+    LOCI_RETURN_IF_ERROR(store.ForEachKeyframe(
+        ids.front() - 1,
+        [&](KeyframeRecord rec) -> Status {
+          if (!std::binary_search(ids.begin(), ids.end(), rec.id)) return absl::OkStatus();
+          if (!LoadKeyframe(rec, by_row.at(row), mapper, detector, product_store, report)) {
+            ++report->skipped;
+          }
+          return absl::OkStatus();
+        },
+        scan));
+    report->missed_by_checkpoint += report->keyframes() - before;
+    spdlog::warn("load: {} keyframes of session {} were not in the checkpoint (its robot was "
+                 "aligned as the server stopped); mapped now", report->keyframes() - before,
+                 by_row.at(row).session_id);
+  }
+  return absl::OkStatus();
 }
 
 }  // namespace
@@ -138,6 +185,10 @@ StatusOr<LoadReport> LoadMap(MapStore& store, std::unique_ptr<Mapper>* mapper,
       },
       scan));
   if (options.progress) options.progress(seen, total);
+  if (after_id > 0) {
+    LOCI_RETURN_IF_ERROR(MapMissedByCheckpoint(store, **mapper, by_row, after_id, detector,
+                                               product_store, &report));
+  }
   return report;
 }
 

@@ -1,8 +1,10 @@
 // Loads the map from the database (server start, `loci export`, `loci eval objects`,
 // `loci reprocess`): the latest checkpoint of the derived map, then every keyframe after it
 // from its stored products (server/map/product_codec.h), or from its raw images when it has
-// none, whose new products are stored. Keyframes are mapped in id order, the order the live
-// server maps them in, so a loaded map equals the live one.
+// none, whose new products are stored; then the keyframes of aligned sessions older than the
+// checkpoint that it lacks (a robot whose held keyframes were entering the map as the server
+// stopped). Keyframes are mapped in id order, the order the live server maps them in (held
+// keyframes after newer ones, as it does), so a loaded map equals the live one.
 #pragma once
 
 #include <atomic>
@@ -63,6 +65,9 @@ struct LoadReport {
   std::string checkpoint_skipped;      // why a stored checkpoint was not used
   uint64_t from_products = 0, from_raw = 0, skipped = 0;
   uint64_t held = 0;  // keyframes of unaligned sessions, left out of the map
+  // Keyframes of aligned sessions older than the checkpoint that it lacked (a robot aligned as
+  // the server stopped), mapped after it; included in from_products / from_raw.
+  uint64_t missed_by_checkpoint = 0;
   int64_t last_keyframe_id = 0;
   uint64_t keyframes() const { return from_products + from_raw; }
 };

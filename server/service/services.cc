@@ -353,6 +353,11 @@ grpc::Status QueryService::FillAlignment(const std::vector<SessionRecord>& sessi
   a->set_merges_accepted(st->merges_accepted);
   a->set_merge_resets(st->merge_resets);
   a->set_merged_keyframes(server_->merged_keyframes());
+  const MapServer::HeldMergeStats held = server_->held_merge_stats();
+  a->set_last_merge_ms(held.last_ms);
+  a->set_last_merge_chunks(held.last_chunks);
+  a->set_last_merge_longest_hold_ms(held.last_longest_hold_ms);
+  a->set_merge_longest_hold_ms(held.longest_hold_ms);
   a->set_place_ms_mean(st->keyframes == 0 ? 0.0 : st->place_ms_total / double(st->keyframes));
   a->set_vocabulary_words(st->vocabulary_words);
   a->set_features_read(st->features_read);

@@ -1,10 +1,14 @@
 // MoveInChunks: a pose-graph solution moves the map in chunks, newest keyframe first, each
-// under the mapping lock, and stops where its check or a chunk fails.
+// under the mapping lock, and stops where its check or a chunk fails. MapInChunks: an aligned
+// robot's held keyframes are read back without the lock and mapped in chunks, oldest first.
 #include "server/service/chunked_move.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <functional>
 #include <future>
+#include <mutex>
 #include <string>
 #include <thread>
 
@@ -127,6 +131,110 @@ TEST(MoveInChunks, StopsWhereTheFrameChangedOrAChunkFailed) {
   EXPECT_EQ(f.moved, 6u);  // 10-8 and 7-5; 4-2 failed; 1 not tried
   EXPECT_EQ(moved_calls, 3u);
   EXPECT_TRUE(FreeForAnotherThread(mu));
+}
+
+// MapInChunks' load: the chunk's ids as keyframes (no products), read without `mu`.
+std::function<StatusOr<std::vector<LoadedKeyframe>>(int64_t, int64_t)> LoadIds(
+    HandoffMutex& mu, const std::vector<int64_t>& ids, std::vector<std::string>* order) {
+  return [&mu, ids, order](int64_t first, int64_t last) -> StatusOr<std::vector<LoadedKeyframe>> {
+    EXPECT_TRUE(FreeForAnotherThread(mu)) << "keyframes are read back without the lock";
+    order->push_back("load " + std::to_string(first) + "-" + std::to_string(last));
+    std::vector<LoadedKeyframe> out;
+    for (int64_t id : ids) {
+      if (id < first || id > last) continue;
+      out.emplace_back();
+      out.back().meta.keyframe_id = id;
+    }
+    return out;
+  };
+}
+
+TEST(MapInChunks, MapsOldestFirstReadingEachChunkWithoutTheLock) {
+  HandoffMutex mu;
+  const std::vector<int64_t> ids = {3, 4, 7, 9, 12};  // other robots' keyframes in between
+  std::vector<std::string> order;
+  const ChunkedMoveFigures f =
+      MapInChunks(ids, 2, mu, LoadIds(mu, ids, &order), [&](const LoadedKeyframe& kf) {
+        EXPECT_FALSE(FreeForAnotherThread(mu)) << "keyframes are mapped with the lock held";
+        order.push_back(std::to_string(kf.meta.keyframe_id));
+        return kf.meta.keyframe_id != 9;  // already in the map: skipped
+      });
+  ASSERT_TRUE(f.status.ok()) << f.status;
+  const std::vector<std::string> want = {"load 3-4", "3", "4", "load 7-9", "7", "9",
+                                         "load 12-12", "12"};
+  EXPECT_EQ(order, want);
+  EXPECT_EQ(f.moved, 4u);
+  EXPECT_EQ(f.chunks, 3u);
+  EXPECT_TRUE(FreeForAnotherThread(mu));
+}
+
+TEST(MapInChunks, AThreadWaitingForTheLockGetsItBetweenTwoChunks) {
+  HandoffMutex mu;
+  std::mutex order_mu;  // the reads run without `mu`, beside the worker
+  std::vector<std::string> order;
+  auto note = [&](const std::string& what) {
+    std::lock_guard<std::mutex> lock(order_mu);
+    order.push_back(what);
+  };
+  std::thread worker;
+  const ChunkedMoveFigures f = MapInChunks(
+      {1, 2}, 1, mu,
+      [&](int64_t first, int64_t) -> StatusOr<std::vector<LoadedKeyframe>> {
+        note("load " + std::to_string(first));
+        std::vector<LoadedKeyframe> out(1);
+        out[0].meta.keyframe_id = first;
+        return out;
+      },
+      [&](const LoadedKeyframe& kf) {
+        note("map " + std::to_string(kf.meta.keyframe_id));
+        if (!worker.joinable()) {
+          worker = std::thread([&] {
+            std::lock_guard<HandoffMutex> lock(mu);
+            note("worker");
+          });
+          while (mu.waiters() == 0) std::this_thread::yield();
+        }
+        return true;
+      });
+  worker.join();
+  ASSERT_TRUE(f.status.ok()) << f.status;
+  // The worker, waiting while the first chunk was mapped, maps before the second chunk (whose
+  // read may come before or after the worker's turn).
+  auto at = [&](const std::string& what) {
+    return std::find(order.begin(), order.end(), what) - order.begin();
+  };
+  ASSERT_EQ(order.size(), 5u);
+  EXPECT_LT(at("map 1"), at("worker"));
+  EXPECT_LT(at("worker"), at("map 2"));
+  EXPECT_LT(at("load 2"), at("map 2"));
+}
+
+TEST(MapInChunks, AFailedReadStopsTheMappingAndZeroMeansOneHold) {
+  HandoffMutex mu;
+  std::vector<int64_t> ids;
+  for (int64_t id = 1; id <= 10; ++id) ids.push_back(id);
+  std::vector<std::string> order;
+  auto load = LoadIds(mu, ids, &order);
+  size_t mapped = 0;
+  auto integrate = [&](const LoadedKeyframe&) { return ++mapped > 0; };
+  ChunkedMoveFigures f = MapInChunks(
+      ids, 4, mu,
+      [&](int64_t first, int64_t last) -> StatusOr<std::vector<LoadedKeyframe>> {
+        if (first == 5) return absl::DataLossError("database gone");
+        return load(first, last);
+      },
+      integrate);
+  EXPECT_EQ(f.status.code(), absl::StatusCode::kDataLoss);
+  EXPECT_EQ(f.moved, 4u);  // 1-4 stay mapped
+  EXPECT_EQ(f.chunks, 1u);
+  order.clear();
+  f = MapInChunks(ids, 0, mu, load, integrate);
+  EXPECT_EQ(order, std::vector<std::string>({"load 1-10"}));
+  EXPECT_EQ(f.chunks, 1u);
+  EXPECT_EQ(f.moved, 10u);
+  f = MapInChunks({}, 8, mu, load, integrate);
+  EXPECT_EQ(f.chunks, 0u);
+  EXPECT_EQ(f.total_ms, 0.0);
 }
 
 }  // namespace

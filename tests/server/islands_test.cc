@@ -24,6 +24,7 @@
 #include "server/service/map_server.h"
 #include "server/service/proto_convert.h"
 #include "server/service/query_adapter.h"
+#include "server/storage/sqlite_store.h"
 #include "synth/sequence_writer.h"
 #include "tests/server/keyframe_proto.h"
 #include "tests/server/scene_stream.h"
@@ -451,6 +452,74 @@ TEST_F(Islands, AnIslandIsAlignedAsAWhole) {
   std::printf("  %d objects of room b in the shared map, the farthest %.1f mm from where B's "
               "placement puts it\n", checked, 1e3 * worst_m);
   EXPECT_GE(checked, 4);
+  // B's and C's held keyframes entered the map in chunks (align.held_chunk_keyframes), the
+  // mapping lock free between two.
+  const loci::v1::AlignmentStats a = Stats(r.query.get()).alignment();
+  const int64_t chunk = r.server->options().align.held_chunk_keyframes;
+  ASSERT_GT(chunk, 0);
+  EXPECT_GE(a.merged_keyframes(), views_["b"].size());
+  EXPECT_GE(a.last_merge_chunks(), (a.merged_keyframes() + chunk - 1) / chunk);
+  EXPECT_LT(a.last_merge_longest_hold_ms(), a.last_merge_ms());
+  // A restart gives back the same shared map: the merge is in the checkpoint.
+  r.grpc.reset();
+  r.server.reset();
+  Running again = Start(dir_ + "/whole.db");
+  ASSERT_TRUE(again.server);
+  std::vector<loci::v1::Object> reloaded = Find(again.query.get(), true);
+  ASSERT_EQ(reloaded.size(), all.size());
+  for (size_t i = 0; i < all.size(); ++i) {
+    EXPECT_EQ(reloaded[i].id(), all[i].id());
+    EXPECT_NEAR(reloaded[i].centroid_m().x(), all[i].centroid_m().x(), 1e-6);
+    EXPECT_NEAR(reloaded[i].centroid_m().y(), all[i].centroid_m().y(), 1e-6);
+  }
+}
+
+// A robot aligned as the server stopped: its held keyframes have ids below the checkpoint's
+// (robot A streamed on meanwhile), and the checkpoint lacks them. The next start maps them.
+TEST_F(Islands, HeldKeyframesTheCheckpointLacksAreMappedOnTheNextStart) {
+  const std::string db = dir_ + "/missed.db";
+  std::multiset<std::string> island_classes;
+  {
+    Running r = Start(db);
+    ASSERT_TRUE(r.server);
+    Stream(r.mapping.get(), "A", Rebased(views_["a"], 0, false));
+    const std::string island = Stream(r.mapping.get(), "B", Rebased(views_["b"], 0, true));
+    // A again, later: aligned in its own room, so the map's last keyframe id passes B's.
+    std::vector<loci::v1::Keyframe> later = Rebased(views_["a"], 0, false);
+    for (auto& kf : later) kf.set_t_ns(kf.t_ns() + 100'000'000'000);
+    Stream(r.mapping.get(), "A", later);
+    r.server->Flush();
+    const auto sessions = SessionsByRobot(Stats(r.query.get()));
+    ASSERT_FALSE(sessions.at("B").aligned());
+    ASSERT_TRUE(sessions.at("A").aligned()) << "A's second session was not aligned";
+    for (const auto& o : InIsland(Find(r.query.get(), true), island)) {
+      island_classes.insert(o.class_name());
+    }
+    ASSERT_GE(island_classes.size(), 4u);
+  }
+  // As if the server had stopped just after storing B's placement (50 m away): the checkpoint,
+  // written after A's last keyframe, holds none of B's keyframes.
+  {
+    auto store = SqliteStore::Open(db);
+    ASSERT_TRUE(store.ok()) << store.status();
+    auto stored = (*store)->ListSessions();
+    ASSERT_TRUE(stored.ok());
+    const auto b = std::find_if(stored->begin(), stored->end(),
+                                [](const SessionRecord& s) { return s.robot_name == "B"; });
+    ASSERT_NE(b, stored->end());
+    ASSERT_TRUE((*store)->SetSessionAlignment(b->row_id, MakeSE3(Vec3d(50, 0, 0), Quatd::Identity()))
+                    .ok());
+  }
+  Running r = Start(db);
+  ASSERT_TRUE(r.server);
+  ASSERT_TRUE(r.server->WaitReady().ok());
+  std::multiset<std::string> far_classes;
+  for (const auto& o : Find(r.query.get(), true)) {
+    EXPECT_EQ(o.island(), "") << "B is aligned: no island";
+    const Vec3d c_m(o.centroid_m().x(), o.centroid_m().y(), o.centroid_m().z());
+    if (c_m.norm() > 40) far_classes.insert(o.class_name());
+  }
+  EXPECT_EQ(far_classes, island_classes) << "room b's objects, 50 m away in the shared map";
 }
 
 }  // namespace
