@@ -4,7 +4,8 @@
 // synth` scene) and is mapped; then robot B, under its own name, streams the same room from view
 // --start on with its own odometry (identity at its first view), paced at --robot-hz. With
 // --held N, B first streams N keyframes of another room (its views cycled, 100 m away in B's
-// odometry), which the server holds back until B is aligned and then maps. B's first keyframe
+// odometry; unpaced, a backlog), which the server holds back until B is aligned and then maps
+// while B's next keyframes in A's room arrive at --robot-hz. B's first keyframe
 // in A's room is the first overlapping one. Prints B's keyframes and wall time from that
 // keyframe to its session aligned (GetStats, polled every 10 ms), the capture time the server
 // reports, the alignment's error against the truth, how the held keyframes entered the map
@@ -46,10 +47,11 @@ struct BenchMergeArgs {
   int held = 0;             // B's keyframes in another room before it enters A's
 };
 
-// A session of robot `robot` streaming `views` as they are, paced at `hz` (0: as fast as
-// acknowledged); `on_sent(i)` after each write. Returns the session id.
+// A session of robot `robot` streaming `views` as they are, from view `paced_from` on paced at
+// `hz` (0, and before it: as fast as acknowledged); `on_sent(i)` after each write. Returns the
+// session id.
 StatusOr<std::string> Stream(loci::v1::Mapping::Stub& stub, const std::string& robot, double hz,
-                             const std::vector<loci::v1::Keyframe>& views,
+                             size_t paced_from, const std::vector<loci::v1::Keyframe>& views,
                              const std::function<void(size_t)>& on_sent) {
   grpc::ClientContext open_ctx;
   loci::v1::OpenSessionResponse session;
@@ -71,6 +73,8 @@ StatusOr<std::string> Stream(loci::v1::Mapping::Stub& stub, const std::string& r
     kf.set_seq(static_cast<int64_t>(i));
     if (!stream->Write(kf)) break;
     on_sent(i);
+    if (i < paced_from) continue;
+    if (i == paced_from) next = Clock::now();
     next += std::chrono::duration_cast<Clock::duration>(period);
     std::this_thread::sleep_until(next);  // a robot's keyframe rate
   }
@@ -157,6 +161,8 @@ void PrintHeldFigures(const loci::v1::GetStatsResponse& stats) {
               "lock was held at most %.0f ms at a time\n",
               static_cast<unsigned long long>(a.merged_keyframes()), a.last_merge_ms(),
               static_cast<unsigned long long>(a.last_merge_chunks()), a.merge_longest_hold_ms());
+  std::printf("  the mapping worker waited at most %.0f ms for the mapping lock\n",
+              stats.worker_longest_wait_ms());
 }
 
 Status RunMerge(const BenchMergeArgs& a, const std::string& dir) {
@@ -206,14 +212,14 @@ Status RunMerge(const BenchMergeArgs& a, const std::string& dir) {
                                 : "the same room",
               a.robot_hz);
 
-  LOCI_RETURN_IF_ERROR(Stream(*mapping, "A", 0, views, [](size_t) {}).status());
+  LOCI_RETURN_IF_ERROR(Stream(*mapping, "A", 0, 0, views, [](size_t) {}).status());
   srv->Flush();
 
   Clock::time_point first_sent, aligned_at;
   std::atomic<size_t> sent{0};
   std::atomic<bool> streaming{true};
   std::thread b([&] {
-    auto id = Stream(*mapping, "B", a.robot_hz, b_views, [&](size_t i) {
+    auto id = Stream(*mapping, "B", a.robot_hz, static_cast<size_t>(a.held), b_views, [&](size_t i) {
       if (i == static_cast<size_t>(a.held)) first_sent = Clock::now();  // first in A's room
       sent = i + 1;
     });
@@ -263,7 +269,8 @@ void RegisterBenchMergeCommand(CLI::App& app) {
   c->add_option("--views", args->views, "rendered views of the room")->capture_default_str();
   c->add_option("--objects", args->objects, "objects in the room")->capture_default_str();
   c->add_option("--start", args->start, "robot B's first view")->capture_default_str();
-  c->add_option("--robot-hz", args->robot_hz, "B's keyframes per second (0 = unpaced)")
+  c->add_option("--robot-hz", args->robot_hz,
+                "B's keyframes per second in A's room (0 = unpaced; the --held ones are unpaced)")
       ->capture_default_str();
   c->add_option("--config", args->config, "server YAML (default: config/server.yaml)");
   c->add_option("--held", args->held,

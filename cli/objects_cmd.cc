@@ -189,7 +189,8 @@ int RunStats(const ServerArgs& a) {
               static_cast<unsigned long long>(resp.keyframes_with_place_features()));
   std::printf("checkpoint         %.1f MB\n", resp.checkpoint_bytes() / 1e6);
   std::printf("queue depth        %llu\n", static_cast<unsigned long long>(resp.queue_depth()));
-  std::printf("mapping per kf     %.1f ms\n", resp.ingest_ms_mean());
+  std::printf("mapping per kf     %.1f ms; the worker waited at most %.0f ms for the mapping lock\n",
+              resp.ingest_ms_mean(), resp.worker_longest_wait_ms());
   PrintAlignment(resp);
   return 0;
 }

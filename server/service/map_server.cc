@@ -4,6 +4,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 #include <limits>
 #include <regex>
@@ -456,6 +457,8 @@ void MapServer::WorkerLoop() {
     bool recognise = false;
     {
       std::lock_guard<HandoffMutex> mapping(mapping_mu_);
+      // Written by this thread only: a plain load and store keep the maximum.
+      worker_longest_wait_ms_ = std::max(worker_longest_wait_ms_.load(), MsSince(t0));
       recognise = MapQueued(*kf);
       mapping_ms_total_.fetch_add(
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)

@@ -117,6 +117,9 @@ class MapServer {
   HeldMergeStats held_merge_stats() const;
   // Mean mapping time per keyframe mapped by the worker since start (replay excluded), ms.
   double ingest_ms_mean() const;
+  // The longest the mapping worker waited for the mapping lock since start, ms (a chunk of a
+  // pose-graph move or of a robot's held keyframes, a checkpoint).
+  double worker_longest_wait_ms() const { return worker_longest_wait_ms_; }
   // Mean time of the handler-side stages per accepted keyframe, ms: validation with image
   // decoding (thread CPU time), and the storage transaction (wall time).
   double validate_ms_mean() const;
@@ -301,6 +304,7 @@ class MapServer {
   // Stage time sums (ms), added with fetch_add by every ingest stream and the worker.
   std::atomic<double> mapping_ms_total_{0};
   std::atomic<uint64_t> mapping_count_{0};
+  std::atomic<double> worker_longest_wait_ms_{0};
   std::atomic<double> validate_ms_total_{0};
   std::atomic<double> store_ms_total_{0};
   std::atomic<uint64_t> accepted_count_{0};

@@ -302,6 +302,7 @@ grpc::Status QueryService::GetStats(loci::v1::GetStatsResponse* resp) {
   resp->set_db_bytes(server_->store().DbBytes());
   resp->set_queue_depth(server_->queue_depth());
   resp->set_ingest_ms_mean(server_->ingest_ms_mean());
+  resp->set_worker_longest_wait_ms(server_->worker_longest_wait_ms());
   resp->set_frame_up_source(server_->mapper().FrameSource());
   resp->set_frame_settled(server_->mapper().FrameSettled());
   resp->set_mapped_keyframes(s.keyframes);
