@@ -8,13 +8,14 @@ Status AlignOptions::FromYaml(const YAML::Node& node) {
   if (!node) return absl::OkStatus();
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
       node, "align", {"enabled", "max_verify", "level_with_gravity", "min_gravity_keyframes",
-                 "refine_max_matches", "held_chunk_keyframes", "loops"}));
+                 "refine_max_matches", "held_chunk_keyframes", "island_octomap", "loops"}));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "enabled", &enabled));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "max_verify", &max_verify));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "level_with_gravity", &level_with_gravity));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "min_gravity_keyframes", &min_gravity_keyframes));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "refine_max_matches", &refine_max_matches));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "held_chunk_keyframes", &held_chunk_keyframes));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "island_octomap", &island_octomap));
   LOCI_RETURN_IF_ERROR(loops.FromYaml(node["loops"]));
   return Validate();
 }

@@ -69,6 +69,10 @@ struct AlignOptions {
   // 10 ms (docs/results.md): the mapping worker, and through it every robot's stream, waits for
   // one chunk, not for all of them (about 10 s for 1000 held keyframes).
   int held_chunk_keyframes = 8;
+  // An unaligned robot's island map has an OctoMap of its own, in the island's frame (true; a
+  // thread and a tree per island, and ray casting, about 20 ms per keyframe, that the shared
+  // map does again once the robot is aligned). false: islands have objects and a cloud only.
+  bool island_octomap = true;
   LoopOptions loops;
 
   // Reads the keys of `align`; unknown keys are errors.

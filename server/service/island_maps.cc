@@ -6,10 +6,10 @@
 
 namespace loci::server {
 
-IslandMaps::IslandMaps(const MapOptions& options,
+IslandMaps::IslandMaps(const MapOptions& options, bool octomap,
                        std::function<void(const std::vector<ObjectEventOut>&)> listener)
     : options_(options), listener_(std::move(listener)) {
-  options_.octomap.enabled = false;  // a thread and a tree per island; the shared map has one
+  options_.octomap.enabled = options_.octomap.enabled && octomap;
 }
 
 void IslandMaps::Integrate(int64_t session_row, const std::string& island,
@@ -77,6 +77,14 @@ std::optional<IslandMaps::Island> IslandMaps::Find(int64_t session_row) const {
   auto it = islands_.find(session_row);
   if (it == islands_.end()) return std::nullopt;
   return it->second;
+}
+
+std::optional<IslandMaps::Island> IslandMaps::FindByName(const std::string& name) const {
+  std::lock_guard<std::mutex> lock(mu_);
+  for (const auto& [row, island] : islands_) {
+    if (island.name == name) return island;
+  }
+  return std::nullopt;
 }
 
 std::optional<IslandMaps::Island> IslandMaps::FindByObjectId(int64_t id) const {

@@ -2,7 +2,8 @@
 // aligned to the shared map yet. Each such session's keyframes are mapped by a Mapper of its
 // own, in the session's own frame (its odometry frame, levelled z-up from its own gravity or
 // planes, origin at its first keyframe), so a robot that starts in a room nobody else has seen
-// can still be asked what it has seen. An island map has objects and a cloud, no OctoMap.
+// can still be asked what it has seen. An island map has objects, a cloud and, with
+// align.island_octomap, an OctoMap (GetOctomap with the island's name).
 //
 // When the session is aligned, its island is dropped (its objects are REMOVED) and its
 // keyframes enter the shared map, where fusion gives each physical object one id.
@@ -33,9 +34,10 @@ inline constexpr int64_t kIslandIdStride = int64_t{1} << 32;
 
 class IslandMaps {
  public:
-  // `options`: the shared map's; islands use them with the OctoMap off. `listener` receives
-  // every island's object events (the objects carry their island).
-  IslandMaps(const MapOptions& options,
+  // `options`: the shared map's; islands use them, with the OctoMap only when `octomap` (a
+  // thread and a tree per island). `listener` receives every island's object events (the
+  // objects carry their island).
+  IslandMaps(const MapOptions& options, bool octomap,
              std::function<void(const std::vector<ObjectEventOut>&)> listener);
 
   // Maps one keyframe of an unaligned session into island `island_row` (made on its first
@@ -55,6 +57,8 @@ class IslandMaps {
   };
   std::vector<Island> List() const;
   std::optional<Island> Find(int64_t session_row) const;
+  // The island named `name` (its first session's id).
+  std::optional<Island> FindByName(const std::string& name) const;
   // The island holding object `id` (by its id range), if that island exists.
   std::optional<Island> FindByObjectId(int64_t id) const;
 

@@ -48,7 +48,7 @@ MapServer::MapServer(const ServerOptions& options, std::shared_ptr<MapStore> sto
                   : nullptr),
       islands_(options.align.enabled
                    ? std::make_unique<IslandMaps>(
-                         options.map,
+                         options.map, options.align.island_octomap,
                          [this](const std::vector<ObjectEventOut>& events) {
                            if (ready_) Publish(events);  // not while a restart re-derives them
                          })

@@ -227,13 +227,24 @@ grpc::Status QueryService::GetCloud(const loci::v1::GetCloudRequest& req,
 }
 
 grpc::Status QueryService::GetOctomap(grpc::ServerContext* ctx,
-                                      const loci::v1::GetOctomapRequest*,
+                                      const loci::v1::GetOctomapRequest* req,
                                       loci::v1::GetOctomapResponse* resp) {
   if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
   if (Status ready = server_->CheckReady(); !ready.ok()) return ToGrpc(ready);
-  resp->set_octomap_bt(server_->mapper().OctomapBt());  // waits for the queued scans
-  resp->set_resolution_m(server_->mapper().OctomapResolution());
-  resp->set_node_count(server_->mapper().Stats().octomap_nodes);
+  std::shared_ptr<const Mapper> island;
+  if (!req->island().empty()) {
+    std::optional<IslandMaps::Island> found =
+        server_->islands() ? server_->islands()->FindByName(req->island()) : std::nullopt;
+    if (!found) {
+      return grpc::Status(grpc::StatusCode::NOT_FOUND,
+                          "no map island named '" + req->island() + "' (GetStats lists them)");
+    }
+    island = found->map;
+  }
+  const Mapper& map = island ? *island : server_->mapper();
+  resp->set_octomap_bt(map.OctomapBt());  // waits for the queued scans
+  resp->set_resolution_m(map.OctomapResolution());
+  resp->set_node_count(map.Stats().octomap_nodes);
   return grpc::Status::OK;
 }
 

@@ -13,6 +13,8 @@
 #include <filesystem>
 #include <map>
 #include <set>
+#include <tuple>
+#include <utility>
 
 #include "common/objects_json.h"
 #include "loci/v1/mapping.grpc.pb.h"
@@ -135,6 +137,16 @@ std::vector<loci::v1::Object> Find(loci::v1::Query::Stub* stub, bool include_isl
   return {resp.objects().begin(), resp.objects().end()};
 }
 
+std::pair<grpc::Status, loci::v1::GetOctomapResponse> Octomap(loci::v1::Query::Stub* stub,
+                                                              const std::string& island) {
+  grpc::ClientContext ctx;
+  loci::v1::GetOctomapRequest req;
+  req.set_island(island);
+  loci::v1::GetOctomapResponse resp;
+  const grpc::Status status = stub->GetOctomap(&ctx, req, &resp);
+  return {status, resp};
+}
+
 loci::v1::GetStatsResponse Stats(loci::v1::Query::Stub* stub) {
   grpc::ClientContext ctx;
   loci::v1::GetStatsResponse resp;
@@ -216,6 +228,7 @@ TEST_F(Islands, UnalignedRobotGetsAnExactIslandMapThatAlignmentDissolves) {
   std::string island;
   int64_t island_first_id = 0;
   std::vector<loci::v1::Object> before_restart;
+  loci::v1::GetOctomapResponse island_octomap;
   {
     Running r = Start(db);
     ASSERT_TRUE(r.server);
@@ -274,6 +287,14 @@ TEST_F(Islands, UnalignedRobotGetsAnExactIslandMapThatAlignmentDissolves) {
         << answer.answer();
     ASSERT_FALSE(answer.objects().empty()) << answer.answer();
     EXPECT_EQ(answer.objects(0).island(), island) << answer.answer();
+    // The island's own OctoMap; an unknown island is NOT_FOUND.
+    grpc::Status status;
+    std::tie(status, island_octomap) = Octomap(r.query.get(), island);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    EXPECT_GT(island_octomap.node_count(), 1000u);
+    EXPECT_NE(island_octomap.octomap_bt(), Octomap(r.query.get(), "").second.octomap_bt());
+    EXPECT_EQ(Octomap(r.query.get(), "no-such-island").first.error_code(),
+              grpc::StatusCode::NOT_FOUND);
   }
   {  // The island is the map B makes alone: the same objects in the same frame.
     Running solo = Start(dir_ + "/solo.db", /*loops=*/false);
@@ -289,6 +310,10 @@ TEST_F(Islands, UnalignedRobotGetsAnExactIslandMapThatAlignmentDissolves) {
       EXPECT_NEAR(alone[i].centroid_m().y(), before_restart[i].centroid_m().y(), 1e-3);
       EXPECT_NEAR(alone[i].centroid_m().z(), before_restart[i].centroid_m().z(), 1e-3);
     }
+    // ... and the same OctoMap (occupied and free cells at the same places).
+    const loci::v1::GetOctomapResponse solo_octomap = Octomap(solo.query.get(), "").second;
+    EXPECT_EQ(island_octomap.node_count(), solo_octomap.node_count());
+    EXPECT_EQ(island_octomap.octomap_bt(), solo_octomap.octomap_bt());
   }
   // A restart re-derives the island from the stored products: the same objects.
   Running r = Start(db);
