@@ -201,10 +201,8 @@ std::optional<MapServer::HeldKeyframes> MapServer::ApplyAlignment(
   // aligned with it).
   Publish(islands_->Drop(s->island_row != 0 ? s->island_row : s->row_id));
   if (a.refined) {
-    if (moves != nullptr) {
-      std::vector<Mapper::KeyframePoseUpdate> m = SessionMoves(a);
-      moves->insert(moves->end(), m.begin(), m.end());
-    }
+    std::vector<Mapper::KeyframePoseUpdate> m = SessionMoves(a);
+    moves->insert(moves->end(), m.begin(), m.end());
     return std::nullopt;
   }
   // The held keyframes: those the worker has seen and not mapped (later ones are still queued
