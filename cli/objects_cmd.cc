@@ -145,10 +145,17 @@ void PrintAlignment(const loci::v1::GetStatsResponse& resp) {
       const std::string joined =
           s.island().empty() || s.island() == s.session_id() ? "" : " of " + s.island();
       std::printf("session %-24s %-12s island%s (not aligned yet), %llu kf, %llu objects in its "
-                  "own frame\n",
+                  "own frame",
                   s.session_id().substr(0, 24).c_str(), s.robot().c_str(), joined.c_str(),
                   static_cast<unsigned long long>(s.keyframes()),
                   static_cast<unsigned long long>(s.island_objects()));
+      if (s.island_optimizations() > 0) {
+        std::printf(", its pose graph solved %llu times (last: %llu loops kept, %llu rejected)",
+                    static_cast<unsigned long long>(s.island_optimizations()),
+                    static_cast<unsigned long long>(s.island_loops_accepted()),
+                    static_cast<unsigned long long>(s.island_loops_rejected()));
+      }
+      std::printf("\n");
     }
   }
 }

@@ -28,26 +28,51 @@ void LoopCloser::AddKeyframe(const LoopKeyframe& keyframe) {
   keyframes_.try_emplace(keyframe.keyframe_id, keyframe);
 }
 
-void LoopCloser::AddMatch(const VerifiedMatch& match, bool fresh) {
+void LoopCloser::AddMatch(const VerifiedMatch& match, bool fresh, int64_t graph) {
   std::lock_guard<std::mutex> lock(mu_);
   matches_[{match.a_id, match.b_id}] = match.T_a_b;
   if (!fresh) return;
   ++(match.loop ? stats_.loop_matches : stats_.merge_matches);
-  ++new_matches_;
+  ++pending_[graph].new_matches;
 }
 
-void LoopCloser::NoteRecognised() {
+void LoopCloser::NoteRecognised(int64_t graph) {
   std::lock_guard<std::mutex> lock(mu_);
-  ++recognised_since_;
+  ++pending_[graph].recognised;
 }
 
-bool LoopCloser::Due() const {
+bool LoopCloser::Due(int64_t graph, int64_t graph_keyframes) const {
   std::lock_guard<std::mutex> lock(mu_);
+  auto it = pending_.find(graph);
+  if (it == pending_.end()) return false;
+  if (it->second.marked) return true;
+  const double size = graph_keyframes < 0 ? static_cast<double>(keyframes_.size())
+                                          : static_cast<double>(graph_keyframes);
   const double min_keyframes =
-      std::max<double>(options_.optimize_min_keyframes,
-                       options_.optimize_growth * static_cast<double>(keyframes_.size()));
-  return new_matches_ >= options_.optimize_every_edges &&
-         static_cast<double>(recognised_since_) >= min_keyframes;
+      std::max<double>(options_.optimize_min_keyframes, options_.optimize_growth * size);
+  return it->second.new_matches >= options_.optimize_every_edges &&
+         static_cast<double>(it->second.recognised) >= min_keyframes;
+}
+
+void LoopCloser::MarkDue(int64_t graph) {
+  std::lock_guard<std::mutex> lock(mu_);
+  pending_[graph].marked = true;
+}
+
+void LoopCloser::MoveDue(int64_t from, int64_t to) {
+  if (from != to) {
+    std::lock_guard<std::mutex> solving(solve_mu_);
+    pcm_caches_.erase(from);
+  }
+  std::lock_guard<std::mutex> lock(mu_);
+  stats_.islands.erase(from);
+  auto it = pending_.find(from);
+  if (it == pending_.end() || from == to) return;
+  Pending& dst = pending_[to];
+  dst.new_matches += it->second.new_matches;
+  dst.recognised += it->second.recognised;
+  dst.marked = dst.marked || it->second.marked;
+  pending_.erase(from);
 }
 
 std::optional<LoopKeyframe> LoopCloser::Keyframe(int64_t keyframe_id) const {
@@ -62,6 +87,13 @@ LoopStats LoopCloser::Stats() const {
   return stats_;
 }
 
+void LoopCloser::NoteIslandApplied(int64_t island, const GraphStats& solved) {
+  std::lock_guard<std::mutex> lock(mu_);
+  IslandGraphStats& stats = stats_.islands[island];
+  ++stats.optimizations;
+  stats.last = solved;
+}
+
 void LoopCloser::NoteApplied(double apply_ms, uint64_t chunks, double longest_hold_ms) {
   std::lock_guard<std::mutex> lock(mu_);
   stats_.last_apply_ms = apply_ms;
@@ -71,15 +103,20 @@ void LoopCloser::NoteApplied(double apply_ms, uint64_t chunks, double longest_ho
 }
 
 StatusOr<GraphResult> LoopCloser::Optimize(const std::vector<MappedKeyframe>& mapped,
-                                           bool gravity_aligned) {
+                                           bool gravity_aligned, int64_t graph_key) {
   const auto t0 = std::chrono::steady_clock::now();
   std::lock_guard<std::mutex> solving(solve_mu_);
   PoseGraph graph(graph_);
-  graph.SetPcmCache(&pcm_cache_);
+  graph.SetPcmCache(&pcm_caches_[graph_key]);
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    pending_[graph_key] = Pending();
+  }
   LOCI_RETURN_IF_ERROR(BuildGraph(mapped, gravity_aligned, &graph));
   // Without mu_: the mapping worker records keyframes and matches while the graph solves.
   LOCI_ASSIGN_OR_RETURN(GraphResult result, graph.Optimize());
   std::lock_guard<std::mutex> lock(mu_);
+  if (graph_key != kSharedGraph) return result;  // counted once applied (NoteIslandApplied)
   ++stats_.optimizations;
   stats_.keyframes_moved += result.updates.size();
   stats_.solve_ms_total +=
@@ -91,8 +128,6 @@ StatusOr<GraphResult> LoopCloser::Optimize(const std::vector<MappedKeyframe>& ma
 Status LoopCloser::BuildGraph(const std::vector<MappedKeyframe>& mapped, bool gravity_aligned,
                               PoseGraph* graph) {
   std::lock_guard<std::mutex> lock(mu_);
-  new_matches_ = 0;
-  recognised_since_ = 0;
   // Nodes in id order: the first is the map's first keyframe (the gauge's reference chain).
   std::map<int64_t, const LoopKeyframe*> last_of_chain;  // by session row: the previous node
   std::map<int64_t, int64_t> session_of;                 // node id -> session row

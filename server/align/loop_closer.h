@@ -11,10 +11,16 @@
 //             information from align.loops.sigma_*; the graph's guard (PCM, residual check,
 //             robust loss) decides which it trusts.
 //
+// One recorder serves several graphs: the shared map's (kSharedGraph) and one per map island
+// (keyed by the island's row: an unaligned robot's loops are closed in its island's frame). A
+// graph is the records restricted to the keyframes the caller passes; each graph counts its own
+// new matches towards its next solve. When an island is aligned or joins another, its pending
+// count moves to the graph it became part of (MoveDue), and its edges are there already.
+//
 // The graph is rebuilt from these records on every solve, so what was stored (odometry in
 // `keyframes`, matches in `place_matches`) is all a restart needs. The only state kept between
-// solves is the guard's pairwise results (server/graph/pcm_cache.h), which gives the same
-// selection as testing every pair again; a restart tests every pair once.
+// solves is the guard's pairwise results (server/graph/pcm_cache.h, one cache per graph), which
+// gives the same selection as testing every pair again; a restart tests every pair once.
 // Thread-safe: the mapping worker records, the aligning thread solves, GetStats reads Stats().
 #pragma once
 
@@ -52,6 +58,15 @@ struct MappedKeyframe {
   SE3d T_map_kf = SE3d::Identity();
 };
 
+// The graph of the shared map; map islands' graphs are keyed by their island's row (> 0).
+inline constexpr int64_t kSharedGraph = 0;
+
+// An island's latest solve (LoopStats::islands).
+struct IslandGraphStats {
+  uint64_t optimizations = 0;  // solves of the island's graph applied to its map since start
+  GraphStats last;
+};
+
 struct LoopStats {
   uint64_t loop_matches = 0;   // verified matches recorded, within one session
   uint64_t merge_matches = 0;  // between two sessions
@@ -66,6 +81,9 @@ struct LoopStats {
   uint64_t last_apply_chunks = 0;
   double last_apply_longest_hold_ms = 0;
   double longest_hold_ms = 0;
+  // The figures above (optimizations, last, solve time, keyframes moved) are the shared map's;
+  // each island's solves are counted here, by island row.
+  std::map<int64_t, IslandGraphStats> islands;
 };
 
 class LoopCloser {
@@ -75,21 +93,31 @@ class LoopCloser {
   // Records a keyframe's odometry (once per id; later calls are ignored).
   void AddKeyframe(const LoopKeyframe& keyframe);
   // Records a verified match; a pair recorded again replaces the earlier one. `fresh`: found
-  // now (counts towards Due), not reloaded from the store.
-  void AddMatch(const VerifiedMatch& match, bool fresh = true);
-  // A keyframe went through place recognition (counts towards optimize_min_keyframes).
-  void NoteRecognised();
-  // Whether a solve is due: optimize_every_edges new matches and optimize_min_keyframes
-  // keyframes through place recognition since the last solve. Counted in keyframes, not time,
-  // so the same data gives the same solves and the same map.
-  bool Due() const;
+  // now (counts towards `graph`'s Due), not reloaded from the store.
+  void AddMatch(const VerifiedMatch& match, bool fresh = true, int64_t graph = kSharedGraph);
+  // A keyframe of `graph` went through place recognition (counts towards optimize_min_keyframes).
+  void NoteRecognised(int64_t graph = kSharedGraph);
+  // Whether a solve of `graph` is due: optimize_every_edges new matches and
+  // max(optimize_min_keyframes, optimize_growth x graph_keyframes) keyframes through place
+  // recognition since its last solve, or MarkDue. Counted in keyframes, not time, so the same
+  // data gives the same solves and the same map. graph_keyframes < 0: every recorded keyframe.
+  bool Due(int64_t graph = kSharedGraph, int64_t graph_keyframes = -1) const;
+  // The next Due(graph) is true (an island re-derived after a restart, its loops not applied).
+  void MarkDue(int64_t graph);
+  // `from`'s pending matches and keyframes count for `to` from now on (an island aligned to the
+  // shared map, or joined to another island); `from`'s counts and stats are dropped.
+  void MoveDue(int64_t from, int64_t to);
 
-  // Builds the graph over `mapped` (map frame; all z up from gravity when `gravity_aligned`)
-  // and solves it. The updates are the keyframes that moved (T_map_kf). Resets Due(). One
-  // solve at a time; recording goes on while it solves (only the build holds the records).
-  StatusOr<GraphResult> Optimize(const std::vector<MappedKeyframe>& mapped, bool gravity_aligned);
+  // Builds `graph`'s graph over `mapped` (map frame, or the island's frame; all z up from
+  // gravity when `gravity_aligned`) and solves it. The updates are the keyframes that moved
+  // (T_map_kf). Resets Due(graph). One solve at a time; recording goes on while it solves
+  // (only the build holds the records).
+  StatusOr<GraphResult> Optimize(const std::vector<MappedKeyframe>& mapped, bool gravity_aligned,
+                                 int64_t graph = kSharedGraph);
 
   LoopStats Stats() const;
+  // Records that a solve of island graph `island` was applied to its map (LoopStats::islands).
+  void NoteIslandApplied(int64_t island, const GraphStats& solved);
   // Records how the latest solution was moved into the map (LoopStats' apply figures).
   void NoteApplied(double apply_ms, uint64_t chunks, double longest_hold_ms);
   std::optional<LoopKeyframe> Keyframe(int64_t keyframe_id) const;
@@ -100,16 +128,21 @@ class LoopCloser {
   // The graph over the records (mu_ held by the caller's lock inside).
   Status BuildGraph(const std::vector<MappedKeyframe>& mapped, bool gravity_aligned,
                     PoseGraph* graph);
+  // What counts towards a graph's next solve.
+  struct Pending {
+    int new_matches = 0;
+    int recognised = 0;
+    bool marked = false;  // MarkDue
+  };
 
   mutable std::mutex mu_;     // the records and stats
   std::mutex solve_mu_;       // one solve at a time; guards pcm_cache_
   std::map<int64_t, LoopKeyframe> keyframes_;                // by id
   // T_a_b by (a, b); loop or merge is decided by the keyframes' sessions when solving.
   std::map<std::pair<int64_t, int64_t>, SE3d> matches_;
-  int new_matches_ = 0;
-  int recognised_since_ = 0;
+  std::map<int64_t, Pending> pending_;  // by graph
   LoopStats stats_;
-  PcmCache pcm_cache_;  // solve_mu_
+  std::map<int64_t, PcmCache> pcm_caches_;  // by graph; solve_mu_
 };
 
 }  // namespace loci::server

@@ -66,7 +66,7 @@ bool RobotAligner::SameIsland(int64_t a_row, int64_t b_row) const {
 void RobotAligner::SetIsland(int64_t session_row, int64_t island_row, const SE3d& T_island_odom) {
   std::lock_guard<std::mutex> lock(sessions_mu_);
   auto it = sessions_.find(session_row);
-  if (it == sessions_.end() || it->second.T_base_odom || island_row == session_row) return;
+  if (it == sessions_.end() || it->second.T_base_odom) return;
   it->second.island_row = island_row;
   it->second.T_island_odom = T_island_odom;
 }
@@ -128,7 +128,9 @@ StatusOr<AlignOutcome> RobotAligner::AddKeyframe(const AlignKeyframe& kf, const 
   AlignOutcome out;
   std::optional<SessionAlignment>& result = out.alignment;
   if (match && !aligned) {
-    out.matches = Match(kf, features, bow, /*loops=*/false, /*query_aligned=*/false, dense.get());
+    // With loops, also its own island's older keyframes: the island's own loop closure.
+    out.matches = Match(kf, features, bow, /*loops=*/options_.loops.enabled,
+                        /*query_aligned=*/false, dense.get());
     result = Gate(kf, Estimates(kf, out.matches));
     if (result) {
       out.island_alignments = AlignIsland(*result);
@@ -174,7 +176,10 @@ std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
                                                bool query_aligned,
                                                const place::DenseFrame* dense) {
   std::vector<VerifiedMatch> matches;
-  int tried = 0;
+  // An unaligned query verifies max_verify candidates of its own island (its loops) and as many
+  // of the rest (where it may be aligned or joined), so revisiting its own places does not
+  // delay its alignment.
+  int tried = 0, tried_own_island = 0;
   uint64_t verified = 0, rejected = 0, missing = 0;
   const uint64_t read_before = cache_.Stats().misses;
   for (const place::PlaceCandidate& c : db_.Query(bow, Key(kf.session_row))) {
@@ -182,12 +187,20 @@ std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
     if (a == indexed_.end()) continue;
     const bool loop = a->second.session_row == kf.session_row;
     if (loop && (!loops || kf.t_ns - a->second.t_ns < options_.loops.min_gap_ns())) continue;
-    // A candidate of an unaligned session: only for an unaligned query, in another island.
-    if (!loop && !Alignment(a->second.session_row) &&
-        (query_aligned || SameIsland(a->second.session_row, kf.session_row))) {
+    // A candidate of an unaligned session: only for an unaligned query; in its own island only
+    // with loops.
+    const bool own_island = !query_aligned && !Alignment(a->second.session_row) &&
+                            SameIsland(a->second.session_row, kf.session_row);
+    if (!loop && !Alignment(a->second.session_row) && (query_aligned || (own_island && !loops))) {
       continue;
     }
-    if (tried++ >= options_.max_verify) break;
+    int& budget = own_island ? tried_own_island : tried;
+    if (budget >= options_.max_verify) {
+      const bool own_done = query_aligned || !loops || tried_own_island >= options_.max_verify;
+      if (tried >= options_.max_verify && own_done) break;
+      continue;
+    }
+    ++budget;
     StatusOr<std::shared_ptr<const place::KeyframeFeatures>> stored = cache_.Get(c.keyframe_id);
     if (!stored.ok()) {
       spdlog::warn("place recognition: candidate keyframe {} skipped: {}", c.keyframe_id,

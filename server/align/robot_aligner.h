@@ -15,7 +15,8 @@
 // double, AddKeyframe returns a refined placement (their mean, levelled).
 //
 // Unaligned sessions also form map islands: a keyframe of an unaligned session is matched
-// against the keyframes of unaligned sessions in other islands too, and when min_matches of
+// against its own island's older keyframes (with loops: the island's loop closure, by its own
+// max_verify budget) and the keyframes of unaligned sessions in other islands too, and when min_matches of
 // them agree (ConsistencyGate, hypothesis per pair of islands), the querying session's island
 // joins the other: each of its sessions gets T_island_odom in the other island's frame
 // (levelled with gravity as a merge is). When any session of an island is aligned to the
@@ -148,7 +149,8 @@ class RobotAligner {
   // An unaligned session's island: the row of the island's first session (its own row when it
   // joined none) and where the session's odometry frame sits in that island's frame.
   std::pair<int64_t, SE3d> IslandOf(int64_t session_row) const;
-  // Restores an island membership (after a restart): the unaligned session is in island_row.
+  // Places an unaligned session in island_row (its own row: its own island) at T_island_odom:
+  // a membership restored after a restart, or the placement an island's loop closure corrected.
   void SetIsland(int64_t session_row, int64_t island_row, const SE3d& T_island_odom);
 
   // See the file comment. `bgr` CV_8UC3 and `depth_m` CV_32FC1 (0 = no depth) of the keyframe;

@@ -1,5 +1,6 @@
 #include "server/service/island_maps.h"
 
+#include <absl/strings/str_cat.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -44,6 +45,22 @@ void IslandMaps::Integrate(int64_t session_row, const std::string& island,
   MapperKeyframe in_island = keyframe;
   in_island.T_base_kf = T_island_odom * keyframe.T_odom_kf;
   map->Integrate(in_island, products);
+}
+
+StatusOr<size_t> IslandMaps::UpdateKeyframePoses(
+    int64_t island_row, const std::vector<Mapper::KeyframePoseUpdate>& updates,
+    const Mapper::ProductSource& source, bool rebuild_octomap) {
+  std::shared_ptr<Mapper> map;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    auto it = islands_.find(island_row);
+    if (it == islands_.end()) {
+      return absl::NotFoundError(absl::StrCat("no island of session row ", island_row));
+    }
+    // Only the mapping thread changes a map, so it is not dropped under this call.
+    map = std::const_pointer_cast<Mapper>(it->second.map);
+  }
+  return map->UpdateKeyframePoses(updates, source, rebuild_octomap);
 }
 
 std::vector<ObjectEventOut> IslandMaps::Drop(int64_t session_row) {

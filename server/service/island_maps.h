@@ -46,6 +46,14 @@ class IslandMaps {
   // T_island_odom places the keyframe's session in it (identity for that first session).
   void Integrate(int64_t island_row, const std::string& island, const MapperKeyframe& keyframe,
                  const KeyframeProducts& products, const SE3d& T_island_odom = SE3d::Identity());
+  // Moves keyframes of island `island_row` to corrected poses in its base frame (the island's
+  // own loop closure) and re-derives what they touch (Mapper::UpdateKeyframePoses; its object
+  // events go to the listener). Mapping thread. NOT_FOUND: no such island.
+  // rebuild_octomap: as Mapper's (false for a chunk of a larger move but its last).
+  StatusOr<size_t> UpdateKeyframePoses(int64_t island_row,
+                                       const std::vector<Mapper::KeyframePoseUpdate>& updates,
+                                       const Mapper::ProductSource& source,
+                                       bool rebuild_octomap = true);
   // Forgets an island (it was aligned, or joined another); REMOVED events for its objects.
   std::vector<ObjectEventOut> Drop(int64_t island_row);
 

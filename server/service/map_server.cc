@@ -117,7 +117,10 @@ void MapServer::LoadLoop() {
     spdlog::error("the map failed to load: {}", report.status().ToString());
   }
   FinishLoad(report.status());
-  if (report.ok()) Reindex();  // the stored keyframes into place recognition
+  if (report.ok()) {
+    Reindex();  // the stored keyframes into place recognition
+    CloseIslandLoopsAfterLoad();
+  }
 }
 
 void MapServer::FinishLoad(const Status& status) {
@@ -169,12 +172,11 @@ StatusOr<size_t> MapServer::UpdateKeyframePoses(
   return UpdateKeyframePosesLocked(updates);
 }
 
-StatusOr<size_t> MapServer::UpdateKeyframePosesLocked(
-    const std::vector<Mapper::KeyframePoseUpdate>& updates, bool rebuild_octomap) {
-  // By value: the OctoMap rebuild reads products on its own thread after this call returns
-  // (the store is shared with it).
-  auto source = [store = store_, fingerprint = mapper_->options().ProductsFingerprint()](
-                    int64_t id) -> StatusOr<KeyframeProducts> {
+Mapper::ProductSource MapServer::ProductsFromStore() const {
+  // By value: the OctoMap rebuild reads products on its own thread after a move returns (the
+  // store is shared with it).
+  return [store = store_, fingerprint = mapper_->options().ProductsFingerprint()](
+             int64_t id) -> StatusOr<KeyframeProducts> {
     LOCI_ASSIGN_OR_RETURN(std::optional<std::string> bytes, store->GetProducts(id, fingerprint));
     if (!bytes) {
       return absl::FailedPreconditionError(
@@ -182,7 +184,11 @@ StatusOr<size_t> MapServer::UpdateKeyframePosesLocked(
     }
     return DecodeProducts(*bytes, fingerprint, /*with_visibility=*/false);
   };
-  auto moved = mapper_->UpdateKeyframePoses(updates, source, rebuild_octomap);
+}
+
+StatusOr<size_t> MapServer::UpdateKeyframePosesLocked(
+    const std::vector<Mapper::KeyframePoseUpdate>& updates, bool rebuild_octomap) {
+  auto moved = mapper_->UpdateKeyframePoses(updates, ProductsFromStore(), rebuild_octomap);
   if (!moved.ok()) return moved;
   since_checkpoint_ += *moved;  // the next checkpoint keeps the moved map
   // The poses themselves, so that a restart from an older checkpoint, a replay and a reprocess

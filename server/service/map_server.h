@@ -199,26 +199,53 @@ class MapServer {
   // (not held by the caller).
   void MoveSessions(std::vector<Mapper::KeyframePoseUpdate> moves);
   // Loop closure (map_server_loops.cc), mapping_mu_ held: records the keyframe (worker) and
-  // its verified matches (aligning thread; stored).
+  // the verified matches of a keyframe of session query_session_row (aligning thread; stored).
   void RecordForLoops(const MapperKeyframe& kf);
-  void RecordMatches(const std::vector<VerifiedMatch>& matches);
-  // Aligning thread, without mapping_mu_: solves the pose graph when due (the lock is taken
-  // for the snapshot and to apply the solution, not while solving).
+  void RecordMatches(int64_t query_session_row, const std::vector<VerifiedMatch>& matches);
+  // The pose graph a session's keyframes are in: kSharedGraph when it is aligned, else its
+  // island's row (mapping_mu_ held).
+  int64_t GraphOf(int64_t session_row) const;
+  // The map a pose-graph solution moves, and how (each call with mapping_mu_ held).
+  struct SolveTarget {
+    int64_t graph = kSharedGraph;  // LoopCloser's graph key
+    // The map (null: gone, an island aligned or joined another); the same pointer while it is
+    // the same map.
+    std::function<std::shared_ptr<const Mapper>()> map;
+    // A session follows its newest keyframe's correction: its odometry frame's new placement
+    // in the map's base frame (T_base_odom, or T_island_odom).
+    std::function<void(int64_t session_row, const SE3d& T_base_odom)> place;
+    // Moves one chunk of keyframes (`last`: the OctoMap is rebuilt after it).
+    std::function<StatusOr<size_t>(const std::vector<Mapper::KeyframePoseUpdate>&, bool last)> move;
+  };
+  SolveTarget SharedTarget();
+  SolveTarget IslandTarget(int64_t island_row);
+  // Aligning thread, without mapping_mu_: solves the shared map's pose graph when due, then
+  // each island's (the lock is taken for the snapshot and to apply the solution, not while
+  // solving).
   void MaybeCloseLoops();
+  void CloseLoops(const SolveTarget& target);
   // Moves the solved keyframes and those mapped during the solve, in chunks of
-  // align.loops.apply_chunk_keyframes, each under mapping_mu_ (not held by the caller).
-  void ApplySolution(const SE3d& T_map_base, const std::vector<Mapper::KeyframePoseUpdate>& solved,
+  // align.loops.apply_chunk_keyframes, each under mapping_mu_ (not held by the caller). `map`:
+  // the target's map the solve started from (a different one now: the solution is dropped).
+  void ApplySolution(const SolveTarget& target, const std::shared_ptr<const Mapper>& map,
+                     const SE3d& T_map_base, const std::vector<Mapper::KeyframePoseUpdate>& solved,
                      const GraphResult& result);
-  // mapping_mu_ held: the solution's moves in the base frame, plus those of the keyframes mapped
-  // during the solve (their number in *late_count).
+  // mapping_mu_ held: the solution's moves in `map`'s base frame, plus those of the keyframes
+  // mapped during the solve (their number in *late_count).
   std::vector<Mapper::KeyframePoseUpdate> SolutionUpdates(
-      const std::vector<Mapper::KeyframePoseUpdate>& solved, const GraphResult& result,
-      size_t* late_count);
+      const Mapper& map, const std::vector<Mapper::KeyframePoseUpdate>& solved,
+      const GraphResult& result, size_t* late_count);
   // After a solve: each moved session's placement follows its newest mapped keyframe, so the
   // keyframes it sends next continue from the corrected pose.
   // `mapped`: the keyframes the solve saw (id order); `moved`: their corrected poses.
-  void FollowCorrections(const std::vector<Mapper::KeyframePoseUpdate>& mapped,
+  void FollowCorrections(const SolveTarget& target,
+                         const std::vector<Mapper::KeyframePoseUpdate>& mapped,
                          const std::vector<Mapper::KeyframePoseUpdate>& moved);
+  // After a start (loading thread, once re-indexed): islands are mapped again at
+  // T_island_odom x odometry, so each island's graph is solved once more.
+  void CloseIslandLoopsAfterLoad();
+  // Reads a keyframe's stored products (for moves; the store outlives every reader).
+  Mapper::ProductSource ProductsFromStore() const;
   // Stored matches into the loop closer (loading thread, before re-indexing).
   void LoadPlaceMatches();
   std::optional<SessionRecord> SessionByRow(int64_t session_row);
@@ -277,6 +304,7 @@ class MapServer {
   bool merging_held_ = false;
   std::chrono::steady_clock::time_point last_checkpoint_ = std::chrono::steady_clock::now();
   std::mutex checkpoint_mu_;  // one checkpoint at a time
+  std::mutex close_loops_mu_;  // one CloseLoops at a time (aligning and loading threads)
   HandoffMutex mapping_mu_;   // held by the worker per keyframe and by UpdateKeyframePoses
   // Held from storing a keyframe until it is queued, so the worker maps keyframes in id order
   // (the order a restart loads them in).

@@ -60,7 +60,7 @@ void MapServer::RecognisePlace(const MapperKeyframe& kf) {
   std::vector<Mapper::KeyframePoseUpdate> moves;  // refined placements
   {
     std::lock_guard<HandoffMutex> mapping(mapping_mu_);
-    RecordMatches(outcome->matches);
+    RecordMatches(kf.session_row, outcome->matches);
     auto apply = [&](const SessionAlignment& a) {
       if (std::optional<HeldKeyframes> h = ApplyAlignment(a, &moves)) {
         held.push_back(std::move(*h));
@@ -143,6 +143,8 @@ MapServer::JoinedIsland MapServer::ApplyJoin(const IslandJoin& join) {
     }
   }
   Publish(islands_->Drop(join.from_island_row));
+  // Its loops are edges of the island it joined now.
+  if (closer_) closer_->MoveDue(join.from_island_row, join.island_row);
   // The keyframes the worker has seen (it may map newer ones there before these are in).
   return {join, worker_last_id_};
 }
@@ -199,7 +201,10 @@ std::optional<MapServer::HeldKeyframes> MapServer::ApplyAlignment(
   SetSessionCache(*s);
   // Its island's objects now enter the shared map (with the island's other sessions, which are
   // aligned with it).
-  Publish(islands_->Drop(s->island_row != 0 ? s->island_row : s->row_id));
+  const int64_t island_row = s->island_row != 0 ? s->island_row : s->row_id;
+  Publish(islands_->Drop(island_row));
+  // The island's loops are edges of the shared map's pose graph now.
+  if (closer_) closer_->MoveDue(island_row, kSharedGraph);
   if (a.refined) {
     std::vector<Mapper::KeyframePoseUpdate> m = SessionMoves(a);
     moves->insert(moves->end(), m.begin(), m.end());

@@ -7,6 +7,12 @@
 // change, and the moved keyframes are re-derived (Mapper::UpdateKeyframePoses, which emits the
 // object events) in chunks, each under the mapping lock (chunked_move.h); those mapped during
 // the solve follow their session (late_keyframes.h).
+//
+// Each map island (an unaligned robot's own map, island_maps.h) has a graph of its own over its
+// keyframes in its frame (LoopCloser's graph keyed by the island's row), solved and applied the
+// same way: its sessions' T_island_odom follow their corrected newest keyframes, and its map is
+// re-derived. The island's corrected poses are not stored: a restart maps the island again at
+// T_island_odom x odometry and solves its graph once more (MarkDue after re-indexing).
 #include <spdlog/spdlog.h>
 
 #include <chrono>
@@ -25,16 +31,36 @@ void MapServer::RecordForLoops(const MapperKeyframe& kf) {
                         kf.tracking_inliers, kf.has_gravity ? kf.gravity_cam : Vec3d::Zero()});
 }
 
-void MapServer::RecordMatches(const std::vector<VerifiedMatch>& matches) {
+int64_t MapServer::GraphOf(int64_t session_row) const {
+  if (aligner_->Alignment(session_row)) return kSharedGraph;
+  return aligner_->IslandOf(session_row).first;
+}
+
+void MapServer::RecordMatches(int64_t query_session_row,
+                              const std::vector<VerifiedMatch>& matches) {
   if (!closer_) return;
-  closer_->NoteRecognised();
+  const int64_t query_graph = GraphOf(query_session_row);
+  closer_->NoteRecognised(query_graph);
   for (const VerifiedMatch& m : matches) {
-    closer_->AddMatch(m);
+    // It counts towards the next solve of the graph holding both keyframes; a match between
+    // two islands (a join's) towards none until they are one.
+    const std::optional<LoopKeyframe> a = closer_->Keyframe(m.a_id);
+    const bool same_graph = a && GraphOf(a->session_row) == query_graph;
+    closer_->AddMatch(m, /*fresh=*/same_graph || query_graph == kSharedGraph,
+                      same_graph ? query_graph : kSharedGraph);
     const Status st = store_->PutPlaceMatch({m.a_id, m.b_id, m.T_a_b, m.inliers, m.rms_m});
     if (!st.ok()) {
       spdlog::warn("match of keyframes {} and {} not stored ({}); it is used until a restart",
                    m.a_id, m.b_id, st.ToString());
     }
+  }
+}
+
+void MapServer::CloseIslandLoopsAfterLoad() {
+  if (!closer_ || !islands_ || !reindexed_) return;
+  for (const IslandMaps::Island& island : islands_->List()) {
+    closer_->MarkDue(island.session_row);
+    CloseLoops(IslandTarget(island.session_row));
   }
 }
 
@@ -55,41 +81,104 @@ void MapServer::LoadPlaceMatches() {
 
 void MapServer::MaybeCloseLoops() {
   if (!closer_) return;
-  // A snapshot of the mapped keyframes under mapping_mu_; the solve runs without it, so the
-  // mapping worker goes on (a solve takes seconds at 10k keyframes). After a start the graph
-  // waits for every stored keyframe's odometry (Reindex), and for the map frame, whose z the
-  // 4-DoF solve holds.
+  CloseLoops(SharedTarget());
+  if (!islands_) return;
+  for (const IslandMaps::Island& island : islands_->List()) {
+    CloseLoops(IslandTarget(island.session_row));
+  }
+}
+
+MapServer::SolveTarget MapServer::SharedTarget() {
+  SolveTarget t;
+  t.graph = kSharedGraph;
+  t.map = [this] { return std::shared_ptr<const Mapper>(std::shared_ptr<const Mapper>(), mapper_.get()); };
+  t.place = [this](int64_t row, const SE3d& T_base_odom) {
+    std::optional<SessionRecord> s = SessionByRow(row);
+    if (!s) return;
+    s->T_base_odom = T_base_odom;
+    aligner_->SetAlignment(row, T_base_odom);
+    if (Status st = store_->SetSessionAlignment(row, T_base_odom); !st.ok()) {
+      spdlog::warn("session {}: corrected placement not stored: {}", s->session_id, st.ToString());
+    }
+    SetSessionCache(*s);
+  };
+  t.move = [this](const std::vector<Mapper::KeyframePoseUpdate>& chunk, bool last) {
+    return UpdateKeyframePosesLocked(chunk, /*rebuild_octomap=*/last);
+  };
+  return t;
+}
+
+MapServer::SolveTarget MapServer::IslandTarget(int64_t island_row) {
+  SolveTarget t;
+  t.graph = island_row;
+  t.map = [this, island_row]() -> std::shared_ptr<const Mapper> {
+    const std::optional<IslandMaps::Island> island = islands_->Find(island_row);
+    return island ? island->map : nullptr;
+  };
+  t.place = [this, island_row](int64_t row, const SE3d& T_island_odom) {
+    std::optional<SessionRecord> s = SessionByRow(row);
+    if (!s) return;
+    s->island_row = island_row;
+    s->T_island_odom = T_island_odom;
+    aligner_->SetIsland(row, island_row, T_island_odom);
+    if (Status st = store_->SetSessionIsland(row, island_row, T_island_odom); !st.ok()) {
+      spdlog::warn("session {}: corrected island placement not stored: {}", s->session_id,
+                   st.ToString());
+    }
+    SetSessionCache(*s);
+  };
+  t.move = [this, island_row](const std::vector<Mapper::KeyframePoseUpdate>& chunk, bool last) {
+    return islands_->UpdateKeyframePoses(island_row, chunk, ProductsFromStore(), last);
+  };
+  return t;
+}
+
+// A snapshot of the target's mapped keyframes under mapping_mu_; the solve runs without it, so
+// the mapping worker goes on (a solve takes seconds at 10k keyframes). After a start the graph
+// waits for every stored keyframe's odometry (Reindex), and for the map frame, whose z the
+// 4-DoF solve holds.
+void MapServer::CloseLoops(const SolveTarget& target) {
+  std::lock_guard<std::mutex> one_at_a_time(close_loops_mu_);
+  std::shared_ptr<const Mapper> map;
   SE3d T_map_base;
   std::vector<Mapper::KeyframePoseUpdate> solved;
   bool gravity = false;
   {
     std::lock_guard<HandoffMutex> mapping(mapping_mu_);
-    if (!reindexed_ || !closer_->Due() || !mapper_->FrameSettled()) return;
-    T_map_base = mapper_->MapFromBaseFrame();
-    solved = mapper_->KeyframePoses();
-    gravity = mapper_->FrameSource().find("gravity") != std::string::npos;
+    map = target.map();
+    if (!map || !reindexed_ || !map->FrameSettled()) return;
+    const int64_t size = target.graph == kSharedGraph
+                             ? -1 : static_cast<int64_t>(map->KeyframePoses().size());
+    if (!closer_->Due(target.graph, size)) return;
+    T_map_base = map->MapFromBaseFrame();
+    solved = map->KeyframePoses();
+    gravity = map->FrameSource().find("gravity") != std::string::npos;
   }
   std::vector<MappedKeyframe> mapped;
   mapped.reserve(solved.size());
   for (const Mapper::KeyframePoseUpdate& p : solved) {
     mapped.push_back({p.keyframe_id, T_map_base * p.T_base_kf});
   }
-  auto result = closer_->Optimize(mapped, gravity);
+  auto result = closer_->Optimize(mapped, gravity, target.graph);
   if (!result.ok()) {
     spdlog::warn("pose graph not solved: {}", result.status().ToString());
     return;
   }
-  ApplySolution(T_map_base, solved, *result);
+  ApplySolution(target, map, T_map_base, solved, *result);
   ReleaseFreeHeapPages();  // the solve's graph (common/malloc_tuning.h)
 }
 
 // The lock is taken to check the frame, place the sessions and collect the moves, then for
 // each chunk of the move (chunked_move.h).
-void MapServer::ApplySolution(const SE3d& T_map_base,
+void MapServer::ApplySolution(const SolveTarget& target, const std::shared_ptr<const Mapper>& map,
+                              const SE3d& T_map_base,
                               const std::vector<Mapper::KeyframePoseUpdate>& solved,
                               const GraphResult& result) {
   auto same_frame = [&]() -> Status {
-    if (mapper_->MapFromBaseFrame().matrix().isApprox(T_map_base.matrix(), 1e-12)) {
+    if (target.map() != map) {
+      return absl::AbortedError("the island was aligned or joined another while its graph solved");
+    }
+    if (map->MapFromBaseFrame().matrix().isApprox(T_map_base.matrix(), 1e-12)) {
       return absl::OkStatus();
     }
     return absl::AbortedError("the map frame changed while the pose graph solved");
@@ -102,37 +191,40 @@ void MapServer::ApplySolution(const SE3d& T_map_base,
       spdlog::warn("pose graph solution dropped: {}", st.ToString());
       return;
     }
-    updates = SolutionUpdates(solved, result, &late);
+    updates = SolutionUpdates(*map, solved, result, &late);
     // Sessions are placed by the correction first: what the worker maps between two chunks is
     // mapped where the solution puts it.
-    FollowCorrections(solved, updates);
+    FollowCorrections(target, solved, updates);
   }
   const ChunkedMoveFigures moved = MoveInChunks(
       std::move(updates), static_cast<size_t>(options_.align.loops.apply_chunk_keyframes),
-      mapping_mu_, same_frame,
-      [this](const std::vector<Mapper::KeyframePoseUpdate>& chunk, bool last) {
-        return UpdateKeyframePosesLocked(chunk, /*rebuild_octomap=*/last);
-      });
-  closer_->NoteApplied(moved.total_ms, moved.chunks, moved.longest_hold_ms);
+      mapping_mu_, same_frame, target.move);
   const GraphStats& g = result.stats;
+  const std::string graph =
+      target.graph == kSharedGraph ? "pose graph" : "island " + IslandName(target.graph) + "'s pose graph";
+  if (target.graph == kSharedGraph) {
+    closer_->NoteApplied(moved.total_ms, moved.chunks, moved.longest_hold_ms);
+  } else {
+    closer_->NoteIslandApplied(target.graph, result.stats);
+  }
   spdlog::info(
-      "pose graph: {} keyframes, loops {} kept / {} rejected, merges {} kept / {} rejected, "
+      "{}: {} keyframes, loops {} kept / {} rejected, merges {} kept / {} rejected, "
       "{} unconnected parts, {}{} gravity priors, guard {:.0f} ms + solve {:.0f} ms; {} keyframes "
       "moved ({} of them mapped during the solve) in {:.0f} ms, {} chunks, mapping paused at most "
       "{:.0f} ms",
-      g.nodes, g.loops_accepted, g.loops_rejected, g.merges_accepted, g.merges_rejected,
+      graph, g.nodes, g.loops_accepted, g.loops_rejected, g.merges_accepted, g.merges_rejected,
       g.islands, g.four_dof ? "4-DoF, " : "", g.gravity_priors, g.pcm_ms, g.solve_ms,
       moved.moved, late, moved.total_ms, moved.chunks, moved.longest_hold_ms);
   if (!moved.status.ok()) {
-    spdlog::warn("pose graph solution partly applied ({} keyframes moved): {}", moved.moved,
+    spdlog::warn("{}: solution partly applied ({} keyframes moved): {}", graph, moved.moved,
                  moved.status.ToString());
   }
 }
 
 std::vector<Mapper::KeyframePoseUpdate> MapServer::SolutionUpdates(
-    const std::vector<Mapper::KeyframePoseUpdate>& solved, const GraphResult& result,
-    size_t* late_count) {
-  const SE3d T_base_map = mapper_->MapFromBaseFrame().inverse();
+    const Mapper& map, const std::vector<Mapper::KeyframePoseUpdate>& solved,
+    const GraphResult& result, size_t* late_count) {
+  const SE3d T_base_map = map.MapFromBaseFrame().inverse();
   std::vector<Mapper::KeyframePoseUpdate> updates;
   updates.reserve(result.updates.size());
   for (const KeyframePoseUpdate& u : result.updates) {
@@ -140,7 +232,7 @@ std::vector<Mapper::KeyframePoseUpdate> MapServer::SolutionUpdates(
   }
   // Keyframes mapped while the graph solved follow their session's correction.
   const std::vector<Mapper::KeyframePoseUpdate> late =
-      LateKeyframeUpdates(solved, updates, mapper_->KeyframePoses(), [&](int64_t id) {
+      LateKeyframeUpdates(solved, updates, map.KeyframePoses(), [&](int64_t id) {
         const std::optional<LoopKeyframe> kf = closer_->Keyframe(id);
         return kf ? std::optional<int64_t>(kf->session_row) : std::nullopt;
       });
@@ -149,7 +241,8 @@ std::vector<Mapper::KeyframePoseUpdate> MapServer::SolutionUpdates(
   return updates;
 }
 
-void MapServer::FollowCorrections(const std::vector<Mapper::KeyframePoseUpdate>& mapped,
+void MapServer::FollowCorrections(const SolveTarget& target,
+                                  const std::vector<Mapper::KeyframePoseUpdate>& mapped,
                                   const std::vector<Mapper::KeyframePoseUpdate>& moved) {
   std::map<int64_t, SE3d> moved_by_id;
   for (const Mapper::KeyframePoseUpdate& u : moved) moved_by_id[u.keyframe_id] = u.T_base_kf;
@@ -162,14 +255,7 @@ void MapServer::FollowCorrections(const std::vector<Mapper::KeyframePoseUpdate>&
   for (const auto& [row, last] : newest) {
     auto it = moved_by_id.find(last.first);
     if (it == moved_by_id.end()) continue;
-    std::optional<SessionRecord> s = SessionByRow(row);
-    if (!s) continue;
-    s->T_base_odom = it->second * last.second.inverse();
-    aligner_->SetAlignment(row, s->T_base_odom);
-    if (Status st = store_->SetSessionAlignment(row, s->T_base_odom); !st.ok()) {
-      spdlog::warn("session {}: corrected placement not stored: {}", s->session_id, st.ToString());
-    }
-    SetSessionCache(*s);
+    target.place(row, it->second * last.second.inverse());
   }
 }
 

@@ -226,22 +226,26 @@ grpc::Status QueryService::GetCloud(const loci::v1::GetCloudRequest& req,
   return grpc::Status::OK;
 }
 
+StatusOr<std::shared_ptr<const Mapper>> QueryService::MapNamed(const std::string& island) const {
+  if (island.empty()) {  // not owned: the server outlives the call
+    return std::shared_ptr<const Mapper>(std::shared_ptr<const Mapper>(), &server_->mapper());
+  }
+  std::optional<IslandMaps::Island> found =
+      server_->islands() ? server_->islands()->FindByName(island) : std::nullopt;
+  if (!found) {
+    return absl::NotFoundError("no map island named '" + island + "' (GetStats lists them)");
+  }
+  return found->map;
+}
+
 grpc::Status QueryService::GetOctomap(grpc::ServerContext* ctx,
                                       const loci::v1::GetOctomapRequest* req,
                                       loci::v1::GetOctomapResponse* resp) {
   if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
   if (Status ready = server_->CheckReady(); !ready.ok()) return ToGrpc(ready);
-  std::shared_ptr<const Mapper> island;
-  if (!req->island().empty()) {
-    std::optional<IslandMaps::Island> found =
-        server_->islands() ? server_->islands()->FindByName(req->island()) : std::nullopt;
-    if (!found) {
-      return grpc::Status(grpc::StatusCode::NOT_FOUND,
-                          "no map island named '" + req->island() + "' (GetStats lists them)");
-    }
-    island = found->map;
-  }
-  const Mapper& map = island ? *island : server_->mapper();
+  StatusOr<std::shared_ptr<const Mapper>> named = MapNamed(req->island());
+  if (!named.ok()) return ToGrpc(named.status());
+  const Mapper& map = **named;
   resp->set_octomap_bt(map.OctomapBt());  // waits for the queued scans
   resp->set_resolution_m(map.OctomapResolution());
   resp->set_node_count(map.Stats().octomap_nodes);
@@ -344,6 +348,7 @@ grpc::Status QueryService::FillAlignment(const std::vector<SessionRecord>& sessi
         out->set_island(island->name);
         out->set_island_objects(island->map->Stats().confirmed_objects);
         ToProto(island->map->MapFromBaseFrame() * s.T_island_odom, out->mutable_t_island_odom());
+        FillIslandGraph(island->session_row, out);
       }
     }
     auto n = server_->store().CountKeyframes(s.row_id);
@@ -410,6 +415,16 @@ void QueryService::FillPoseGraph(loci::v1::PoseGraphStats* out) {
   out->set_longest_hold_ms(st->longest_hold_ms);
 }
 
+void QueryService::FillIslandGraph(int64_t island_row, loci::v1::SessionAlignment* out) {
+  const std::optional<LoopStats> st = server_->loop_stats();
+  if (!st) return;
+  auto it = st->islands.find(island_row);
+  if (it == st->islands.end()) return;
+  out->set_island_optimizations(it->second.optimizations);
+  out->set_island_loops_accepted(it->second.last.loops_accepted);
+  out->set_island_loops_rejected(it->second.last.loops_rejected);
+}
+
 grpc::Status QueryService::GetTrajectories(grpc::ServerContext* ctx,
                                            const loci::v1::GetTrajectoriesRequest* req,
                                            loci::v1::GetTrajectoriesResponse* resp) {
@@ -420,8 +435,10 @@ grpc::Status QueryService::GetTrajectories(grpc::ServerContext* ctx,
 grpc::Status QueryService::GetTrajectories(const loci::v1::GetTrajectoriesRequest& req,
                                            loci::v1::GetTrajectoriesResponse* resp) {
   if (Status ready = server_->CheckReady(); !ready.ok()) return ToGrpc(ready);
+  StatusOr<std::shared_ptr<const Mapper>> map = MapNamed(req.island());
+  if (!map.ok()) return ToGrpc(map.status());
   const std::set<std::string> wanted(req.robots().begin(), req.robots().end());
-  for (const auto& [robot, traj] : server_->mapper().Trajectories()) {
+  for (const auto& [robot, traj] : (*map)->Trajectories()) {
     if (!wanted.empty() && !wanted.count(robot)) continue;
     loci::v1::Trajectory* t = resp->add_trajectories();
     t->set_robot(robot);

@@ -82,6 +82,10 @@ class QueryService final : public loci::v1::Query::Service {
   grpc::Status FillAlignment(const std::vector<SessionRecord>& sessions,
                              loci::v1::GetStatsResponse* resp);
   void FillPoseGraph(loci::v1::PoseGraphStats* out);
+  // An island's own pose-graph figures (SessionAlignment.island_*).
+  void FillIslandGraph(int64_t island_row, loci::v1::SessionAlignment* out);
+  // The shared map ("") or the map island named `island`; NOT_FOUND for an unknown island.
+  StatusOr<std::shared_ptr<const Mapper>> MapNamed(const std::string& island) const;
 
   MapServer* const server_;
   const std::shared_ptr<QueryEngine> engine_;

@@ -29,6 +29,7 @@
 #include "server/storage/sqlite_store.h"
 #include "synth/sequence_writer.h"
 #include "tests/server/keyframe_proto.h"
+#include "tests/server/island_robots.h"
 #include "tests/server/scene_stream.h"
 // Last: httplib pulls <resolv.h>, whose `_res` macro breaks Eigen headers included after it.
 #include <httplib.h>
@@ -36,96 +37,15 @@
 namespace loci::server {
 namespace {
 
+using testing::Rebased;
+using testing::Room;
+using testing::Running;
+using testing::SessionsByRobot;
+using testing::Start;
+using testing::Stats;
+using testing::Stream;
+
 namespace fs = std::filesystem;
-
-synth::SceneOptions Room(uint64_t seed) {
-  synth::SceneOptions o;
-  o.seed = seed;
-  o.num_frames = 45;
-  o.fps_hz = 5.0;
-  o.num_objects = 8;
-  return o;
-}
-
-// A running server with its gRPC endpoint and stubs.
-struct Running {
-  std::unique_ptr<MapServer> server;
-  std::unique_ptr<GrpcServer> grpc;
-  std::unique_ptr<loci::v1::Mapping::Stub> mapping;
-  std::unique_ptr<loci::v1::Query::Stub> query;
-};
-
-// The server's defaults, with depth read to 6 m as in the integration test (the synth rooms'
-// shelves stand about 4 m from the camera).
-ServerOptions Options() {
-  ServerOptions o;
-  EXPECT_TRUE(o.FromYamlFile(std::string(LOCI_SOURCE_DIR) + "/config/server.yaml").ok());
-  o.map.cloud.max_depth_m = 6.0;
-  o.map.octomap.max_range_m = 6.0;
-  return o;
-}
-
-// `loops`: loop closure (an island has none; the map B makes alone, compared with it, neither).
-Running Start(const std::string& db, bool loops = true) {
-  ServerOptions o = Options();
-  o.align.loops.enabled = loops;
-  o.db_path = db;
-  Running r;
-  auto server = MapServer::Open(o);
-  EXPECT_TRUE(server.ok()) << server.status();
-  if (!server.ok()) return r;
-  r.server = std::move(*server);
-  auto grpc = GrpcServer::Start(r.server.get(), "127.0.0.1:0", 64,
-                                std::make_shared<QueryAdapter>(QueryAdapterOptions{}));
-  EXPECT_TRUE(grpc.ok()) << grpc.status();
-  if (!grpc.ok()) return r;
-  r.grpc = std::move(*grpc);
-  auto channel = grpc::CreateChannel(absl::StrCat("127.0.0.1:", r.grpc->port()),
-                                     grpc::InsecureChannelCredentials());
-  r.mapping = loci::v1::Mapping::NewStub(channel);
-  r.query = loci::v1::Query::NewStub(channel);
-  return r;
-}
-
-// Views [first, end) as a robot sends them: with `own_odometry` the poses are re-based on view
-// `first` (the robot's odometry starts at the identity there), else the scene's.
-std::vector<loci::v1::Keyframe> Rebased(const std::vector<loci::v1::Keyframe>& views, size_t first,
-                                        bool own_odometry) {
-  const SE3d T_odom_world =
-      own_odometry ? PoseFromProto(views[first].t_odom_cam()).inverse() : SE3d::Identity();
-  std::vector<loci::v1::Keyframe> out(views.begin() + static_cast<std::ptrdiff_t>(first),
-                                      views.end());
-  for (loci::v1::Keyframe& kf : out) {
-    ToProto(T_odom_world * PoseFromProto(kf.t_odom_cam()), kf.mutable_t_odom_cam());
-  }
-  return out;
-}
-
-// Streams the keyframes as robot `robot` (seq = their index), waiting for each ack. Returns the
-// session id.
-std::string Stream(loci::v1::Mapping::Stub* stub, const std::string& robot,
-                   const std::vector<loci::v1::Keyframe>& keyframes) {
-  grpc::ClientContext open_ctx;
-  loci::v1::OpenSessionResponse session;
-  EXPECT_TRUE(stub->OpenSession(&open_ctx,
-                                testing::OpenRequest(robot, PinholeCamera::TumFr1(), false),
-                                &session)
-                  .ok());
-  grpc::ClientContext ctx;
-  auto stream = stub->StreamKeyframes(&ctx);
-  for (size_t i = 0; i < keyframes.size(); ++i) {
-    loci::v1::Keyframe kf = keyframes[i];
-    kf.set_session_id(session.session_id());
-    kf.set_seq(static_cast<int64_t>(i));
-    EXPECT_TRUE(stream->Write(kf));
-    loci::v1::KeyframeAck ack;
-    EXPECT_TRUE(stream->Read(&ack));
-    EXPECT_EQ(ack.status().code(), 0) << ack.status().message();
-  }
-  stream->WritesDone();
-  EXPECT_TRUE(stream->Finish().ok());
-  return session.session_id();
-}
 
 std::vector<loci::v1::Object> Find(loci::v1::Query::Stub* stub, bool include_islands) {
   grpc::ClientContext ctx;
@@ -145,21 +65,6 @@ std::pair<grpc::Status, loci::v1::GetOctomapResponse> Octomap(loci::v1::Query::S
   loci::v1::GetOctomapResponse resp;
   const grpc::Status status = stub->GetOctomap(&ctx, req, &resp);
   return {status, resp};
-}
-
-loci::v1::GetStatsResponse Stats(loci::v1::Query::Stub* stub) {
-  grpc::ClientContext ctx;
-  loci::v1::GetStatsResponse resp;
-  EXPECT_TRUE(stub->GetStats(&ctx, {}, &resp).ok());
-  return resp;
-}
-
-// Every session of the stats, by robot name.
-std::map<std::string, loci::v1::SessionAlignment> SessionsByRobot(
-    const loci::v1::GetStatsResponse& stats) {
-  std::map<std::string, loci::v1::SessionAlignment> out;
-  for (const auto& s : stats.session_alignments()) out[s.robot()] = s;
-  return out;
 }
 
 std::vector<loci::v1::Object> InIsland(const std::vector<loci::v1::Object>& objects,
@@ -223,6 +128,8 @@ class Islands : public ::testing::Test {
   std::map<std::string, std::vector<loci::v1::Keyframe>> views_;
 };
 
+// Loop closure off throughout: the island is compared with the map B makes alone and with
+// itself after a restart, exactly (an island's own loop closure: island_loops_test.cc).
 TEST_F(Islands, UnalignedRobotGetsAnExactIslandMapThatAlignmentDissolves) {
   const std::string db = dir_ + "/islands.db";
   std::string island;
@@ -230,7 +137,7 @@ TEST_F(Islands, UnalignedRobotGetsAnExactIslandMapThatAlignmentDissolves) {
   std::vector<loci::v1::Object> before_restart;
   loci::v1::GetOctomapResponse island_octomap;
   {
-    Running r = Start(db);
+    Running r = Start(db, /*loops=*/false);
     ASSERT_TRUE(r.server);
     Stream(r.mapping.get(), "A", Rebased(views_["a"], 0, false));
     island = Stream(r.mapping.get(), "B", Rebased(views_["b"], 0, true));
@@ -316,7 +223,7 @@ TEST_F(Islands, UnalignedRobotGetsAnExactIslandMapThatAlignmentDissolves) {
     EXPECT_EQ(island_octomap.octomap_bt(), solo_octomap.octomap_bt());
   }
   // A restart re-derives the island from the stored products: the same objects.
-  Running r = Start(db);
+  Running r = Start(db, /*loops=*/false);
   ASSERT_TRUE(r.server);
   const std::vector<loci::v1::Object> after = InIsland(Find(r.query.get(), true), island);
   ASSERT_EQ(after.size(), before_restart.size());
