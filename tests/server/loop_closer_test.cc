@@ -203,5 +203,50 @@ TEST(LoopCloser, ASecondSessionJoinsThroughMerges) {
   EXPECT_EQ(closer.Stats().merge_matches, merges.size());
 }
 
+// An island's graph (keyed by its island row) counts its own matches: they make it due, not the
+// shared map's; its solve is counted apart once applied; when the island is aligned its pending
+// matches count for the shared graph.
+TEST(LoopCloser, AnIslandsGraphIsDueOnItsOwnMatchesAndMovesToTheShared) {
+  const Scene s = MakeScene();
+  LoopCloser closer(GraphOptions{}, Options());
+  constexpr int64_t kIsland = 7;
+  for (const KeyframeNode& n : s.robot.nodes) {
+    closer.AddKeyframe({n.keyframe_id, kIsland, 0, n.t_ns, n.T_map_kf});
+    closer.NoteRecognised(kIsland);
+  }
+  for (const GraphEdge& e : s.loops) {
+    closer.AddMatch({e.from_id, e.to_id, e.T_a_b, 100, 0.01, true}, true, kIsland);
+  }
+  const int64_t size = static_cast<int64_t>(s.robot.nodes.size());
+  EXPECT_TRUE(closer.Due(kIsland, size));
+  EXPECT_FALSE(closer.Due(kSharedGraph));
+  const std::vector<MappedKeyframe> mapped = Mapped(s.robot);
+  auto r = closer.Optimize(mapped, true, kIsland);
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_LT(Ate(s.robot, Apply(mapped, *r)), Ate(s.robot, Apply(mapped, GraphResult{})) / 3);
+  EXPECT_FALSE(closer.Due(kIsland, size));  // reset by the solve
+  EXPECT_EQ(closer.Stats().optimizations, 0u);  // the shared map's figures are untouched
+  EXPECT_TRUE(closer.Stats().islands.empty());  // counted once applied
+  closer.NoteIslandApplied(kIsland, r->stats);
+  ASSERT_EQ(closer.Stats().islands.count(kIsland), 1u);
+  EXPECT_EQ(closer.Stats().islands.at(kIsland).optimizations, 1u);
+  EXPECT_GT(closer.Stats().islands.at(kIsland).last.loops_accepted, 0u);
+  // New island matches pending, then the island is aligned: the shared graph is due.
+  for (size_t i = 0; i < 3; ++i) {
+    const GraphEdge& e = s.loops[i];
+    closer.AddMatch({e.from_id, e.to_id, e.T_a_b, 100, 0.01, true}, true, kIsland);
+  }
+  for (size_t i = 0; i < s.robot.nodes.size(); ++i) closer.NoteRecognised(kIsland);
+  EXPECT_TRUE(closer.Due(kIsland, size));
+  closer.MoveDue(kIsland, kSharedGraph);
+  EXPECT_FALSE(closer.Due(kIsland, size));
+  EXPECT_TRUE(closer.Due(kSharedGraph));
+  EXPECT_TRUE(closer.Stats().islands.empty());
+  // MarkDue: due without new matches (an island mapped again after a restart).
+  EXPECT_FALSE(closer.Due(9, 10));
+  closer.MarkDue(9);
+  EXPECT_TRUE(closer.Due(9, 10));
+}
+
 }  // namespace
 }  // namespace loci::server
