@@ -25,7 +25,8 @@ Status LoopOptions::FromYaml(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node, "align.loops",
                                       {"enabled", "min_gap_s", "sigma_trans_m", "sigma_rot_rad",
                                        "optimize_every_edges", "optimize_min_keyframes",
-                                       "optimize_growth", "apply_chunk_keyframes"}));
+                                       "optimize_growth", "apply_chunk_keyframes",
+                                       "island_max_verify"}));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "enabled", &enabled));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "min_gap_s", &min_gap_s));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "sigma_trans_m", &sigma_trans_m));
@@ -34,6 +35,7 @@ Status LoopOptions::FromYaml(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "optimize_min_keyframes", &optimize_min_keyframes));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "optimize_growth", &optimize_growth));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "apply_chunk_keyframes", &apply_chunk_keyframes));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "island_max_verify", &island_max_verify));
   return Validate();
 }
 
@@ -51,6 +53,9 @@ Status LoopOptions::Validate() const {
   }
   if (apply_chunk_keyframes < 0) {
     return absl::InvalidArgumentError("align.loops.apply_chunk_keyframes must be >= 0");
+  }
+  if (island_max_verify < 0 || island_max_verify > 50) {
+    return absl::InvalidArgumentError("align.loops.island_max_verify must be in [0, 50]");
   }
   return absl::OkStatus();
 }

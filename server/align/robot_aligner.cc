@@ -129,7 +129,8 @@ StatusOr<AlignOutcome> RobotAligner::AddKeyframe(const AlignKeyframe& kf, const 
   std::optional<SessionAlignment>& result = out.alignment;
   if (match && !aligned) {
     // With loops, also its own island's older keyframes: the island's own loop closure.
-    out.matches = Match(kf, features, bow, /*loops=*/options_.loops.enabled,
+    out.matches = Match(kf, features, bow,
+                        /*loops=*/options_.loops.enabled && options_.loops.island_max_verify > 0,
                         /*query_aligned=*/false, dense.get());
     result = Gate(kf, Estimates(kf, out.matches));
     if (result) {
@@ -176,10 +177,10 @@ std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
                                                bool query_aligned,
                                                const place::DenseFrame* dense) {
   std::vector<VerifiedMatch> matches;
-  // An unaligned query verifies max_verify candidates of its own island (its loops) and as many
-  // of the rest (where it may be aligned or joined), so revisiting its own places does not
-  // delay its alignment.
-  int tried = 0, tried_own_island = 0;
+  // An unaligned query verifies loops.island_max_verify candidates of its own island (its loops)
+  // and max_verify of the rest (where it may be aligned or joined), so revisiting its own places
+  // does not delay its alignment.
+  int tried = 0, tried_own_island = 0, dense_tried = 0;
   uint64_t verified = 0, rejected = 0, missing = 0;
   const uint64_t read_before = cache_.Stats().misses;
   for (const place::PlaceCandidate& c : db_.Query(bow, Key(kf.session_row))) {
@@ -195,8 +196,9 @@ std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
       continue;
     }
     int& budget = own_island ? tried_own_island : tried;
-    if (budget >= options_.max_verify) {
-      const bool own_done = query_aligned || !loops || tried_own_island >= options_.max_verify;
+    if (budget >= (own_island ? options_.loops.island_max_verify : options_.max_verify)) {
+      const bool own_done =
+          query_aligned || !loops || tried_own_island >= options_.loops.island_max_verify;
       if (tried >= options_.max_verify && own_done) break;
       continue;
     }
@@ -213,8 +215,10 @@ std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
       ++rejected;
       continue;
     }
+    // An unaligned robot's own loops are not refined densely (about 25 ms each): its keyframes
+    // go through place recognition as fast as they can, so that it is aligned soon.
+    const bool refine = !own_island && static_cast<int>(++dense_tried) <= place_.dense.max_per_keyframe;
     ++verified;
-    const bool refine = static_cast<int>(verified) <= place_.dense.max_per_keyframe;
     const SE3d T_a_b = RefinedDense(c.keyframe_id, refine ? dense : nullptr, v.T_a_b);
     matches.push_back({c.keyframe_id, kf.keyframe_id, T_a_b, v.inliers, v.rms_m, loop});
   }

@@ -82,7 +82,9 @@ void MapServer::LoadPlaceMatches() {
 void MapServer::MaybeCloseLoops() {
   if (!closer_) return;
   CloseLoops(SharedTarget());
-  if (!islands_) return;
+  // Islands wait while keyframes queue for place recognition: an unaligned robot's alignment
+  // comes before its island's own loops (a solve of a 1000-keyframe island takes about 0.5 s).
+  if (!islands_ || align_queue_.size() > 0) return;
   for (const IslandMaps::Island& island : islands_->List()) {
     CloseLoops(IslandTarget(island.session_row));
   }
