@@ -217,7 +217,8 @@ std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
     }
     // An unaligned robot's own loops are not refined densely (about 25 ms each): its keyframes
     // go through place recognition as fast as they can, so that it is aligned soon.
-    const bool refine = !own_island && static_cast<int>(++dense_tried) <= place_.dense.max_per_keyframe;
+    const bool refine =
+        !own_island && static_cast<int>(++dense_tried) <= place_.dense.max_per_keyframe;
     ++verified;
     const SE3d T_a_b = RefinedDense(c.keyframe_id, refine ? dense : nullptr, v.T_a_b);
     matches.push_back({c.keyframe_id, kf.keyframe_id, T_a_b, v.inliers, v.rms_m, loop});

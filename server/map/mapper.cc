@@ -423,6 +423,11 @@ std::vector<Mapper::KeyframePoseUpdate> Mapper::KeyframePoses() const {
   return out;
 }
 
+size_t Mapper::KeyframeCount() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return keyframe_poses_.size();
+}
+
 bool Mapper::HasKeyframe(int64_t keyframe_id) const {
   std::lock_guard<std::mutex> lock(mu_);
   const auto it = std::lower_bound(

@@ -160,6 +160,8 @@ class Mapper {
   std::map<std::string, Trajectory> Trajectories() const;
   // Every integrated keyframe's id and camera pose in the base frame, in id order.
   std::vector<KeyframePoseUpdate> KeyframePoses() const;
+  // How many keyframes are integrated (KeyframePoses().size() without the copy).
+  size_t KeyframeCount() const;
   // Whether the keyframe is in the map.
   bool HasKeyframe(int64_t keyframe_id) const;
   std::map<std::string, RobotPose> LatestPoses() const;

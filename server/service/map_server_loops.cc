@@ -42,12 +42,11 @@ void MapServer::RecordMatches(int64_t query_session_row,
   const int64_t query_graph = GraphOf(query_session_row);
   closer_->NoteRecognised(query_graph);
   for (const VerifiedMatch& m : matches) {
-    // It counts towards the next solve of the graph holding both keyframes; a match between
-    // two islands (a join's) towards none until they are one.
+    // It counts towards the next solve of the graph holding both keyframes; any other (an
+    // unaligned robot's merge with an aligned one, a join's) towards the shared map's.
     const std::optional<LoopKeyframe> a = closer_->Keyframe(m.a_id);
     const bool same_graph = a && GraphOf(a->session_row) == query_graph;
-    closer_->AddMatch(m, /*fresh=*/same_graph || query_graph == kSharedGraph,
-                      same_graph ? query_graph : kSharedGraph);
+    closer_->AddMatch(m, /*fresh=*/true, same_graph ? query_graph : kSharedGraph);
     const Status st = store_->PutPlaceMatch({m.a_id, m.b_id, m.T_a_b, m.inliers, m.rms_m});
     if (!st.ok()) {
       spdlog::warn("match of keyframes {} and {} not stored ({}); it is used until a restart",
@@ -93,7 +92,9 @@ void MapServer::MaybeCloseLoops() {
 MapServer::SolveTarget MapServer::SharedTarget() {
   SolveTarget t;
   t.graph = kSharedGraph;
-  t.map = [this] { return std::shared_ptr<const Mapper>(std::shared_ptr<const Mapper>(), mapper_.get()); };
+  t.map = [this] {  // not owned: the server outlives its solves
+    return std::shared_ptr<const Mapper>(std::shared_ptr<const Mapper>(), mapper_.get());
+  };
   t.place = [this](int64_t row, const SE3d& T_base_odom) {
     std::optional<SessionRecord> s = SessionByRow(row);
     if (!s) return;
@@ -150,7 +151,7 @@ void MapServer::CloseLoops(const SolveTarget& target) {
     map = target.map();
     if (!map || !reindexed_ || !map->FrameSettled()) return;
     const int64_t size = target.graph == kSharedGraph
-                             ? -1 : static_cast<int64_t>(map->KeyframePoses().size());
+                             ? -1 : static_cast<int64_t>(map->KeyframeCount());
     if (!closer_->Due(target.graph, size)) return;
     T_map_base = map->MapFromBaseFrame();
     solved = map->KeyframePoses();
@@ -203,7 +204,8 @@ void MapServer::ApplySolution(const SolveTarget& target, const std::shared_ptr<c
       mapping_mu_, same_frame, target.move);
   const GraphStats& g = result.stats;
   const std::string graph =
-      target.graph == kSharedGraph ? "pose graph" : "island " + IslandName(target.graph) + "'s pose graph";
+      target.graph == kSharedGraph ? "pose graph"
+                                   : "island " + IslandName(target.graph) + "'s pose graph";
   if (target.graph == kSharedGraph) {
     closer_->NoteApplied(moved.total_ms, moved.chunks, moved.longest_hold_ms);
   } else {

@@ -42,7 +42,8 @@ std::vector<loci::v1::Keyframe> Drifted(std::vector<loci::v1::Keyframe> views,
   for (loci::v1::Keyframe& kf : views) {
     const double t_s = 1e-9 * static_cast<double>(kf.t_ns() - t0_ns);
     SE3d D = SE3d::Identity();
-    D.linear() = Eigen::AngleAxisd(yaw_deg_per_s * t_s * M_PI / 180, Vec3d::UnitZ()).toRotationMatrix();
+    D.linear() =
+        Eigen::AngleAxisd(yaw_deg_per_s * t_s * M_PI / 180, Vec3d::UnitZ()).toRotationMatrix();
     D.translation() = v_m_per_s * t_s;
     ToProto(D * PoseFromProto(kf.t_odom_cam()), kf.mutable_t_odom_cam());
   }
