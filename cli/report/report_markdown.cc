@@ -56,6 +56,8 @@ void HandMadeSection(std::string* md, const GroundTruthEval& e,
   if (!r.missed_gt_names.empty()) {
     absl::StrAppendFormat(md, "\nMissed: %s.\n", absl::StrJoin(r.missed_gt_names, ", "));
   }
+  // Each match and false positive with its evidence, as `loci eval objects` prints them.
+  absl::StrAppendFormat(md, "\n```\n%s```\n", FormatGroundTruthEval(e));
 }
 
 }  // namespace

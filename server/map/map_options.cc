@@ -19,7 +19,8 @@ constexpr const char* kFusionKeys[] = {
     "max_size_ratio",          "label_universe",    "min_likelihood",       "existence_p_real",
     "existence_p_false",       "confirm_llr",       "remove_llr",           "visibility",
     "centroid_min_part",       "class_size_slack",  "merge_box_containment",
-    "merge_sigmas",            "depth_sigma_at_1m", "view_sigma_rad",       "shape_min_label_views"};
+    "merge_sigmas",            "depth_sigma_at_1m", "view_sigma_rad",       "shape_min_label_views",
+    "existence_class_prior_views"};
 
 Status CheckMapKeys(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
@@ -151,6 +152,8 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_likelihood", &fusion.min_likelihood));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "existence_p_real", &fusion.existence_p_real));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "existence_p_false", &fusion.existence_p_false));
+    LOCI_RETURN_IF_ERROR(
+        ReadOptional(n, "existence_class_prior_views", &fusion.existence_class_prior_views));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "confirm_llr", &fusion.confirm_llr));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "remove_llr", &fusion.remove_llr));
     if (const YAML::Node v = n["visibility"]) {

@@ -103,6 +103,10 @@ struct FusionOptions {
   // an LLR >= confirm_llr (2.0); it is removed when the LLR falls to remove_llr (-4.0).
   double existence_p_real = 0.15;
   double existence_p_false = 0.03;
+  // Per-class detection rates (class_detection_rates.h): an object's p_real is its class's rate
+  // among the map's other confirmed objects, with a prior of this many views at
+  // existence_p_real, never below existence_p_real. <= 0: existence_p_real for every class (50).
+  double existence_class_prior_views = 50;
   double confirm_llr = 2.0;
   double remove_llr = -4.0;
   VisibilityOptions visibility;

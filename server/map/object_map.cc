@@ -113,6 +113,7 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
                                           std::vector<ObjectChange>* changes) {
   std::vector<int64_t> ids;
   ids.reserve(observations.size());
+  const ClassDetectionRates rates = Rates();
   for (const MapObservation& obs : observations) {
     VoxelSet keys;
     for (const ColoredPoint& p : obs.points_m) {
@@ -144,7 +145,7 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
     object.Observe(obs.class_name, obs.score, obs.session_row, obs.track_id, obs.robot,
                    obs.keyframe_id, obs.t_ns);
     object.ObserveRange(obs.range_m);
-    object.UpdateConfirmed(options_.confirm_observations, Existence(), options_.confirm_llr);
+    Judge(&object, rates);
     changes->push_back({kind, best_id, 0, {}});
     ids.push_back(MergeDuplicates(best_id, changes));
   }
@@ -192,7 +193,7 @@ int64_t ObjectMap::MergeDuplicates(int64_t id, std::vector<ObjectChange>* change
       // The older object survives, so ids handed out earlier stay valid where possible.
       const int64_t keep = std::min(id, other_id), drop = std::max(id, other_id);
       objects_.at(keep).Absorb(objects_.at(drop));
-      objects_.at(keep).UpdateConfirmed(options_.confirm_observations, Existence(), options_.confirm_llr);
+      Judge(&objects_.at(keep), Rates());
       ObjectChange removed{ObjectChange::Kind::kRemoved, drop, 0, objects_.at(drop).Snapshot()};
       objects_.erase(drop);
       merged_into_[drop] = keep;
@@ -237,14 +238,14 @@ void ObjectMap::ObserveView(const KeyframeView& view, const std::vector<int64_t>
   std::unordered_set<int64_t> observed;
   for (int64_t id : observed_ids) observed.insert(Resolve(id));
   std::vector<int64_t> gone;
+  const ClassDetectionRates rates = Rates();
   for (auto& [id, object] : objects_) {
     if (observed.count(id)) continue;
     if (!ExpectedInView(object.sample_m(), object.half_size_m(), view, options_.visibility)) {
       continue;
     }
     object.Miss();
-    object.UpdateConfirmed(options_.confirm_observations, Existence(), options_.confirm_llr);
-    if (object.ExistenceLlr(Existence()) <= options_.remove_llr) {
+    if (Judge(&object, rates) <= options_.remove_llr) {
       gone.push_back(id);
     }
   }
@@ -252,6 +253,20 @@ void ObjectMap::ObserveView(const KeyframeView& view, const std::vector<int64_t>
     changes->push_back({ObjectChange::Kind::kRemoved, id, 0, objects_.at(id).Snapshot()});
     objects_.erase(id);
   }
+}
+
+ClassDetectionRates ObjectMap::Rates() const {
+  ClassDetectionRates rates({options_.existence_p_real, options_.existence_p_false},
+                            options_.existence_class_prior_views);
+  for (const auto& [id, object] : objects_) {
+    if (object.confirmed()) rates.Add(object);
+  }
+  return rates;
+}
+
+double ObjectMap::Judge(FusedObject* object, const ClassDetectionRates& rates) const {
+  object->UpdateConfirmed(options_.confirm_observations, rates.For(*object), options_.confirm_llr);
+  return object->ExistenceLlr(rates.base());
 }
 
 int64_t ObjectMap::Resolve(int64_t id) const {

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "common/map_object.h"
+#include "server/map/class_detection_rates.h"
 #include "server/map/fused_object.h"
 #include "server/map/map_options.h"
 #include "server/map/visibility.h"
@@ -107,9 +108,13 @@ class ObjectMap {
  private:
   // An empty object with the map's options.
   FusedObject NewObject(int64_t id) const;
-  FusedObject::ExistenceModel Existence() const {
-    return {options_.existence_p_real, options_.existence_p_false};
-  }
+  // The existence models of this moment: per-class detection rates of the confirmed objects.
+  ClassDetectionRates Rates() const;
+  // Re-decides whether `object` is confirmed by the model `rates` gives it. Returns its LLR by
+  // the base model, which decides removal: an object its class's rate leaves unconfirmed stays
+  // as a candidate and keeps its evidence (removed, a box recurring at one spot would come back
+  // as a new object and be confirmed again before its misses add up).
+  double Judge(FusedObject* object, const ClassDetectionRates& rates) const;
   // Duplicates (MergeDuplicates' rules); self_keys and self_box cache self's voxel keys and box.
   bool Duplicates(const FusedObject& self, const FusedObject& other, VoxelSet* self_keys,
                   std::optional<MapObject>* self_box) const;
