@@ -153,6 +153,11 @@ class MapServer {
   // only refines the placement has none: its mapped keyframes' moves go to `moves`.
   std::optional<HeldKeyframes> ApplyAlignment(const SessionAlignment& alignment,
                                               std::vector<Mapper::KeyframePoseUpdate>* moves);
+  // Before an aligned island is dropped: stores its keyframes' poses, as its own loop closure
+  // corrected them, in the shared base frame (T_base_island * T_island_kf), so its held
+  // keyframes enter the shared map corrected rather than at their odometry. False when there
+  // is no such island or the poses were not stored.
+  bool StoreIslandPoses(int64_t island_row, const SE3d& T_base_island);
   // Maps the held keyframes into the shared map in chunks of align.held_chunk_keyframes, each
   // under mapping_mu_ (not held by the caller), then checkpoints.
   void MapHeldKeyframes(const std::vector<HeldKeyframes>& sessions);

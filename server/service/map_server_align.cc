@@ -202,6 +202,7 @@ std::optional<MapServer::HeldKeyframes> MapServer::ApplyAlignment(
   // Its island's objects now enter the shared map (with the island's other sessions, which are
   // aligned with it).
   const int64_t island_row = s->island_row != 0 ? s->island_row : s->row_id;
+  if (!a.refined) StoreIslandPoses(island_row, s->T_base_odom * s->T_island_odom.inverse());
   Publish(islands_->Drop(island_row));
   // The island's loops are edges of the shared map's pose graph now.
   if (closer_) closer_->MoveDue(island_row, kSharedGraph);
@@ -214,6 +215,22 @@ std::optional<MapServer::HeldKeyframes> MapServer::ApplyAlignment(
   // and are mapped at the new placement when the worker reaches them; the worker may also map
   // some directly before the held ones are in).
   return HeldKeyframes{*s, worker_last_id_};
+}
+
+bool MapServer::StoreIslandPoses(int64_t island_row, const SE3d& T_base_island) {
+  const std::optional<IslandMaps::Island> island = islands_ ? islands_->Find(island_row)
+                                                            : std::nullopt;
+  if (!island) return false;
+  std::vector<KeyframePoseRecord> poses;
+  for (const Mapper::KeyframePoseUpdate& kf : island->map->KeyframePoses()) {
+    poses.push_back({kf.keyframe_id, T_base_island * kf.T_base_kf});
+  }
+  if (Status st = store_->PutKeyframePoses(poses); !st.ok()) {
+    spdlog::warn("island {}: corrected keyframe poses not stored ({}); its held keyframes enter "
+                 "the map at their odometry", island->name, st.ToString());
+    return false;
+  }
+  return true;
 }
 
 void MapServer::MapHeldKeyframes(const std::vector<HeldKeyframes>& sessions) {

@@ -153,5 +153,85 @@ TEST(IslandLoops, AnUnalignedRobotsDriftIsCutToAThirdInItsIsland) {
   if (!::testing::Test::HasFailure()) fs::remove_all(dir);
 }
 
+// B's keyframes in the shared map (its robot's trajectory there), up to t_last_ns.
+Trajectory SharedTrajectory(loci::v1::Query::Stub* stub, const std::string& robot,
+                            int64_t t_last_ns) {
+  grpc::ClientContext ctx;
+  loci::v1::GetTrajectoriesResponse resp;
+  EXPECT_TRUE(stub->GetTrajectories(&ctx, {}, &resp).ok());
+  Trajectory out;
+  for (const loci::v1::Trajectory& t : resp.trajectories()) {
+    if (t.robot() != robot) continue;
+    for (const loci::v1::StampedPose& p : t.poses()) {
+      if (p.t_ns() <= t_last_ns) out.push_back({p.t_ns(), PoseFromProto(p.t_map_cam())});
+    }
+  }
+  return out;
+}
+
+// Robot B drifts through room b as above, its island closes its loops, then B walks on into
+// room a (6 m and 0.3 rad away in the world), where robot A mapped: B is aligned and its island
+// dropped. The keyframes B held back must enter the shared map where its island's loop closure
+// put them, not at its drifted odometry. The shared graph is kept from solving (at most 120
+// keyframes per solve: A brings 45, B's island's pending ones and room a about 40), so what the
+// test reads is the merge itself.
+TEST(IslandLoops, AnAlignedIslandEntersTheSharedMapAsItsLoopsCorrectedIt) {
+  const std::string dir = ::testing::TempDir() + "/loci_island_merge_" + std::to_string(getpid());
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  ASSERT_TRUE(synth::WriteSequence(Room(2), dir + "/a").ok());
+  ASSERT_TRUE(synth::WriteSequence(Room(1, 150), dir + "/b").ok());
+  auto a = testing::LoadSceneKeyframes(dir + "/a");
+  auto b = testing::LoadSceneKeyframes(dir + "/b");
+  ASSERT_TRUE(a.ok() && b.ok());
+  // B's true path in room b's world: room b, then room a's views 10.. placed at T_b_a.
+  const SE3d T_b_a = MakeSE3(Vec3d(6.0, 0.0, 0.0), Quatd(Eigen::AngleAxisd(0.3, Vec3d::UnitZ())));
+  std::vector<loci::v1::Keyframe> path = *b;
+  int64_t t_ns = path.back().t_ns();
+  for (size_t i = 10; i < a->size(); ++i) {
+    loci::v1::Keyframe kf = (*a)[i];
+    t_ns += 200'000'000;
+    kf.set_t_ns(t_ns);
+    ToProto(T_b_a * PoseFromProto(kf.t_odom_cam()), kf.mutable_t_odom_cam());
+    path.push_back(kf);
+  }
+  const std::vector<loci::v1::Keyframe> sent =
+      Rebased(Drifted(path, 0.5, Vec3d(0.006, -0.005, 0)), 0, true);
+  const auto room_a_start = sent.begin() + static_cast<std::ptrdiff_t>(b->size());
+  const int64_t t_room_b_end_ns = b->back().t_ns();
+  const Trajectory truth = Poses(*b);
+
+  ServerOptions o = testing::Options();
+  o.align.loops.optimize_min_keyframes = 120;
+  Running r = Start(dir + "/island_merge.db", o);
+  ASSERT_TRUE(r.server);
+  Stream(r.mapping.get(), "A", Rebased(*a, 0, false));
+  const std::string island = Stream(r.mapping.get(), "B", {sent.begin(), room_a_start});
+  r.server->Flush();
+  const loci::v1::SessionAlignment in_b = IslandSolved(r.query.get(), 1);
+  ASSERT_FALSE(in_b.aligned());
+  ASSERT_GE(in_b.island_optimizations(), 1u);
+  const Trajectory in_island = IslandTrajectory(r.query.get(), island, "B");
+  testing::StreamInto(r.mapping.get(), island, {room_a_start, sent.end()},
+                      static_cast<int64_t>(b->size()));
+  r.server->Flush();
+  const loci::v1::GetStatsResponse stats = Stats(r.query.get());
+  ASSERT_TRUE(SessionsByRobot(stats)["B"].aligned()) << "B did not align in room a";
+  ASSERT_EQ(stats.pose_graph().optimizations(), 0u) << "the shared graph solved: the test reads "
+                                                       "that solve, not the merge";
+  const Trajectory shared = SharedTrajectory(r.query.get(), "B", t_room_b_end_ns);
+  ASSERT_EQ(shared.size(), in_island.size());
+  const double sent_ate = Ate(truth, Poses({sent.begin(), room_a_start}));
+  const double island_ate = Ate(truth, in_island), shared_ate = Ate(truth, shared);
+  // The island's shape, rigidly moved: the same trajectory up to float rounding.
+  const double from_island = Ate(in_island, shared);
+  std::printf("B's room-b keyframes, ATE: sent %.4f m, in its island %.4f m, in the shared map "
+              "after the merge %.4f m (%.5f m from the island's)\n",
+              sent_ate, island_ate, shared_ate, from_island);
+  EXPECT_LT(from_island, 1e-3);
+  EXPECT_LE(shared_ate, sent_ate / 3);
+  if (!::testing::Test::HasFailure()) fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace loci::server

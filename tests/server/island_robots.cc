@@ -31,6 +31,10 @@ ServerOptions Options() {
 Running Start(const std::string& db, bool loops) {
   ServerOptions o = Options();
   o.align.loops.enabled = loops;
+  return Start(db, o);
+}
+
+Running Start(const std::string& db, ServerOptions o) {
   o.db_path = db;
   Running r;
   auto server = MapServer::Open(o);
@@ -69,12 +73,18 @@ std::string Stream(loci::v1::Mapping::Stub* stub, const std::string& robot,
                                 testing::OpenRequest(robot, PinholeCamera::TumFr1(), false),
                                 &session)
                   .ok());
+  StreamInto(stub, session.session_id(), keyframes, 0);
+  return session.session_id();
+}
+
+void StreamInto(loci::v1::Mapping::Stub* stub, const std::string& session_id,
+                const std::vector<loci::v1::Keyframe>& keyframes, int64_t first_seq) {
   grpc::ClientContext ctx;
   auto stream = stub->StreamKeyframes(&ctx);
   for (size_t i = 0; i < keyframes.size(); ++i) {
     loci::v1::Keyframe kf = keyframes[i];
-    kf.set_session_id(session.session_id());
-    kf.set_seq(static_cast<int64_t>(i));
+    kf.set_session_id(session_id);
+    kf.set_seq(first_seq + static_cast<int64_t>(i));
     EXPECT_TRUE(stream->Write(kf));
     loci::v1::KeyframeAck ack;
     EXPECT_TRUE(stream->Read(&ack));
@@ -82,7 +92,6 @@ std::string Stream(loci::v1::Mapping::Stub* stub, const std::string& robot,
   }
   stream->WritesDone();
   EXPECT_TRUE(stream->Finish().ok());
-  return session.session_id();
 }
 
 loci::v1::GetStatsResponse Stats(loci::v1::Query::Stub* stub) {

@@ -34,6 +34,8 @@ ServerOptions Options();
 
 // `loops`: align.loops.enabled (loop closure of the shared map and of each island).
 Running Start(const std::string& db, bool loops = true);
+// With these options (their db_path is set to `db`).
+Running Start(const std::string& db, ServerOptions options);
 
 // Views [first, end) as a robot sends them: with `own_odometry` the poses are re-based on view
 // `first` (the robot's odometry starts at the identity there), else the scene's.
@@ -44,6 +46,9 @@ std::vector<loci::v1::Keyframe> Rebased(const std::vector<loci::v1::Keyframe>& v
 // session id.
 std::string Stream(loci::v1::Mapping::Stub* stub, const std::string& robot,
                    const std::vector<loci::v1::Keyframe>& keyframes);
+// Streams more keyframes into an open session, seq numbers from first_seq.
+void StreamInto(loci::v1::Mapping::Stub* stub, const std::string& session_id,
+                const std::vector<loci::v1::Keyframe>& keyframes, int64_t first_seq);
 
 loci::v1::GetStatsResponse Stats(loci::v1::Query::Stub* stub);
 
