@@ -171,6 +171,9 @@ class Mapper {
   const MapOptions& options() const { return options_; }
   // Blocks until the OctoMap holds every keyframe integrated so far.
   void FlushOctomap() const;
+  // Whether a rebuild after a pose update is still running: SaveCheckpoint would wait for it
+  // (about 9 ms per mapped keyframe).
+  bool OctomapRebuilding() const;
 
  private:
   struct OctomapScan {

@@ -111,4 +111,10 @@ void Mapper::FlushOctomap() const {
   });
 }
 
+bool Mapper::OctomapRebuilding() const {
+  if (!options_.octomap.enabled) return false;
+  std::lock_guard<std::mutex> lock(octomap_progress_mu_);
+  return rebuilt_generation_ < octomap_generation_.load();
+}
+
 }  // namespace loci::server

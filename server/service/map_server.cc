@@ -233,10 +233,19 @@ void MapServer::MaybeCheckpoint() {
   ++since_checkpoint_;
   if (merging_held_) return;  // MapHeldKeyframes checkpoints when they are all in
   const auto now = std::chrono::steady_clock::now();
-  if (since_checkpoint_ < static_cast<uint64_t>(options_.checkpoint_keyframes) &&
+  if (!checkpoint_due_ &&
+      since_checkpoint_ < static_cast<uint64_t>(options_.checkpoint_keyframes) &&
       now - last_checkpoint_ < std::chrono::duration<double>(options_.checkpoint_interval_s)) {
     return;
   }
+  // A checkpoint holds the OctoMap as rebuilt after the last pose update: the worker does not
+  // wait for that rebuild with the mapping lock held (about 9 ms per keyframe: 11 s at 1250,
+  // every robot's stream stopped meanwhile). It checkpoints on its first keyframe after.
+  if (mapper_->OctomapRebuilding()) {
+    checkpoint_due_ = true;
+    return;
+  }
+  checkpoint_due_ = false;
   if (Status s = Checkpoint(); !s.ok()) spdlog::warn("checkpoint: {}", s.ToString());
   since_checkpoint_ = 0;
   last_checkpoint_ = now;

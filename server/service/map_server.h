@@ -307,6 +307,9 @@ class MapServer {
   // While an aligned robot's held keyframes enter the map (MapHeldKeyframes) the worker does
   // not checkpoint; guarded by mapping_mu_.
   bool merging_held_ = false;
+  // A checkpoint fell due while the OctoMap was rebuilding: the worker takes it on its first
+  // keyframe after the rebuild; guarded by mapping_mu_.
+  bool checkpoint_due_ = false;
   std::chrono::steady_clock::time_point last_checkpoint_ = std::chrono::steady_clock::now();
   std::mutex checkpoint_mu_;  // one checkpoint at a time
   std::mutex close_loops_mu_;  // one CloseLoops at a time (aligning and loading threads)

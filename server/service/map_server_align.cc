@@ -221,6 +221,7 @@ bool MapServer::StoreIslandPoses(int64_t island_row, const SE3d& T_base_island) 
   const std::optional<IslandMaps::Island> island = islands_ ? islands_->Find(island_row)
                                                             : std::nullopt;
   if (!island) return false;
+  const auto start = std::chrono::steady_clock::now();
   std::vector<KeyframePoseRecord> poses;
   for (const Mapper::KeyframePoseUpdate& kf : island->map->KeyframePoses()) {
     poses.push_back({kf.keyframe_id, T_base_island * kf.T_base_kf});
@@ -230,6 +231,8 @@ bool MapServer::StoreIslandPoses(int64_t island_row, const SE3d& T_base_island) 
                  "the map at their odometry", island->name, st.ToString());
     return false;
   }
+  spdlog::info("island {}: {} keyframe poses stored in the base frame in {:.0f} ms", island->name,
+               poses.size(), MsSince(start));
   return true;
 }
 
@@ -267,12 +270,16 @@ void MapServer::MapHeldKeyframes(const std::vector<HeldKeyframes>& sessions) {
     std::lock_guard<HandoffMutex> mapping(mapping_mu_);
     merging_held_ = false;
     // The keyframes just mapped have ids below the last checkpoint's: checkpoint now, so a
-    // restart does not lose them from the map.
-    if (Status c = Checkpoint(); !c.ok()) {
+    // restart does not lose them from the map (a restart also maps those a checkpoint lacks).
+    // Not while the OctoMap rebuilds, which the worker would wait for: it checkpoints after.
+    since_checkpoint_ += all.moved;
+    if (mapper_->OctomapRebuilding()) {
+      checkpoint_due_ = true;  // MaybeCheckpoint takes it after the rebuild
+    } else if (Status c = Checkpoint(); !c.ok()) {
       spdlog::warn("checkpoint: {}", c.ToString());
-      since_checkpoint_ += all.moved;
     } else {
       since_checkpoint_ = 0;
+      checkpoint_due_ = false;
       last_checkpoint_ = std::chrono::steady_clock::now();
     }
   }
