@@ -45,18 +45,12 @@ bool LoopCloser::Due(int64_t graph, int64_t graph_keyframes) const {
   std::lock_guard<std::mutex> lock(mu_);
   auto it = pending_.find(graph);
   if (it == pending_.end()) return false;
-  if (it->second.marked) return true;
   const double size = graph_keyframes < 0 ? static_cast<double>(keyframes_.size())
                                           : static_cast<double>(graph_keyframes);
   const double min_keyframes =
       std::max<double>(options_.optimize_min_keyframes, options_.optimize_growth * size);
   return it->second.new_matches >= options_.optimize_every_edges &&
          static_cast<double>(it->second.recognised) >= min_keyframes;
-}
-
-void LoopCloser::MarkDue(int64_t graph) {
-  std::lock_guard<std::mutex> lock(mu_);
-  pending_[graph].marked = true;
 }
 
 void LoopCloser::MoveDue(int64_t from, int64_t to) {
@@ -71,7 +65,6 @@ void LoopCloser::MoveDue(int64_t from, int64_t to) {
   Pending& dst = pending_[to];
   dst.new_matches += it->second.new_matches;
   dst.recognised += it->second.recognised;
-  dst.marked = dst.marked || it->second.marked;
   pending_.erase(from);
 }
 

@@ -99,11 +99,9 @@ class LoopCloser {
   void NoteRecognised(int64_t graph = kSharedGraph);
   // Whether a solve of `graph` is due: optimize_every_edges new matches and
   // max(optimize_min_keyframes, optimize_growth x graph_keyframes) keyframes through place
-  // recognition since its last solve, or MarkDue. Counted in keyframes, not time, so the same
+  // recognition since its last solve. Counted in keyframes, not time, so the same
   // data gives the same solves and the same map. graph_keyframes < 0: every recorded keyframe.
   bool Due(int64_t graph = kSharedGraph, int64_t graph_keyframes = -1) const;
-  // The next Due(graph) is true (an island re-derived after a restart, its loops not applied).
-  void MarkDue(int64_t graph);
   // `from`'s pending matches and keyframes count for `to` from now on (an island aligned to the
   // shared map, or joined to another island); `from`'s counts and stats are dropped.
   void MoveDue(int64_t from, int64_t to);
@@ -132,7 +130,6 @@ class LoopCloser {
   struct Pending {
     int new_matches = 0;
     int recognised = 0;
-    bool marked = false;  // MarkDue
   };
 
   mutable std::mutex mu_;     // the records and stats

@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <functional>
 #include <mutex>
+#include <optional>
 #include <vector>
 
 #include "common/handoff_mutex.h"
@@ -41,6 +42,9 @@ ChunkedMoveFigures MoveInChunks(
 struct LoadedKeyframe {
   MapperKeyframe meta;
   KeyframeProducts products;
+  // Its stored corrected pose, in the frame of the map holding it: the shared base frame once
+  // its session is aligned (meta.T_base_kf then equals it), else its island's frame.
+  std::optional<SE3d> T_kf_corrected;
 };
 
 // Maps the keyframes `ids` (increasing), oldest first, at most chunk_keyframes per hold of `mu`

@@ -15,7 +15,7 @@ IslandMaps::IslandMaps(const MapOptions& options, bool octomap,
 
 void IslandMaps::Integrate(int64_t session_row, const std::string& island,
                            const MapperKeyframe& keyframe, const KeyframeProducts& products,
-                           const SE3d& T_island_odom) {
+                           const SE3d& T_island_odom, const std::optional<SE3d>& T_island_kf) {
   std::shared_ptr<Mapper> map;
   {
     std::lock_guard<std::mutex> lock(mu_);
@@ -43,7 +43,7 @@ void IslandMaps::Integrate(int64_t session_row, const std::string& island,
     map = std::const_pointer_cast<Mapper>(it->second.map);
   }
   MapperKeyframe in_island = keyframe;
-  in_island.T_base_kf = T_island_odom * keyframe.T_odom_kf;
+  in_island.T_base_kf = T_island_kf ? *T_island_kf : T_island_odom * keyframe.T_odom_kf;
   map->Integrate(in_island, products);
 }
 

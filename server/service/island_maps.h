@@ -44,8 +44,11 @@ class IslandMaps {
   // keyframe; `island` names it: its first session's id) from the keyframe's products, at
   // T_island_odom * T_odom_kf: an island's base frame is its first session's odometry frame, and
   // T_island_odom places the keyframe's session in it (identity for that first session).
+  // T_island_kf, when given, is the keyframe's pose in the island as its loop closure corrected
+  // it (stored), and replaces T_island_odom * T_odom_kf.
   void Integrate(int64_t island_row, const std::string& island, const MapperKeyframe& keyframe,
-                 const KeyframeProducts& products, const SE3d& T_island_odom = SE3d::Identity());
+                 const KeyframeProducts& products, const SE3d& T_island_odom = SE3d::Identity(),
+                 const std::optional<SE3d>& T_island_kf = std::nullopt);
   // Moves keyframes of island `island_row` to corrected poses in its base frame (the island's
   // own loop closure) and re-derives what they touch (Mapper::UpdateKeyframePoses; its object
   // events go to the listener). Mapping thread. NOT_FOUND: no such island.

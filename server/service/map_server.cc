@@ -119,7 +119,6 @@ void MapServer::LoadLoop() {
   FinishLoad(report.status());
   if (report.ok()) {
     Reindex();  // the stored keyframes into place recognition
-    CloseIslandLoopsAfterLoad();
   }
 }
 
@@ -193,11 +192,15 @@ StatusOr<size_t> MapServer::UpdateKeyframePosesLocked(
   since_checkpoint_ += *moved;  // the next checkpoint keeps the moved map
   // The poses themselves, so that a restart from an older checkpoint, a replay and a reprocess
   // all map these keyframes where they are now.
+  LOCI_RETURN_IF_ERROR(StoreCorrectedPoses(updates));
+  return moved;
+}
+
+Status MapServer::StoreCorrectedPoses(const std::vector<Mapper::KeyframePoseUpdate>& updates) {
   std::vector<KeyframePoseRecord> poses;
   poses.reserve(updates.size());
   for (const Mapper::KeyframePoseUpdate& u : updates) poses.push_back({u.keyframe_id, u.T_base_kf});
-  LOCI_RETURN_IF_ERROR(store_->PutKeyframePoses(poses));
-  return moved;
+  return store_->PutKeyframePoses(poses);
 }
 
 Status MapServer::Checkpoint() {

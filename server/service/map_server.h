@@ -129,6 +129,9 @@ class MapServer {
   MapServer(const ServerOptions& options, std::shared_ptr<MapStore> store,
             std::shared_ptr<detection::Detector> detector);
   void WorkerLoop();
+  // Stores keyframes' corrected poses, in the frame of the map holding them (the shared base
+  // frame, or an unaligned session's island's).
+  Status StoreCorrectedPoses(const std::vector<Mapper::KeyframePoseUpdate>& updates);
   // UpdateKeyframePoses with mapping_mu_ held by the caller.
   StatusOr<size_t> UpdateKeyframePosesLocked(const std::vector<Mapper::KeyframePoseUpdate>& updates,
                                              bool rebuild_octomap = true);
@@ -153,11 +156,12 @@ class MapServer {
   // only refines the placement has none: its mapped keyframes' moves go to `moves`.
   std::optional<HeldKeyframes> ApplyAlignment(const SessionAlignment& alignment,
                                               std::vector<Mapper::KeyframePoseUpdate>* moves);
-  // Before an aligned island is dropped: stores its keyframes' poses, as its own loop closure
-  // corrected them, in the shared base frame (T_base_island * T_island_kf), so its held
-  // keyframes enter the shared map corrected rather than at their odometry. False when there
-  // is no such island or the poses were not stored.
-  bool StoreIslandPoses(int64_t island_row, const SE3d& T_base_island);
+  // Before an island is dropped (aligned, or joined to another): stores its keyframes' poses, as
+  // its own loop closure corrected them, in the frame of the map that takes them
+  // (T_to_island * T_island_kf: the shared base frame, or the other island's), so they enter it
+  // corrected rather than at their odometry. False when there is no such island or the poses
+  // were not stored.
+  bool StoreIslandPoses(int64_t island_row, const SE3d& T_to_island);
   // Maps the held keyframes into the shared map in chunks of align.held_chunk_keyframes, each
   // under mapping_mu_ (not held by the caller), then checkpoints.
   void MapHeldKeyframes(const std::vector<HeldKeyframes>& sessions);
@@ -246,9 +250,6 @@ class MapServer {
   void FollowCorrections(const SolveTarget& target,
                          const std::vector<Mapper::KeyframePoseUpdate>& mapped,
                          const std::vector<Mapper::KeyframePoseUpdate>& moved);
-  // After a start (loading thread, once re-indexed): islands are mapped again at
-  // T_island_odom x odometry, so each island's graph is solved once more.
-  void CloseIslandLoopsAfterLoad();
   // Reads a keyframe's stored products (for moves; the store outlives every reader).
   Mapper::ProductSource ProductsFromStore() const;
   // Stored matches into the loop closer (loading thread, before re-indexing).

@@ -131,6 +131,14 @@ std::string MapServer::IslandName(int64_t island_row) {
 }
 
 MapServer::JoinedIsland MapServer::ApplyJoin(const IslandJoin& join) {
+  // Its keyframes enter the other island where its own loop closure put them (their poses
+  // carried over by any of its sessions' old and new placements, which differ by one transform).
+  if (!join.T_island_odom.empty()) {
+    const auto& [row, T_to_odom] = join.T_island_odom.front();
+    if (const std::optional<SessionRecord> s = SessionByRow(row)) {
+      StoreIslandPoses(join.from_island_row, T_to_odom * s->T_island_odom.inverse());
+    }
+  }
   for (const auto& [row, T] : join.T_island_odom) {
     if (Status st = store_->SetSessionIsland(row, join.island_row, T); !st.ok()) {
       spdlog::warn("session row {}: island join not stored ({}); it joins again after a restart "
@@ -178,7 +186,8 @@ uint64_t MapServer::MapIntoIsland(int64_t session_row, int64_t island_row,
       },
       [&](const LoadedKeyframe& kf) {
         if (in_island(kf.meta.keyframe_id)) return false;
-        islands_->Integrate(island_row, name, kf.meta, kf.products, T_island_odom);
+        islands_->Integrate(island_row, name, kf.meta, kf.products, T_island_odom,
+                            kf.T_kf_corrected);
         return true;
       });
   if (!f.status.ok()) {
@@ -217,22 +226,20 @@ std::optional<MapServer::HeldKeyframes> MapServer::ApplyAlignment(
   return HeldKeyframes{*s, worker_last_id_};
 }
 
-bool MapServer::StoreIslandPoses(int64_t island_row, const SE3d& T_base_island) {
+bool MapServer::StoreIslandPoses(int64_t island_row, const SE3d& T_to_island) {
   const std::optional<IslandMaps::Island> island = islands_ ? islands_->Find(island_row)
                                                             : std::nullopt;
   if (!island) return false;
   const auto start = std::chrono::steady_clock::now();
-  std::vector<KeyframePoseRecord> poses;
-  for (const Mapper::KeyframePoseUpdate& kf : island->map->KeyframePoses()) {
-    poses.push_back({kf.keyframe_id, T_base_island * kf.T_base_kf});
-  }
-  if (Status st = store_->PutKeyframePoses(poses); !st.ok()) {
-    spdlog::warn("island {}: corrected keyframe poses not stored ({}); its held keyframes enter "
-                 "the map at their odometry", island->name, st.ToString());
+  std::vector<Mapper::KeyframePoseUpdate> poses = island->map->KeyframePoses();
+  for (Mapper::KeyframePoseUpdate& kf : poses) kf.T_base_kf = T_to_island * kf.T_base_kf;
+  if (Status st = StoreCorrectedPoses(poses); !st.ok()) {
+    spdlog::warn("island {}: corrected keyframe poses not stored ({}); its keyframes enter the "
+                 "next map at their odometry", island->name, st.ToString());
     return false;
   }
-  spdlog::info("island {}: {} keyframe poses stored in the base frame in {:.0f} ms", island->name,
-               poses.size(), MsSince(start));
+  spdlog::info("island {}: {} corrected keyframe poses stored for the map that takes it in "
+               "{:.0f} ms", island->name, poses.size(), MsSince(start));
   return true;
 }
 
@@ -332,6 +339,7 @@ StatusOr<std::vector<LoadedKeyframe>> MapServer::LoadStored(const SessionRecord&
           return absl::OkStatus();
         }
         kf.products = std::move(*products);
+        kf.T_kf_corrected = rec.T_base_kf_corrected;
         out.push_back(std::move(kf));
         return absl::OkStatus();
       },

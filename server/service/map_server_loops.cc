@@ -11,8 +11,8 @@
 // Each map island (an unaligned robot's own map, island_maps.h) has a graph of its own over its
 // keyframes in its frame (LoopCloser's graph keyed by the island's row), solved and applied the
 // same way: its sessions' T_island_odom follow their corrected newest keyframes, and its map is
-// re-derived. The island's corrected poses are not stored: a restart maps the island again at
-// T_island_odom x odometry and solves its graph once more (MarkDue after re-indexing).
+// re-derived. The island's corrected poses are stored (in its frame), and a restart maps the
+// island again at them; keyframes newer than its last solve at T_island_odom x odometry.
 #include <spdlog/spdlog.h>
 
 #include <chrono>
@@ -55,13 +55,6 @@ void MapServer::RecordMatches(int64_t query_session_row,
   }
 }
 
-void MapServer::CloseIslandLoopsAfterLoad() {
-  if (!closer_ || !islands_ || !reindexed_) return;
-  for (const IslandMaps::Island& island : islands_->List()) {
-    closer_->MarkDue(island.session_row);
-    CloseLoops(IslandTarget(island.session_row));
-  }
-}
 
 void MapServer::LoadPlaceMatches() {
   if (!closer_) return;
@@ -131,7 +124,13 @@ MapServer::SolveTarget MapServer::IslandTarget(int64_t island_row) {
     SetSessionCache(*s);
   };
   t.move = [this, island_row](const std::vector<Mapper::KeyframePoseUpdate>& chunk, bool last) {
-    return islands_->UpdateKeyframePoses(island_row, chunk, ProductsFromStore(), last);
+    StatusOr<size_t> moved =
+        islands_->UpdateKeyframePoses(island_row, chunk, ProductsFromStore(), last);
+    // After the last chunk every keyframe's pose in the island's frame, those the solution left
+    // in place too (its anchor): their session's T_island_odom has moved, so a restart, which maps
+    // the island again, would otherwise put them at the new placement x odometry.
+    if (moved.ok() && last) StoreIslandPoses(island_row, SE3d::Identity());
+    return moved;
   };
   return t;
 }

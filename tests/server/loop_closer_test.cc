@@ -242,10 +242,6 @@ TEST(LoopCloser, AnIslandsGraphIsDueOnItsOwnMatchesAndMovesToTheShared) {
   EXPECT_FALSE(closer.Due(kIsland, size));
   EXPECT_TRUE(closer.Due(kSharedGraph));
   EXPECT_TRUE(closer.Stats().islands.empty());
-  // MarkDue: due without new matches (an island mapped again after a restart).
-  EXPECT_FALSE(closer.Due(9, 10));
-  closer.MarkDue(9);
-  EXPECT_TRUE(closer.Due(9, 10));
 }
 
 }  // namespace
