@@ -99,7 +99,16 @@ MapServer::SolveTarget MapServer::SharedTarget() {
     SetSessionCache(*s);
   };
   t.move = [this](const std::vector<Mapper::KeyframePoseUpdate>& chunk, bool last) {
-    return UpdateKeyframePosesLocked(chunk, /*rebuild_octomap=*/last);
+    StatusOr<size_t> moved = UpdateKeyframePosesLocked(chunk, /*rebuild_octomap=*/last);
+    // After the last chunk every keyframe's pose, those the solution left in place too (its
+    // anchor): their session's placement has moved, so a replay from the first keyframe (no
+    // usable checkpoint) would put them at the new placement x odometry.
+    if (moved.ok() && last) {
+      if (Status st = StoreCorrectedPoses(mapper_->KeyframePoses()); !st.ok()) {
+        spdlog::warn("keyframe poses after the solve not all stored: {}", st.ToString());
+      }
+    }
+    return moved;
   };
   return t;
 }
