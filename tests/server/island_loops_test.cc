@@ -95,18 +95,39 @@ loci::v1::SessionAlignment IslandSolved(loci::v1::Query::Stub* stub, uint64_t so
   return b;
 }
 
+// Rooms a (45 views) and b (150 views) of `loci synth`, written to a fresh folder `name`<pid>
+// (left empty when writing or reading them failed).
+struct TwoRooms {
+  std::string dir;
+  std::vector<loci::v1::Keyframe> a, b;
+};
+TwoRooms WriteRooms(const std::string& name) {
+  TwoRooms rooms;
+  rooms.dir = ::testing::TempDir() + "/" + name + std::to_string(getpid());
+  fs::remove_all(rooms.dir);
+  fs::create_directories(rooms.dir);
+  if (!synth::WriteSequence(Room(2), rooms.dir + "/a").ok() ||
+      !synth::WriteSequence(Room(1, 150), rooms.dir + "/b").ok()) {
+    return rooms;
+  }
+  auto a = testing::LoadSceneKeyframes(rooms.dir + "/a");
+  auto b = testing::LoadSceneKeyframes(rooms.dir + "/b");
+  if (a.ok() && b.ok()) {
+    rooms.a = std::move(*a);
+    rooms.b = std::move(*b);
+  }
+  return rooms;
+}
+
 TEST(IslandLoops, AnUnalignedRobotsDriftIsCutToAThirdInItsIsland) {
-  const std::string dir = ::testing::TempDir() + "/loci_island_loops_" + std::to_string(getpid());
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  ASSERT_TRUE(synth::WriteSequence(Room(2), dir + "/a").ok());
-  ASSERT_TRUE(synth::WriteSequence(Room(1, 150), dir + "/b").ok());
-  auto a = testing::LoadSceneKeyframes(dir + "/a");
-  auto b = testing::LoadSceneKeyframes(dir + "/b");
-  ASSERT_TRUE(a.ok() && b.ok());
+  const TwoRooms rooms = WriteRooms("loci_island_loops_");
+  ASSERT_FALSE(rooms.a.empty() || rooms.b.empty());
+  const std::string& dir = rooms.dir;
+  const std::vector<loci::v1::Keyframe>& a = rooms.a;
+  const std::vector<loci::v1::Keyframe>& b = rooms.b;
   const std::vector<loci::v1::Keyframe> b_sent =
-      Rebased(Drifted(*b, 0.5, Vec3d(0.006, -0.005, 0)), 0, true);
-  const Trajectory truth = Poses(*b);
+      Rebased(Drifted(b, 0.5, Vec3d(0.006, -0.005, 0)), 0, true);
+  const Trajectory truth = Poses(b);
   const double sent = Ate(truth, Poses(b_sent));
 
   const std::string db = dir + "/island_loops.db";
@@ -116,7 +137,7 @@ TEST(IslandLoops, AnUnalignedRobotsDriftIsCutToAThirdInItsIsland) {
   {
     Running r = Start(db);
     ASSERT_TRUE(r.server);
-    Stream(r.mapping.get(), "A", Rebased(*a, 0, false));
+    Stream(r.mapping.get(), "A", Rebased(a, 0, false));
     island = Stream(r.mapping.get(), "B", b_sent);
     r.server->Flush();
     const loci::v1::SessionAlignment s = IslandSolved(r.query.get(), 1);
@@ -180,20 +201,17 @@ Trajectory SharedTrajectory(loci::v1::Query::Stub* stub, const std::string& robo
 // keyframes per solve: A brings 45, B's island's pending ones and room a about 40), so what the
 // test reads is the merge itself.
 TEST(IslandLoops, AnAlignedIslandEntersTheSharedMapAsItsLoopsCorrectedIt) {
-  const std::string dir = ::testing::TempDir() + "/loci_island_merge_" + std::to_string(getpid());
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  ASSERT_TRUE(synth::WriteSequence(Room(2), dir + "/a").ok());
-  ASSERT_TRUE(synth::WriteSequence(Room(1, 150), dir + "/b").ok());
-  auto a = testing::LoadSceneKeyframes(dir + "/a");
-  auto b = testing::LoadSceneKeyframes(dir + "/b");
-  ASSERT_TRUE(a.ok() && b.ok());
+  const TwoRooms rooms = WriteRooms("loci_island_merge_");
+  ASSERT_FALSE(rooms.a.empty() || rooms.b.empty());
+  const std::string& dir = rooms.dir;
+  const std::vector<loci::v1::Keyframe>& a = rooms.a;
+  const std::vector<loci::v1::Keyframe>& b = rooms.b;
   // B's true path in room b's world: room b, then room a's views 10.. placed at T_b_a.
   const SE3d T_b_a = MakeSE3(Vec3d(6.0, 0.0, 0.0), Quatd(Eigen::AngleAxisd(0.3, Vec3d::UnitZ())));
-  std::vector<loci::v1::Keyframe> path = *b;
+  std::vector<loci::v1::Keyframe> path = b;
   int64_t t_ns = path.back().t_ns();
-  for (size_t i = 10; i < a->size(); ++i) {
-    loci::v1::Keyframe kf = (*a)[i];
+  for (size_t i = 10; i < a.size(); ++i) {
+    loci::v1::Keyframe kf = a[i];
     t_ns += 200'000'000;
     kf.set_t_ns(t_ns);
     ToProto(T_b_a * PoseFromProto(kf.t_odom_cam()), kf.mutable_t_odom_cam());
@@ -201,15 +219,15 @@ TEST(IslandLoops, AnAlignedIslandEntersTheSharedMapAsItsLoopsCorrectedIt) {
   }
   const std::vector<loci::v1::Keyframe> sent =
       Rebased(Drifted(path, 0.5, Vec3d(0.006, -0.005, 0)), 0, true);
-  const auto room_a_start = sent.begin() + static_cast<std::ptrdiff_t>(b->size());
-  const int64_t t_room_b_end_ns = b->back().t_ns();
-  const Trajectory truth = Poses(*b);
+  const auto room_a_start = sent.begin() + static_cast<std::ptrdiff_t>(b.size());
+  const int64_t t_room_b_end_ns = b.back().t_ns();
+  const Trajectory truth = Poses(b);
 
   ServerOptions o = testing::Options();
   o.align.loops.optimize_min_keyframes = 120;
   Running r = Start(dir + "/island_merge.db", o);
   ASSERT_TRUE(r.server);
-  Stream(r.mapping.get(), "A", Rebased(*a, 0, false));
+  Stream(r.mapping.get(), "A", Rebased(a, 0, false));
   const std::string island = Stream(r.mapping.get(), "B", {sent.begin(), room_a_start});
   r.server->Flush();
   const loci::v1::SessionAlignment in_b = IslandSolved(r.query.get(), 1);
@@ -217,7 +235,7 @@ TEST(IslandLoops, AnAlignedIslandEntersTheSharedMapAsItsLoopsCorrectedIt) {
   ASSERT_GE(in_b.island_optimizations(), 1u);
   const Trajectory in_island = IslandTrajectory(r.query.get(), island, "B");
   testing::StreamInto(r.mapping.get(), island, {room_a_start, sent.end()},
-                      static_cast<int64_t>(b->size()));
+                      static_cast<int64_t>(b.size()));
   r.server->Flush();
   const loci::v1::GetStatsResponse stats = Stats(r.query.get());
   ASSERT_TRUE(SessionsByRobot(stats)["B"].aligned()) << "B did not align in room a";
