@@ -234,12 +234,13 @@ bool MapServer::StoreIslandPoses(int64_t island_row, const SE3d& T_to_island) {
   std::vector<Mapper::KeyframePoseUpdate> poses = island->map->KeyframePoses();
   for (Mapper::KeyframePoseUpdate& kf : poses) kf.T_base_kf = T_to_island * kf.T_base_kf;
   if (Status st = StoreCorrectedPoses(poses); !st.ok()) {
-    spdlog::warn("island {}: corrected keyframe poses not stored ({}); its keyframes enter the "
-                 "next map at their odometry", island->name, st.ToString());
+    spdlog::warn("island {}: corrected keyframe poses not stored ({}); where its keyframes are "
+                 "mapped next (a restart, an alignment, a join) they are placed by odometry",
+                 island->name, st.ToString());
     return false;
   }
-  spdlog::info("island {}: {} corrected keyframe poses stored for the map that takes it in "
-               "{:.0f} ms", island->name, poses.size(), MsSince(start));
+  spdlog::info("island {}: {} corrected keyframe poses stored in {:.0f} ms", island->name,
+               poses.size(), MsSince(start));
   return true;
 }
 
