@@ -296,9 +296,14 @@ void FusedObject::RecomputeGeometry() {
   for (size_t i = 0; i < pts.size(); i += stride) sample_m_.push_back(pts[i]);
 }
 
+bool IsFlatTopClass(const std::vector<std::string>& flat_top_classes,
+                    const std::string& class_name) {
+  return std::find(flat_top_classes.begin(), flat_top_classes.end(), class_name) !=
+         flat_top_classes.end();
+}
+
 bool FusedObject::IsFlatTop() const {
-  const auto& c = support_.flat_top_classes;
-  return !c.empty() && std::find(c.begin(), c.end(), labels_.Argmax()) != c.end();
+  return IsFlatTopClass(support_.flat_top_classes, labels_.Argmax());
 }
 
 MapObject FusedObject::Snapshot() const {

@@ -74,6 +74,10 @@ struct FusedObjectCell {
   void Add(int label, int64_t delta);
 };
 
+// class_name is one of the flat-topped furniture classes (SupportOptions::flat_top_classes).
+bool IsFlatTopClass(const std::vector<std::string>& flat_top_classes,
+                    const std::string& class_name);
+
 class FusedObject {
  public:
   // centroid_from_box: see FusionOptions::centroid_from_box.

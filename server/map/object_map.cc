@@ -1,6 +1,5 @@
 #include "server/map/object_map.h"
 
-#include <algorithm>
 #include <optional>
 #include <set>
 
@@ -66,7 +65,14 @@ bool ObjectMap::FitsClass(const std::string& class_name, double size_m) const {
 
 bool ObjectMap::ClassesFit(const std::string& class_a, double size_a_m, const std::string& class_b,
                            double size_b_m) const {
-  return class_a == class_b || (FitsClass(class_a, size_b_m) && FitsClass(class_b, size_a_m));
+  if (class_a == class_b) return true;
+  // Furniture and what stands on it are two things, whatever their sizes: part of a desk top
+  // seen beside a book is not that book.
+  if (IsFlatTopClass(options_.flat_top_classes, class_a) !=
+      IsFlatTopClass(options_.flat_top_classes, class_b)) {
+    return false;
+  }
+  return FitsClass(class_a, size_b_m) && FitsClass(class_b, size_a_m);
 }
 
 double ObjectMap::AssociationScore(const FusedObject& object, const MapObservation& obs,

@@ -1,5 +1,5 @@
 // Object map rules measured on TUM fr1_rpy (docs/results.md, session 9): class size priors across
-// classes, the merge of same-class objects whose boxes overlap (far, smeared duplicates), and
+// classes, furniture kept apart from what stands on it (session 24), the merge of same-class objects whose boxes overlap (far, smeared duplicates), and
 // existence judged by the class's own detection rate (session 23).
 #include <gtest/gtest.h>
 
@@ -56,6 +56,31 @@ std::string DeskClass(double class_size_slack) {
 TEST(ObjectRules, ClassSizePriorKeepsADeskFromBecomingALaptop) {
   EXPECT_EQ(DeskClass(0.0), "laptop");  // off: the laptop views fuse into the desk and win
   EXPECT_EQ(DeskClass(1.5), "dining table");
+}
+
+// A book (0.25 x 0.19 m) on a desk, then views of the desk top around it that show only a
+// 0.43 x 0.35 m piece (a partial view): the desk pieces lie over the book's points and their size
+// fits a book's class limit, yet furniture is never what stands on it.
+// Returns the object count and the book's class.
+std::string BookClassAfterDeskPieces(bool flat_top_desks) {
+  FusionOptions opt = WithSizes(1.5);
+  if (flat_top_desks) opt.flat_top_classes = {"dining table"};
+  ObjectMap map(opt, 0.01);
+  std::vector<ObjectChange> changes;
+  int64_t book = 0;
+  for (int64_t kf = 1; kf <= 3; ++kf) {
+    book = map.Integrate({Rect("book", 0.6, 1, kf, 0.0, 0.25, 0.0, 0.19, 0.80)}, &changes)[0];
+  }
+  for (int64_t kf = 4; kf <= 8; ++kf) {
+    map.Integrate({Rect("dining table", 0.6, 0, kf, -0.09, 0.34, -0.08, 0.27, 0.80)}, &changes);
+  }
+  return std::to_string(map.size()) + " " + map.Find(map.Resolve(book))->labels().Argmax();
+}
+
+TEST(ObjectRules, APieceOfADeskTopNeverJoinsTheBookOnIt) {
+  // The size prior alone lets the pieces in: one object, and the book is gone.
+  EXPECT_EQ(BookClassAfterDeskPieces(false), "1 dining table");
+  EXPECT_EQ(BookClassAfterDeskPieces(true), "2 book");
 }
 
 // A view whose points fill the grid lo..hi with the given step per axis (map frame, z up).
