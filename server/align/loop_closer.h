@@ -58,9 +58,6 @@ struct MappedKeyframe {
   SE3d T_map_kf = SE3d::Identity();
 };
 
-// The graph of the shared map; map islands' graphs are keyed by their island's row (> 0).
-inline constexpr int64_t kSharedGraph = 0;
-
 // An island's latest solve (LoopStats::islands).
 struct IslandGraphStats {
   uint64_t optimizations = 0;  // solves of the island's graph applied to its map since start

@@ -262,6 +262,22 @@ std::shared_ptr<const place::DenseFrame> RobotAligner::DenseFrameOf(int64_t a_id
   return frame;
 }
 
+void RobotAligner::SetMappedPoses(int64_t map_row,
+                                  const std::vector<std::pair<int64_t, SE3d>>& T_map_kf) {
+  std::lock_guard<std::mutex> lock(mapped_mu_);
+  for (const auto& [id, T] : T_map_kf) mapped_[id] = {map_row, T};
+}
+
+SE3d RobotAligner::MappedPose(int64_t a_id, const IndexedKeyframe& a, int64_t map_row,
+                              const SE3d& T_map_odom) const {
+  {
+    std::lock_guard<std::mutex> lock(mapped_mu_);
+    auto it = mapped_.find(a_id);
+    if (it != mapped_.end() && it->second.map_row == map_row) return it->second.T_map_kf;
+  }
+  return T_map_odom * a.T_odom_kf;
+}
+
 std::vector<SE3d> RobotAligner::Estimates(const AlignKeyframe& kf,
                                           const std::vector<VerifiedMatch>& matches) const {
   std::vector<SE3d> estimates;
@@ -270,7 +286,8 @@ std::vector<SE3d> RobotAligner::Estimates(const AlignKeyframe& kf,
     const IndexedKeyframe& a = indexed_.at(m.a_id);
     const std::optional<SE3d> T_base_odom_a = Alignment(a.session_row);
     if (!T_base_odom_a) continue;
-    estimates.push_back(*T_base_odom_a * a.T_odom_kf * m.T_a_b * kf.T_odom_kf.inverse());
+    estimates.push_back(MappedPose(m.a_id, a, kSharedGraph, *T_base_odom_a) * m.T_a_b *
+                        kf.T_odom_kf.inverse());
   }
   return estimates;
 }
@@ -310,7 +327,8 @@ std::optional<IslandJoin> RobotAligner::Join(const AlignKeyframe& kf,
     if (m.loop || sessions_.at(a.session_row).T_base_odom) continue;
     const auto [island, T_island_odomA] = IslandOfLocked(a.session_row);
     if (island == own_island) continue;
-    const SE3d T_island_odom = T_island_odomA * a.T_odom_kf * m.T_a_b * kf.T_odom_kf.inverse();
+    const SE3d T_island_odom =
+        MappedPose(m.a_id, a, island, T_island_odomA) * m.T_a_b * kf.T_odom_kf.inverse();
     const place::ConsistencyGate::Decision d =
         gate_.Add(absl::StrCat("j", own_island, ">", island), kf.keyframe_id,
                   T_island_odom * T_own_odom.inverse());

@@ -34,6 +34,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "common/camera.h"
@@ -129,6 +130,9 @@ struct AlignStats {
 SE3d LevelOnto(const SE3d& T_to_from, const Vec3d& down_from, const Vec3d& down_to,
                const Vec3d& pivot_to);
 
+// The shared map (its graph, its frame); map islands are keyed by their island's row (> 0).
+inline constexpr int64_t kSharedGraph = 0;
+
 class RobotAligner {
  public:
   // `features` keeps every keyframe's features (it outlives the aligner); null: in memory.
@@ -168,6 +172,12 @@ class RobotAligner {
   Status IndexStored(const AlignKeyframe& kf, place::KeyframeFeatures features);
   // Places an aligned session anew (after a pose-graph solve moved its keyframes).
   void SetAlignment(int64_t session_row, const SE3d& T_base_odom);
+  // Where keyframes are mapped now, in the frame of map_row's map (kSharedGraph, 0: the base
+  // frame; else an island's row): a solve's corrected poses, or an island's carried into the
+  // base or another island. A match to such a keyframe estimates the placement from this pose
+  // instead of the keyframe's odometry x its session's placement, which a loop closure has left
+  // behind. Used while the keyframe's session is in that map; any thread.
+  void SetMappedPoses(int64_t map_row, const std::vector<std::pair<int64_t, SE3d>>& T_map_kf);
   bool Indexed(int64_t keyframe_id) const;
   // For a session aligned by place recognition since the start: how long it waited.
   std::optional<AlignmentDelay> Delay(int64_t session_row) const;
@@ -212,6 +222,10 @@ class RobotAligner {
   // Keyframe a_id's reduced images: from the cache, else read back through images_ and cached;
   // null when neither has them.
   std::shared_ptr<const place::DenseFrame> DenseFrameOf(int64_t a_id);
+  // Keyframe a's pose in the frame of map_row's map: the one SetMappedPoses gave while in that
+  // map, else T_map_odom (its session's placement there) x its odometry.
+  SE3d MappedPose(int64_t a_id, const IndexedKeyframe& a, int64_t map_row,
+                  const SE3d& T_map_odom) const;
   // IslandOf with sessions_mu_ held.
   std::pair<int64_t, SE3d> IslandOfLocked(int64_t session_row) const;
   // Whether two sessions are one unaligned island (sessions_mu_ not held).
@@ -249,6 +263,12 @@ class RobotAligner {
   std::map<int64_t, IndexedKeyframe> indexed_;  // by keyframe id
   mutable std::mutex stats_mu_;
   AlignStats stats_;
+  mutable std::mutex mapped_mu_;  // mapped_
+  struct MappedPoseOf {
+    int64_t map_row = 0;
+    SE3d T_map_kf = SE3d::Identity();
+  };
+  std::unordered_map<int64_t, MappedPoseOf> mapped_;  // by keyframe id (SetMappedPoses)
   mutable std::mutex sessions_mu_;  // sessions_ (Alignment / Known from other threads)
 };
 

@@ -192,14 +192,22 @@ StatusOr<size_t> MapServer::UpdateKeyframePosesLocked(
   since_checkpoint_ += *moved;  // the next checkpoint keeps the moved map
   // The poses themselves, so that a restart from an older checkpoint, a replay and a reprocess
   // all map these keyframes where they are now.
-  LOCI_RETURN_IF_ERROR(StoreCorrectedPoses(updates));
+  LOCI_RETURN_IF_ERROR(StoreCorrectedPoses(updates, kSharedGraph));
   return moved;
 }
 
-Status MapServer::StoreCorrectedPoses(const std::vector<Mapper::KeyframePoseUpdate>& updates) {
+Status MapServer::StoreCorrectedPoses(const std::vector<Mapper::KeyframePoseUpdate>& updates,
+                                      int64_t map_row) {
   std::vector<KeyframePoseRecord> poses;
   poses.reserve(updates.size());
-  for (const Mapper::KeyframePoseUpdate& u : updates) poses.push_back({u.keyframe_id, u.T_base_kf});
+  std::vector<std::pair<int64_t, SE3d>> mapped;
+  mapped.reserve(updates.size());
+  for (const Mapper::KeyframePoseUpdate& u : updates) {
+    poses.push_back({u.keyframe_id, u.T_base_kf});
+    mapped.emplace_back(u.keyframe_id, u.T_base_kf);
+  }
+  // Where the keyframes are mapped now, stored or not: later merges and joins start from it.
+  if (aligner_) aligner_->SetMappedPoses(map_row, mapped);
   return store_->PutKeyframePoses(poses);
 }
 

@@ -129,9 +129,11 @@ class MapServer {
   MapServer(const ServerOptions& options, std::shared_ptr<MapStore> store,
             std::shared_ptr<detection::Detector> detector);
   void WorkerLoop();
-  // Stores keyframes' corrected poses, in the frame of the map holding them (the shared base
-  // frame, or an unaligned session's island's).
-  Status StoreCorrectedPoses(const std::vector<Mapper::KeyframePoseUpdate>& updates);
+  // Stores keyframes' corrected poses, in the frame of the map holding them (map_row:
+  // kSharedGraph, the shared base frame, or an unaligned session's island's row), and gives them
+  // to the aligner.
+  Status StoreCorrectedPoses(const std::vector<Mapper::KeyframePoseUpdate>& updates,
+                             int64_t map_row);
   // UpdateKeyframePoses with mapping_mu_ held by the caller.
   StatusOr<size_t> UpdateKeyframePosesLocked(const std::vector<Mapper::KeyframePoseUpdate>& updates,
                                              bool rebuild_octomap = true);
@@ -158,10 +160,11 @@ class MapServer {
                                               std::vector<Mapper::KeyframePoseUpdate>* moves);
   // Before an island is dropped (aligned, or joined to another): stores its keyframes' poses, as
   // its own loop closure corrected them, in the frame of the map that takes them
-  // (T_to_island * T_island_kf: the shared base frame, or the other island's), so they enter it
-  // corrected rather than at their odometry. False when there is no such island or the poses
+  // (T_to_island * T_island_kf: the shared base frame, or the other island's; to_map_row says
+  // which, as kSharedGraph or the island's row), so they enter it corrected rather than at their
+  // odometry. False when there is no such island or the poses
   // were not stored.
-  bool StoreIslandPoses(int64_t island_row, const SE3d& T_to_island);
+  bool StoreIslandPoses(int64_t island_row, int64_t to_map_row, const SE3d& T_to_island);
   // Maps the held keyframes into the shared map in chunks of align.held_chunk_keyframes, each
   // under mapping_mu_ (not held by the caller), then checkpoints.
   void MapHeldKeyframes(const std::vector<HeldKeyframes>& sessions);

@@ -136,7 +136,8 @@ MapServer::JoinedIsland MapServer::ApplyJoin(const IslandJoin& join) {
   if (!join.T_island_odom.empty()) {
     const auto& [row, T_to_odom] = join.T_island_odom.front();
     if (const std::optional<SessionRecord> s = SessionByRow(row)) {
-      StoreIslandPoses(join.from_island_row, T_to_odom * s->T_island_odom.inverse());
+      StoreIslandPoses(join.from_island_row, join.island_row,
+                       T_to_odom * s->T_island_odom.inverse());
     }
   }
   for (const auto& [row, T] : join.T_island_odom) {
@@ -211,7 +212,9 @@ std::optional<MapServer::HeldKeyframes> MapServer::ApplyAlignment(
   // Its island's objects now enter the shared map (with the island's other sessions, which are
   // aligned with it).
   const int64_t island_row = s->island_row != 0 ? s->island_row : s->row_id;
-  if (!a.refined) StoreIslandPoses(island_row, s->T_base_odom * s->T_island_odom.inverse());
+  if (!a.refined) {
+    StoreIslandPoses(island_row, kSharedGraph, s->T_base_odom * s->T_island_odom.inverse());
+  }
   Publish(islands_->Drop(island_row));
   // The island's loops are edges of the shared map's pose graph now.
   if (closer_) closer_->MoveDue(island_row, kSharedGraph);
@@ -226,14 +229,15 @@ std::optional<MapServer::HeldKeyframes> MapServer::ApplyAlignment(
   return HeldKeyframes{*s, worker_last_id_};
 }
 
-bool MapServer::StoreIslandPoses(int64_t island_row, const SE3d& T_to_island) {
+bool MapServer::StoreIslandPoses(int64_t island_row, int64_t to_map_row,
+                                 const SE3d& T_to_island) {
   const std::optional<IslandMaps::Island> island = islands_ ? islands_->Find(island_row)
                                                             : std::nullopt;
   if (!island) return false;
   const auto start = std::chrono::steady_clock::now();
   std::vector<Mapper::KeyframePoseUpdate> poses = island->map->KeyframePoses();
   for (Mapper::KeyframePoseUpdate& kf : poses) kf.T_base_kf = T_to_island * kf.T_base_kf;
-  if (Status st = StoreCorrectedPoses(poses); !st.ok()) {
+  if (Status st = StoreCorrectedPoses(poses, to_map_row); !st.ok()) {
     spdlog::warn("island {}: corrected keyframe poses not stored ({}); where its keyframes are "
                  "mapped next (a restart, an alignment, a join) they are placed by odometry",
                  island->name, st.ToString());
@@ -409,6 +413,9 @@ void MapServer::Reindex() {
           closer_->AddKeyframe({rec.id, rec.session_row, rec.segment, rec.t_ns, rec.T_odom_cam,
                                 rec.tracking_inliers,
                                 rec.has_gravity ? rec.gravity_cam : Vec3d::Zero()});
+        }
+        if (rec.T_base_kf_corrected) {  // in the frame of the map holding it
+          aligner_->SetMappedPoses(GraphOf(rec.session_row), {{rec.id, *rec.T_base_kf_corrected}});
         }
         if (!ToReindex(rec)) return absl::OkStatus();
         if (!ReindexFromFeatures(rec, &counts)) need_images.insert(rec.id);

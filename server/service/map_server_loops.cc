@@ -104,7 +104,7 @@ MapServer::SolveTarget MapServer::SharedTarget() {
     // anchor): their session's placement has moved, so a replay from the first keyframe (no
     // usable checkpoint) would put them at the new placement x odometry.
     if (moved.ok() && last) {
-      if (Status st = StoreCorrectedPoses(mapper_->KeyframePoses()); !st.ok()) {
+      if (Status st = StoreCorrectedPoses(mapper_->KeyframePoses(), kSharedGraph); !st.ok()) {
         spdlog::warn("keyframe poses after the solve not all stored: {}", st.ToString());
       }
     }
@@ -138,7 +138,7 @@ MapServer::SolveTarget MapServer::IslandTarget(int64_t island_row) {
     // After the last chunk every keyframe's pose in the island's frame, those the solution left
     // in place too (its anchor): their session's T_island_odom has moved, so a restart, which maps
     // the island again, would otherwise put them at the new placement x odometry.
-    if (moved.ok() && last) StoreIslandPoses(island_row, SE3d::Identity());
+    if (moved.ok() && last) StoreIslandPoses(island_row, island_row, SE3d::Identity());
     return moved;
   };
   return t;

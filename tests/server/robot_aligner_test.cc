@@ -1,4 +1,5 @@
-// RobotAligner with its features and images out of memory (issues 14, 15): on the shipped real
+// RobotAligner with its features and images out of memory (issues 14, 15), and placing a robot
+// by where the matched keyframes are mapped after a loop closure: on the shipped real
 // TUM sample, robot A (frames 0-39, aligned: it defines the map) and robot B (frames 20-59, its
 // own odometry from the identity at its first frame, unaligned). B is aligned the same way, to
 // the same transform, whether every keyframe's features and reduced images stay in memory or
@@ -43,10 +44,18 @@ class SampleImages final : public place::KeyframeImageSource {
   int reads = 0;
 };
 
+// How robot A's odometry errs: from its 10th frame on, every keyframe is put T_slip off (a
+// wheel or tracking slip); with `corrected`, A's loop closure has put them back where the ground
+// truth has them, and the aligner is told (SetMappedPoses).
+struct ASlip {
+  SE3d T_slip = SE3d::Identity();
+  bool corrected = false;
+};
+
 // A then B through one aligner whose features live in `store` (null: its own memory) and
 // whose reduced images are read back from `images` (null: none) beyond `dense_cache` of them.
 AlignRun AlignBToA(int cache_keyframes, place::FeatureStore* store, int dense_cache = 256,
-                   place::KeyframeImageSource* images = nullptr) {
+                   place::KeyframeImageSource* images = nullptr, const ASlip& slip = {}) {
   const auto& kfs = Sample();
   place::PlaceOptions place;
   place.features.cache_keyframes = cache_keyframes;
@@ -60,7 +69,11 @@ AlignRun AlignBToA(int cache_keyframes, place::FeatureStore* store, int dense_ca
   const PinholeCamera camera = kfs.front().features.camera;
   AlignRun run;
   auto add = [&](int session, int i, int first) {
-    const SE3d T_odom_kf = kfs[first].T_world_cam.inverse() * kfs[i].T_world_cam;
+    SE3d T_odom_kf = kfs[first].T_world_cam.inverse() * kfs[i].T_world_cam;
+    if (session == 1 && i >= 10) {
+      if (slip.corrected) aligner.SetMappedPoses(kSharedGraph, {{1000 + i, T_odom_kf}});
+      T_odom_kf = slip.T_slip * T_odom_kf;
+    }
     AlignKeyframe kf{1000 * session + i, session, kfs[i].t_ns, T_odom_kf, std::nullopt};
     auto out = aligner.AddKeyframe(kf, kfs[i].bgr, kfs[i].depth_m, camera);
     ASSERT_TRUE(out.ok()) << out.status();
@@ -113,6 +126,29 @@ TEST(RobotAlignerTest, ImagesReadBackFromTheStoreRefineLikeImagesInMemory) {
   EXPECT_GT(none.stats.dense_without_images, 0u);
   EXPECT_EQ(none.stats.dense_frames_read, 0u);
   EXPECT_LT(none.stats.dense_refined, memory.stats.dense_refined);
+}
+
+// A slipped (0.15 m and 3 deg at its 10th frame) and its loop closure corrected it. B matches
+// A's corrected keyframes, so B must be placed by where they are mapped, not by A's odometry
+// times its placement: that would carry A's slip into B's placement.
+TEST(RobotAlignerTest, ARobotIsAlignedToWhereTheMatchedKeyframesAreMappedNow) {
+  ASSERT_EQ(Sample().size(), 60u);
+  const SE3d T_a_b = place::testing::GroundTruthT_a_b(Sample()[0], Sample()[20]);
+  SE3d T_slip = SE3d::Identity();
+  T_slip.linear() = Eigen::AngleAxisd(3.0 * M_PI / 180.0, Vec3d::UnitY()).toRotationMatrix();
+  T_slip.translation() = Vec3d(0.15, 0, 0);
+  const AlignRun odometry = AlignBToA(256, nullptr, 256, nullptr, {T_slip, false});
+  const AlignRun corrected = AlignBToA(256, nullptr, 256, nullptr, {T_slip, true});
+  ASSERT_TRUE(odometry.alignment.has_value());
+  ASSERT_TRUE(corrected.alignment.has_value());
+  const double odometry_err_m =
+      (odometry.alignment->T_base_odom.translation() - T_a_b.translation()).norm();
+  const double corrected_err_m =
+      (corrected.alignment->T_base_odom.translation() - T_a_b.translation()).norm();
+  std::printf("B's start vs the truth: %.3f m aligned by A's odometry, %.3f m by A's mapped "
+              "poses\n", odometry_err_m, corrected_err_m);
+  EXPECT_GT(odometry_err_m, 0.10);
+  EXPECT_LT(corrected_err_m, 0.05);
 }
 
 }  // namespace
