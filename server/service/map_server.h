@@ -200,6 +200,8 @@ class MapServer {
   struct ReindexCounts {
     uint64_t from_features = 0, from_images = 0, without_images = 0;
   };
+  // Whether the keyframe came in since this start (the aligning thread has it).
+  bool LiveKeyframe(int64_t keyframe_id) const;
   // Whether Reindex still has to index the keyframe.
   bool ToReindex(const KeyframeRecord& rec);
   // false when the keyframe has no usable stored features.
@@ -255,8 +257,9 @@ class MapServer {
                          const std::vector<Mapper::KeyframePoseUpdate>& moved);
   // Reads a keyframe's stored products (for moves; the store outlives every reader).
   Mapper::ProductSource ProductsFromStore() const;
-  // Stored matches into the loop closer (loading thread, before re-indexing).
-  void LoadPlaceMatches();
+  // Stored matches into the loop closer (loading thread, while re-indexing); those found by a
+  // keyframe in `unsolved` (keyframe id -> its graph) count towards that graph's next solve.
+  void LoadPlaceMatches(const std::map<int64_t, int64_t>& unsolved);
   std::optional<SessionRecord> SessionByRow(int64_t session_row);
   void SetSessionCache(const SessionRecord& session);
   void LoadLoop();

@@ -398,9 +398,11 @@ void MapServer::Reindex() {
     reindexed_ = true;
     return;
   }
-  LoadPlaceMatches();
   const auto t0 = std::chrono::steady_clock::now();
   ReindexCounts counts;
+  // Keyframes without a stored pose came after their graph's last solve (which stores every
+  // keyframe's): with their matches they count towards its next one.
+  std::map<int64_t, int64_t> unsolved;  // keyframe id -> graph
   // Pass 1: the keyframes with stored features (no images read).
   std::set<int64_t> need_images;
   KeyframeScan metadata;
@@ -414,14 +416,19 @@ void MapServer::Reindex() {
                                 rec.tracking_inliers,
                                 rec.has_gravity ? rec.gravity_cam : Vec3d::Zero()});
         }
+        const int64_t graph = GraphOf(rec.session_row);
         if (rec.T_base_kf_corrected) {  // in the frame of the map holding it
-          aligner_->SetMappedPoses(GraphOf(rec.session_row), {{rec.id, *rec.T_base_kf_corrected}});
+          aligner_->SetMappedPoses(graph, {{rec.id, *rec.T_base_kf_corrected}});
+        } else if (closer_ && !LiveKeyframe(rec.id)) {  // a live one counts as it comes
+          unsolved[rec.id] = graph;
+          closer_->NoteRecognised(graph);
         }
         if (!ToReindex(rec)) return absl::OkStatus();
         if (!ReindexFromFeatures(rec, &counts)) need_images.insert(rec.id);
         return absl::OkStatus();
       },
       metadata);
+  if (st.ok()) LoadPlaceMatches(unsolved);
   // Pass 2: the others, from their images (databases written before features were stored, or
   // features of other options).
   if (st.ok() && !need_images.empty()) {
@@ -441,6 +448,8 @@ void MapServer::Reindex() {
                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
                counts.from_features, counts.without_images,
                st.ok() ? "" : absl::StrCat("; stopped: ", st.ToString()));
+  // Matches found after a graph's last solve are solved now, not when new keyframes come.
+  if (reindexed_) MaybeCloseLoops();
 }
 
 namespace {
@@ -454,9 +463,13 @@ AlignKeyframe AlignInput(const KeyframeRecord& rec) {
 
 }  // namespace
 
-bool MapServer::ToReindex(const KeyframeRecord& rec) {
+bool MapServer::LiveKeyframe(int64_t keyframe_id) const {
   const int64_t first_live = first_live_id_;
-  if (first_live != 0 && rec.id >= first_live) return false;  // the aligning thread's
+  return first_live != 0 && keyframe_id >= first_live;
+}
+
+bool MapServer::ToReindex(const KeyframeRecord& rec) {
+  if (LiveKeyframe(rec.id)) return false;  // the aligning thread's
   return !aligner_->Indexed(rec.id);
 }
 

@@ -56,7 +56,7 @@ void MapServer::RecordMatches(int64_t query_session_row,
 }
 
 
-void MapServer::LoadPlaceMatches() {
+void MapServer::LoadPlaceMatches(const std::map<int64_t, int64_t>& unsolved) {
   if (!closer_) return;
   auto matches = store_->ListPlaceMatches();
   if (!matches.ok()) {
@@ -64,11 +64,22 @@ void MapServer::LoadPlaceMatches() {
                  matches.status().ToString());
     return;
   }
+  size_t pending = 0;
   for (const PlaceMatchRecord& m : *matches) {
+    // A match found by a keyframe that no solve has placed since counts towards its graph's next
+    // solve, as it did before the restart (RecordMatches).
+    auto it = unsolved.find(m.b_keyframe_id);
+    const bool fresh = it != unsolved.end();
+    const std::optional<LoopKeyframe> a = closer_->Keyframe(m.a_keyframe_id);
+    const bool same_graph = fresh && a && GraphOf(a->session_row) == it->second;
     closer_->AddMatch({m.a_keyframe_id, m.b_keyframe_id, m.T_a_b, m.inliers, m.rms_m, false},
-                      /*fresh=*/false);
+                      fresh, same_graph ? it->second : kSharedGraph);
+    pending += fresh;
   }
-  if (!matches->empty()) spdlog::info("loop closure: {} stored matches", matches->size());
+  if (!matches->empty()) {
+    spdlog::info("loop closure: {} stored matches, {} found since their graph's last solve",
+                 matches->size(), pending);
+  }
 }
 
 void MapServer::MaybeCloseLoops() {
