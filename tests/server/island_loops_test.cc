@@ -5,7 +5,8 @@
 // close B's loops there: the keyframe ATE of the island's trajectory (GetTrajectories with the
 // island) is at most a third of the drifted one B sent. A restart maps the island again at its
 // stored corrected poses: the same trajectory, without solving again; matches no solve took in
-// before a stop are solved at the next start.
+// before a stop are solved at the next start. An island that joins B's is placed by B's
+// corrected keyframes, and one aligned to the shared map enters it as its loops corrected it.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -215,6 +216,51 @@ TEST(IslandLoops, MatchesLeftUnsolvedAtAStopAreSolvedAtTheNextStart) {
               sent, static_cast<unsigned long long>(s.island_optimizations()), solved);
   EXPECT_GE(s.island_optimizations(), 1u);
   EXPECT_LE(solved, sent / 3);
+  if (!::testing::Test::HasFailure()) fs::remove_all(rooms.dir);
+}
+
+// Robot C (no drift) walks the end of room b after B's island closed its loops: C's island
+// joins B's, placed from where B's matched keyframes are mapped in the island (corrected), not
+// from B's drifted odometry x its placement. Both robots' keyframes in the island then make one
+// trajectory: their joint ATE stays that of B's island. The island's graph is kept from
+// solving again (optimize_min_keyframes 120 > C's 50 keyframes), so the test reads the join.
+TEST(IslandLoops, AnIslandJoiningAnotherIsPlacedByItsCorrectedKeyframes) {
+  const TwoRooms rooms = WriteRooms("loci_island_join_");
+  ASSERT_FALSE(rooms.a.empty() || rooms.b.empty());
+  const std::vector<loci::v1::Keyframe> b_sent =
+      Rebased(Drifted(rooms.b, 0.5, Vec3d(0.006, -0.005, 0)), 0, true);
+  const std::vector<loci::v1::Keyframe> c_sent = Rebased(rooms.b, 100, true);
+  const Trajectory truth = Poses(rooms.b);
+  ServerOptions o = testing::Options();
+  o.align.loops.optimize_min_keyframes = 120;
+  Running r = Start(rooms.dir + "/island_join.db", o);
+  ASSERT_TRUE(r.server);
+  Stream(r.mapping.get(), "A", Rebased(rooms.a, 0, false));
+  const std::string island = Stream(r.mapping.get(), "B", b_sent);
+  r.server->Flush();
+  ASSERT_GE(IslandSolved(r.query.get(), 1).island_optimizations(), 1u);
+  const Trajectory b_island = IslandTrajectory(r.query.get(), island, "B");
+  Stream(r.mapping.get(), "C", c_sent);
+  r.server->Flush();
+  const auto sessions = SessionsByRobot(Stats(r.query.get()));
+  ASSERT_FALSE(sessions.at("C").aligned());
+  ASSERT_EQ(sessions.at("C").island(), island) << "C's island did not join B's";
+  ASSERT_EQ(sessions.at("B").island_optimizations(), 1u) << "B's island solved again: the test "
+                                                            "reads that solve, not the join";
+  // One trajectory of both robots (C's keyframes stamped apart from B's) against the truth.
+  Trajectory joint = IslandTrajectory(r.query.get(), island, "B");
+  Trajectory joint_truth = truth;
+  const int64_t c_shift_ns = 3'600'000'000'000;
+  const Trajectory c_island = IslandTrajectory(r.query.get(), island, "C");
+  ASSERT_EQ(c_island.size(), c_sent.size());
+  for (const auto& p : c_island) joint.push_back({p.t_ns + c_shift_ns, p.T_world_cam});
+  for (size_t i = 100; i < truth.size(); ++i) {
+    joint_truth.push_back({truth[i].t_ns + c_shift_ns, truth[i].T_world_cam});
+  }
+  const double b_ate = Ate(truth, b_island), joint_ate = Ate(joint_truth, joint);
+  std::printf("B's keyframe ATE in its island %.4f m; B and C together after C joined %.4f m\n",
+              b_ate, joint_ate);
+  EXPECT_LE(joint_ate, 2 * b_ate + 0.005);
   if (!::testing::Test::HasFailure()) fs::remove_all(rooms.dir);
 }
 
