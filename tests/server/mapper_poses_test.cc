@@ -131,7 +131,8 @@ TEST(MapperPoses, AMovedBlockEndsAsIfItHadItsNewPosesFromTheStart) {
 
 // The OctoMap rebuild after a move reads every keyframe's products (seconds per 1000 keyframes).
 // Keyframes mapped meanwhile do not wait for it on the OctoMap's bounded queue: their scans go
-// into the new tree after it, which ends as if they had been mapped after the move.
+// into the new tree after it, which ends as if they had been mapped after the move. Meanwhile
+// OctomapRebuilding() says so (a checkpoint then waits for a later keyframe).
 TEST(MapperPoses, KeyframesMappedDuringAnOctomapRebuildDoNotWaitForIt) {
   const auto boxes = TwoRooms();
   const auto room_a = Views(boxes, 12, true, kTargetA, 1);
@@ -156,6 +157,8 @@ TEST(MapperPoses, KeyframesMappedDuringAnOctomapRebuildDoNotWaitForIt) {
   ASSERT_TRUE(run.mapper.UpdateKeyframePoses(updates, gated).ok());
   auto mapping = std::async(std::launch::async, [&] { run.Add(again_a); });
   const bool mapped = mapping.wait_for(std::chrono::seconds(60)) == std::future_status::ready;
+  // What a checkpoint asks before it waits for the OctoMap (MapServer::MaybeCheckpoint defers).
+  const bool rebuilding = run.mapper.OctomapRebuilding();
   gate.set_value();
   mapping.get();
   EXPECT_TRUE(mapped) << "mapping the next keyframes waited for the OctoMap rebuild";
@@ -169,6 +172,8 @@ TEST(MapperPoses, KeyframesMappedDuringAnOctomapRebuildDoNotWaitForIt) {
   fresh.Add(again_a);
   run.mapper.FlushOctomap();
   fresh.mapper.FlushOctomap();
+  EXPECT_TRUE(rebuilding) << "OctomapRebuilding() was false while the rebuild was held";
+  EXPECT_FALSE(run.mapper.OctomapRebuilding()) << "still rebuilding after FlushOctomap";
   EXPECT_TRUE(run.mapper.OctomapBt() == fresh.mapper.OctomapBt())
       << "the rebuilt OctoMap differs from the one mapped at the new poses";
 }
