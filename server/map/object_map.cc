@@ -1,5 +1,7 @@
 #include "server/map/object_map.h"
 
+#include <spdlog/spdlog.h>
+
 #include <optional>
 #include <set>
 
@@ -159,8 +161,8 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
   return ids;
 }
 
-bool ObjectMap::Duplicates(const FusedObject& self, const FusedObject& other,
-                           VoxelSet* self_keys, std::optional<MapObject>* self_box) const {
+const char* ObjectMap::Duplicates(const FusedObject& self, const FusedObject& other,
+                                 VoxelSet* self_keys, std::optional<MapObject>* self_box) const {
   // Other classes merge only with an object of a compatible size (a monitor labelled "laptop"
   // on blurred frames), never a keyboard with the desk it lies on; the label distributions then
   // settle the class.
@@ -170,20 +172,22 @@ bool ObjectMap::Duplicates(const FusedObject& self, const FusedObject& other,
                       !SizeCompatible(self.half_size_m(), other.half_size_m()) ||
                       !ClassesFit(cls, 2 * self.half_size_m(), other_cls,
                                   2 * other.half_size_m()))) {
-    return false;
+    return nullptr;
   }
   const double d = (other.centroid_m() - self.centroid_m()).norm();
-  if (d < options_.merge_centroid_m) return true;
-  if (d >= options_.track_gate_m + 1.0) return false;
-  if (same_class && d < RangeMergeGate(self, other)) return true;
+  if (d < options_.merge_centroid_m) return "centroids";
+  if (d >= options_.track_gate_m + 1.0) return nullptr;
+  if (same_class && d < RangeMergeGate(self, other)) return "range uncertainty";
   if (self_keys->empty()) *self_keys = self.KeysAt(options_.overlap_voxel_m);
   if (VoxelContainment(*self_keys, other.KeysAt(options_.overlap_voxel_m)) >
       options_.merge_containment) {
-    return true;
+    return "voxel containment";
   }
-  if (!same_class || options_.merge_box_containment >= 1) return false;
+  if (!same_class || options_.merge_box_containment >= 1) return nullptr;
   if (!*self_box) *self_box = self.Snapshot();
-  return BoxContainment(**self_box, other.Snapshot()) > options_.merge_box_containment;
+  return BoxContainment(**self_box, other.Snapshot()) > options_.merge_box_containment
+             ? "box containment"
+             : nullptr;
 }
 
 int64_t ObjectMap::MergeDuplicates(int64_t id, std::vector<ObjectChange>* changes) {
@@ -195,9 +199,14 @@ int64_t ObjectMap::MergeDuplicates(int64_t id, std::vector<ObjectChange>* change
     std::optional<MapObject> self_box;
     for (const auto& [other_id, other] : objects_) {
       if (other_id == id) continue;
-      if (!Duplicates(self, other, &self_keys, &self_box)) continue;
+      const char* rule = Duplicates(self, other, &self_keys, &self_box);
+      if (rule == nullptr) continue;
       // The older object survives, so ids handed out earlier stay valid where possible.
       const int64_t keep = std::min(id, other_id), drop = std::max(id, other_id);
+      spdlog::debug("objects {} ({}, {} views) and {} ({}, {} views) merged by {}, {:.2f} m apart",
+                    id, self.labels().Argmax(), self.observation_count(), other_id,
+                    other.labels().Argmax(), other.observation_count(), rule,
+                    (other.centroid_m() - self.centroid_m()).norm());
       objects_.at(keep).Absorb(objects_.at(drop));
       Judge(&objects_.at(keep), Rates());
       ObjectChange removed{ObjectChange::Kind::kRemoved, drop, 0, objects_.at(drop).Snapshot()};

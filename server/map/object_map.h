@@ -115,8 +115,9 @@ class ObjectMap {
   // as a candidate and keeps its evidence (removed, a box recurring at one spot would come back
   // as a new object and be confirmed again before its misses add up).
   double Judge(FusedObject* object, const ClassDetectionRates& rates) const;
-  // Duplicates (MergeDuplicates' rules); self_keys and self_box cache self's voxel keys and box.
-  bool Duplicates(const FusedObject& self, const FusedObject& other, VoxelSet* self_keys,
+  // Whether the two are one object (MergeDuplicates' rules): the rule that says so, else null;
+  // self_keys and self_box cache self's voxel keys and box.
+  const char* Duplicates(const FusedObject& self, const FusedObject& other, VoxelSet* self_keys,
                   std::optional<MapObject>* self_box) const;
   // An object of size_m (longest side) can be of the class (FusionOptions::class_size_slack).
   bool FitsClass(const std::string& class_name, double size_m) const;
