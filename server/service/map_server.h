@@ -219,6 +219,9 @@ class MapServer {
   // The pose graph a session's keyframes are in: kSharedGraph when it is aligned, else its
   // island's row (mapping_mu_ held).
   int64_t GraphOf(int64_t session_row) const;
+  // The graph whose next solve a match (candidate a_keyframe_id, found by a keyframe of
+  // query_graph) counts towards.
+  int64_t MatchGraph(int64_t a_keyframe_id, int64_t query_graph) const;
   // The map a pose-graph solution moves, and how (each call with mapping_mu_ held).
   struct SolveTarget {
     int64_t graph = kSharedGraph;  // LoopCloser's graph key

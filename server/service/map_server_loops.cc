@@ -36,17 +36,20 @@ int64_t MapServer::GraphOf(int64_t session_row) const {
   return aligner_->IslandOf(session_row).first;
 }
 
+int64_t MapServer::MatchGraph(int64_t a_keyframe_id, int64_t query_graph) const {
+  // The graph holding both keyframes; any other match (an unaligned robot's merge with an
+  // aligned one, a join's) is the shared map's.
+  const std::optional<LoopKeyframe> a = closer_->Keyframe(a_keyframe_id);
+  return a && GraphOf(a->session_row) == query_graph ? query_graph : kSharedGraph;
+}
+
 void MapServer::RecordMatches(int64_t query_session_row,
                               const std::vector<VerifiedMatch>& matches) {
   if (!closer_) return;
   const int64_t query_graph = GraphOf(query_session_row);
   closer_->NoteRecognised(query_graph);
   for (const VerifiedMatch& m : matches) {
-    // It counts towards the next solve of the graph holding both keyframes; any other (an
-    // unaligned robot's merge with an aligned one, a join's) towards the shared map's.
-    const std::optional<LoopKeyframe> a = closer_->Keyframe(m.a_id);
-    const bool same_graph = a && GraphOf(a->session_row) == query_graph;
-    closer_->AddMatch(m, /*fresh=*/true, same_graph ? query_graph : kSharedGraph);
+    closer_->AddMatch(m, /*fresh=*/true, MatchGraph(m.a_id, query_graph));
     const Status st = store_->PutPlaceMatch({m.a_id, m.b_id, m.T_a_b, m.inliers, m.rms_m});
     if (!st.ok()) {
       spdlog::warn("match of keyframes {} and {} not stored ({}); it is used until a restart",
@@ -70,10 +73,8 @@ void MapServer::LoadPlaceMatches(const std::map<int64_t, int64_t>& unsolved) {
     // solve, as it did before the restart (RecordMatches).
     auto it = unsolved.find(m.b_keyframe_id);
     const bool fresh = it != unsolved.end();
-    const std::optional<LoopKeyframe> a = closer_->Keyframe(m.a_keyframe_id);
-    const bool same_graph = fresh && a && GraphOf(a->session_row) == it->second;
     closer_->AddMatch({m.a_keyframe_id, m.b_keyframe_id, m.T_a_b, m.inliers, m.rms_m, false},
-                      fresh, same_graph ? it->second : kSharedGraph);
+                      fresh, fresh ? MatchGraph(m.a_keyframe_id, it->second) : kSharedGraph);
     pending += fresh;
   }
   if (!matches->empty()) {

@@ -52,6 +52,12 @@ std::vector<loci::v1::Keyframe> Drifted(std::vector<loci::v1::Keyframe> views,
   return views;
 }
 
+// The views as robot B sends them: drifted by 0.5 deg/s and 8 mm/s, its odometry starting at the
+// identity at its first view.
+std::vector<loci::v1::Keyframe> SentByB(const std::vector<loci::v1::Keyframe>& views) {
+  return Rebased(Drifted(views, 0.5, Vec3d(0.006, -0.005, 0)), 0, true);
+}
+
 Trajectory Poses(const std::vector<loci::v1::Keyframe>& views) {
   Trajectory out;
   for (const loci::v1::Keyframe& kf : views) {
@@ -127,8 +133,7 @@ TEST(IslandLoops, AnUnalignedRobotsDriftIsCutToAThirdInItsIsland) {
   const std::string& dir = rooms.dir;
   const std::vector<loci::v1::Keyframe>& a = rooms.a;
   const std::vector<loci::v1::Keyframe>& b = rooms.b;
-  const std::vector<loci::v1::Keyframe> b_sent =
-      Rebased(Drifted(b, 0.5, Vec3d(0.006, -0.005, 0)), 0, true);
+  const std::vector<loci::v1::Keyframe> b_sent = SentByB(b);
   const Trajectory truth = Poses(b);
   const double sent = Ate(truth, Poses(b_sent));
 
@@ -186,8 +191,7 @@ TEST(IslandLoops, AnUnalignedRobotsDriftIsCutToAThirdInItsIsland) {
 TEST(IslandLoops, MatchesLeftUnsolvedAtAStopAreSolvedAtTheNextStart) {
   const TwoRooms rooms = WriteRooms("loci_island_pending_");
   ASSERT_FALSE(rooms.a.empty() || rooms.b.empty());
-  const std::vector<loci::v1::Keyframe> b_sent =
-      Rebased(Drifted(rooms.b, 0.5, Vec3d(0.006, -0.005, 0)), 0, true);
+  const std::vector<loci::v1::Keyframe> b_sent = SentByB(rooms.b);
   const Trajectory truth = Poses(rooms.b);
   const double sent = Ate(truth, Poses(b_sent));
   const std::string db = rooms.dir + "/island_pending.db";
@@ -227,8 +231,7 @@ TEST(IslandLoops, MatchesLeftUnsolvedAtAStopAreSolvedAtTheNextStart) {
 TEST(IslandLoops, AnIslandJoiningAnotherIsPlacedByItsCorrectedKeyframes) {
   const TwoRooms rooms = WriteRooms("loci_island_join_");
   ASSERT_FALSE(rooms.a.empty() || rooms.b.empty());
-  const std::vector<loci::v1::Keyframe> b_sent =
-      Rebased(Drifted(rooms.b, 0.5, Vec3d(0.006, -0.005, 0)), 0, true);
+  const std::vector<loci::v1::Keyframe> b_sent = SentByB(rooms.b);
   const std::vector<loci::v1::Keyframe> c_sent = Rebased(rooms.b, 100, true);
   const Trajectory truth = Poses(rooms.b);
   ServerOptions o = testing::Options();
@@ -303,8 +306,7 @@ TEST(IslandLoops, AnAlignedIslandEntersTheSharedMapAsItsLoopsCorrectedIt) {
     ToProto(T_b_a * PoseFromProto(kf.t_odom_cam()), kf.mutable_t_odom_cam());
     path.push_back(kf);
   }
-  const std::vector<loci::v1::Keyframe> sent =
-      Rebased(Drifted(path, 0.5, Vec3d(0.006, -0.005, 0)), 0, true);
+  const std::vector<loci::v1::Keyframe> sent = SentByB(path);
   const auto room_a_start = sent.begin() + static_cast<std::ptrdiff_t>(b.size());
   const int64_t t_room_b_end_ns = b.back().t_ns();
   const Trajectory truth = Poses(b);
