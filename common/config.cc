@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cstdlib>
 #include <filesystem>
+#include <regex>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -66,6 +67,15 @@ StatusOr<CameraCalibration> CameraPreset(const std::string& name) {
   if (name == "tum_fr3") return Cal{PinholeCamera::TumFr3(), LensDistortion{}};
   return absl::InvalidArgumentError(
       absl::StrCat("unknown camera preset '", name, "' (known: tum_fr1, tum_fr2, tum_fr3)"));
+}
+
+std::string TumCameraPresetForFolder(const std::string& dir) {
+  std::string name = std::filesystem::path(dir).lexically_normal().filename().string();
+  if (name.empty()) name = std::filesystem::path(dir).lexically_normal().parent_path().filename();
+  static const std::regex kKinect("(^|_)(freiburg|fr)([123])(_|$)");
+  std::smatch m;
+  if (!std::regex_search(name, m, kKinect)) return "";
+  return absl::StrCat("tum_fr", m[3].str());
 }
 
 namespace {

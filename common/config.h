@@ -59,6 +59,10 @@ class ConfigFileScope {
 // a preset, an absent `distortion` means pinhole images.
 StatusOr<CameraCalibration> CameraFromYaml(const YAML::Node& node);
 StatusOr<CameraCalibration> CameraPreset(const std::string& name);
+// The camera preset a TUM RGB-D folder's name gives ("tum_fr1", "tum_fr2", "tum_fr3"): its last
+// path component names the Kinect as TUM does (rgbd_dataset_freiburg3_long_office_household) or
+// as scripts/fetch-tum.sh does (tum_fr2_desk). "" when the name says nothing.
+std::string TumCameraPresetForFolder(const std::string& dir);
 
 // Where the shipped config/ and models/ (and, in the source tree, tests/data) live, first of:
 // $LOCI_HOME when set; <dir of this executable>/../share/loci when it holds config/ (an

@@ -76,6 +76,22 @@ Status ReadSequenceCamera(const std::string& path, const YAML::Node& root, Track
   return ReadOptional(root, "depth_scale", &out->depth_scale);
 }
 
+// A folder without camera.yaml and a config that names no camera: the Kinect the folder's TUM
+// name gives (fr1's calibration on an fr3 sequence bends its images by up to 26 px at the rim).
+Status UseFolderCamera(const std::string& tum_dir, TrackerOptions* out) {
+  const std::string preset = TumCameraPresetForFolder(tum_dir);
+  if (preset.empty()) {
+    spdlog::info("{}: no camera.yaml and no TUM freiburg name: camera as configured ({:.1f} px)",
+                 tum_dir, out->camera.fx);
+    return absl::OkStatus();
+  }
+  LOCI_ASSIGN_OR_RETURN(const CameraCalibration cal, CameraPreset(preset));
+  out->camera = cal.intrinsics;
+  out->distortion = cal.distortion;
+  spdlog::info("{}: no camera.yaml; camera {} from the folder's name", tum_dir, preset);
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 StatusOr<ClientConfig> LoadClientConfig(const std::string& client_config,
@@ -97,6 +113,9 @@ StatusOr<ClientConfig> LoadClientConfig(const std::string& client_config,
   if (access(camera.c_str(), F_OK) == 0) {
     LOCI_ASSIGN_OR_RETURN(YAML::Node cam, LoadYamlFile(camera));
     LOCI_RETURN_IF_ERROR(WithFile(camera, ReadSequenceCamera(camera, cam, &c.tracker)));
+  } else if (const bool configured = node.ok() && (*node)["tracker"] && (*node)["tracker"]["camera"];
+             !tum_dir.empty() && !configured) {
+    LOCI_RETURN_IF_ERROR(UseFolderCamera(tum_dir, &c.tracker));
   }
   return c;
 }

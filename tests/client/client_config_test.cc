@@ -111,6 +111,44 @@ TEST_F(ClientConfigTest, SequenceCameraMisspeltKeyFailsWhenStrict) {
       << strict.status();
 }
 
+TEST_F(ClientConfigTest, FolderWithoutCameraYamlTakesTheKinectItsTumNameGives) {
+  // A sequence as TUM publishes it has no camera.yaml; its name says which Kinect took it.
+  for (const auto& [name, preset] : std::vector<std::pair<std::string, std::string>>{
+           {"rgbd_dataset_freiburg3_long_office_household", "tum_fr3"},
+           {"tum_fr2_desk", "tum_fr2"},
+           {"rgbd_dataset_freiburg1_rpy", "tum_fr1"}}) {
+    std::filesystem::create_directories(dir_ / name);
+    auto c = LoadClientConfig("", (dir_ / name).string() + "/");
+    ASSERT_TRUE(c.ok()) << c.status();
+    auto expected = CameraPreset(preset);
+    ASSERT_TRUE(expected.ok());
+    EXPECT_DOUBLE_EQ(c->tracker.camera.fx, expected->intrinsics.fx) << name;
+    EXPECT_DOUBLE_EQ(c->tracker.distortion.k1, expected->distortion.k1) << name;
+  }
+  // fr3 images are published undistorted: no fr1 distortion is applied to them.
+  auto fr3 = LoadClientConfig("", (dir_ / "rgbd_dataset_freiburg3_long_office_household").string());
+  ASSERT_TRUE(fr3.ok());
+  EXPECT_TRUE(fr3->tracker.distortion.IsZero());
+}
+
+TEST_F(ClientConfigTest, FolderCameraYieldsToCameraYamlAndToTheConfig) {
+  std::filesystem::create_directories(dir_ / "tum_fr3_office");
+  // The client config names a camera: the folder's name does not override it.
+  const std::string path = Write("client.yaml", "tracker:\n  camera: tum_fr2\n");
+  auto configured = LoadClientConfig(path, (dir_ / "tum_fr3_office").string());
+  ASSERT_TRUE(configured.ok()) << configured.status();
+  EXPECT_DOUBLE_EQ(configured->tracker.camera.fx, PinholeCamera::TumFr2().fx);
+  // A camera.yaml in the folder wins over its name.
+  Write("tum_fr3_office/camera.yaml", "camera: tum_fr1\n");
+  auto from_yaml = LoadClientConfig("", (dir_ / "tum_fr3_office").string());
+  ASSERT_TRUE(from_yaml.ok()) << from_yaml.status();
+  EXPECT_DOUBLE_EQ(from_yaml->tracker.camera.fx, PinholeCamera::TumFr1().fx);
+  // A name that says nothing keeps the configured default.
+  EXPECT_EQ(TumCameraPresetForFolder("/data/office_walk"), "");
+  EXPECT_EQ(TumCameraPresetForFolder("/data/freiburg12_x"), "");
+  EXPECT_EQ(TumCameraPresetForFolder("/data/frame_dump"), "");
+}
+
 TEST(ShippedClientConfig, HasNoUnknownKeys) {
   SetStrictConfig(true);
   auto c = LoadClientConfig(SourceDir() + "/config/client.yaml", "/nonexistent");
