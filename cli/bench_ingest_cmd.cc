@@ -120,6 +120,7 @@ int RunBenchIngest(const BenchIngestArgs& a) {
   so.num_frames = a.views;
   so.num_objects = a.objects;
   so.seed = 7;
+  so.fps_hz = 5.0;  // the views are keyframes: a robot sends about 5 a second, not 30
   std::cout << "rendering " << a.views << " synthetic 640x480 views with " << a.objects
             << " objects into " << dir << " ..." << std::endl;
   auto views = RenderViews(so, dir);

@@ -155,9 +155,10 @@ double FusedObject::ExistenceLlr(const ExistenceModel& m) const {
          misses_ * std::log((1 - m.p_real) / (1 - m.p_false));
 }
 
-void FusedObject::UpdateConfirmed(int confirm_observations, const ExistenceModel& m,
-                                  double min_llr) {
+void FusedObject::UpdateConfirmed(int confirm_observations, int64_t min_span_ns,
+                                  const ExistenceModel& m, double min_llr) {
   confirmed_ = static_cast<int>(keyframes_.size()) >= confirm_observations &&
+               last_seen_ns_ - first_seen_ns_ >= min_span_ns &&
                ExistenceLlr(m) >= min_llr;
 }
 

@@ -113,8 +113,10 @@ class FusedObject {
     double p_real = 0.15, p_false = 0.03;
   };
   double ExistenceLlr(const ExistenceModel& m) const;
-  // Confirmed: seen in at least confirm_observations keyframes and an LLR of at least min_llr.
-  void UpdateConfirmed(int confirm_observations, const ExistenceModel& m, double min_llr);
+  // Confirmed: seen in at least confirm_observations keyframes, over at least min_span_ns from
+  // its first detection to its last, and an LLR of at least min_llr.
+  void UpdateConfirmed(int confirm_observations, int64_t min_span_ns, const ExistenceModel& m,
+                       double min_llr);
   // Hits / (hits + misses), for display.
   double existence() const {
     return observation_count() / std::max(1.0, double(observation_count()) + misses_);

@@ -69,6 +69,10 @@ struct FusionOptions {
   double score_threshold = 0.5;   // associate when the weighted score reaches this (0.5)
   double track_gate_m = 0.5;      // a track id match counts only within this distance, m (0.5)
   int confirm_observations = 3;   // an object is confirmed after this many keyframes (3)
+  // ... seen over at least this long, first to last detection, s (0.5). Detector errors come in
+  // bursts (a blurred swing, a glare): three keyframes 0.1 s apart are one piece of evidence,
+  // not three; a real object stays in view longer, or is seen again. 0: off.
+  double confirm_min_span_s = 0.5;
   // Two objects with the same argmax class merge when their centroids are closer than
   // merge_centroid_m (0.1) or when |A∩B| / min(|A|, |B|) exceeds merge_containment (0.5).
   double merge_centroid_m = 0.1;
@@ -191,6 +195,6 @@ struct MapOptions {
 
 // Version of the product and fusion code; bump it when a change alters products or the map
 // for the same options (stored products and checkpoints of another version are recomputed).
-inline constexpr int kMapCodeVersion = 5;
+inline constexpr int kMapCodeVersion = 6;
 
 }  // namespace loci::server

@@ -280,7 +280,9 @@ ClassDetectionRates ObjectMap::Rates() const {
 }
 
 double ObjectMap::Judge(FusedObject* object, const ClassDetectionRates& rates) const {
-  object->UpdateConfirmed(options_.confirm_observations, rates.For(*object), options_.confirm_llr);
+  const auto min_span_ns = static_cast<int64_t>(options_.confirm_min_span_s * 1e9);
+  object->UpdateConfirmed(options_.confirm_observations, min_span_ns, rates.For(*object),
+                          options_.confirm_llr);
   return object->ExistenceLlr(rates.base());
 }
 

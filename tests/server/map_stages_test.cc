@@ -300,7 +300,7 @@ MapObservation Obs(int64_t track, const Eigen::Vector3d& center, double half, in
   o.session_row = 1;
   o.robot = "r";
   o.keyframe_id = kf;
-  o.t_ns = kf * 1000;
+  o.t_ns = kf * 300'000'000;  // keyframes 0.3 s apart
   o.track_id = track;
   o.class_name = cls;
   o.score = 0.9;
@@ -335,6 +335,30 @@ TEST(ObjectMap, AssociatesByTrackOrCentroidElseCreatesAndConfirmsAfterThree) {
   EXPECT_EQ(map.confirmed_count(), 1u);
   // Track match beyond the gate does not associate.
   EXPECT_EQ(map.AssociationScore(*map.Find(a[0]), Obs(1, {5, 0, 1}, 0.05, 5), {}), 0.0);
+}
+
+TEST(ObjectMap, ABurstOfDetectionsIsOnePieceOfEvidence) {
+  // Three keyframes 0.1 s apart (a blurred swing) see a "cup": hits and LLR suffice, but the
+  // detections span 0.2 s, so it stays a candidate; seen again 1 s later, it is confirmed.
+  FusionOptions opt;
+  ObjectMap map(opt, 0.01);
+  std::vector<ObjectChange> changes;
+  auto burst = [](int64_t kf, int64_t t_ns) {
+    MapObservation o = Obs(1, {0, 0, 1}, 0.05, kf);
+    o.t_ns = t_ns;
+    return o;
+  };
+  int64_t id = 0;
+  for (int64_t kf = 1; kf <= 3; ++kf) id = map.Integrate({burst(kf, kf * 100'000'000)}, &changes)[0];
+  EXPECT_EQ(map.Find(id)->observation_count(), 3u);
+  EXPECT_FALSE(map.Find(id)->confirmed());
+  id = map.Integrate({burst(4, 1'300'000'000)}, &changes)[0];
+  EXPECT_TRUE(map.Find(id)->confirmed());
+  // Off (0): the burst alone confirms.
+  opt.confirm_min_span_s = 0;
+  ObjectMap off(opt, 0.01);
+  for (int64_t kf = 1; kf <= 3; ++kf) id = off.Integrate({burst(kf, kf * 100'000'000)}, &changes)[0];
+  EXPECT_TRUE(off.Find(id)->confirmed());
 }
 
 TEST(ObjectMap, WeightedScoreRespectsThreshold) {

@@ -16,7 +16,7 @@ MapObservation Rect(const std::string& cls, double score, int64_t track, int64_t
   MapObservation o;
   o.session_row = 1;
   o.keyframe_id = kf;
-  o.t_ns = kf * 1000;
+  o.t_ns = kf * 300'000'000;  // keyframes 0.3 s apart
   o.track_id = track;
   o.class_name = cls;
   o.score = score;
