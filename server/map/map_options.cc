@@ -20,7 +20,7 @@ constexpr const char* kFusionKeys[] = {
     "existence_p_false",       "confirm_llr",       "remove_llr",           "visibility",
     "centroid_min_part",       "class_size_slack",  "merge_box_containment",
     "merge_sigmas",            "depth_sigma_at_1m", "view_sigma_rad",       "shape_min_label_views",
-    "existence_class_prior_views", "confirm_min_span_s"};
+    "existence_class_prior_views", "confirm_min_span_s", "straddle_share"};
 
 Status CheckMapKeys(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
@@ -141,6 +141,7 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "track_gate_m", &fusion.track_gate_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "confirm_observations", &fusion.confirm_observations));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "confirm_min_span_s", &fusion.confirm_min_span_s));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "straddle_share", &fusion.straddle_share));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_centroid_m", &fusion.merge_centroid_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_sigmas", &fusion.merge_sigmas));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "depth_sigma_at_1m", &fusion.depth_sigma_at_1m));
@@ -236,6 +237,9 @@ Status MapOptions::Validate() const {
   if (fusion.confirm_observations < 1) return bad("fusion.confirm_observations >= 1");
   if (!(fusion.confirm_min_span_s >= 0 && fusion.confirm_min_span_s <= 3600)) {
     return bad("fusion.confirm_min_span_s in [0, 3600]");
+  }
+  if (!(fusion.straddle_share >= 0 && fusion.straddle_share <= 1)) {
+    return bad("fusion.straddle_share in [0, 1]");
   }
   if (!(fusion.support_cell_m > 0.001) ||
       !(fusion.min_support_fraction >= 0 && fusion.min_support_fraction <= 1)) {

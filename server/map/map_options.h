@@ -73,6 +73,10 @@ struct FusionOptions {
   // bursts (a blurred swing, a glare): three keyframes 0.1 s apart are one piece of evidence,
   // not three; a real object stays in view longer, or is seen again. 0: off.
   double confirm_min_span_s = 0.5;
+  // Flat-topped furniture: a view of which at least this share of the voxels lies in each of two
+  // or more such objects of the map straddles them (one box over two desks back to back, one
+  // plane through both tops): it is left out instead of joining them (0.25). 0: off.
+  double straddle_share = 0.25;
   // Two objects with the same argmax class merge when their centroids are closer than
   // merge_centroid_m (0.1) or when |A∩B| / min(|A|, |B|) exceeds merge_containment (0.5).
   double merge_centroid_m = 0.1;

@@ -267,10 +267,12 @@ std::vector<int64_t> Mapper::IntegrateProducts(const MapperKeyframe& kf,
     std::lock_guard<std::mutex> lock(mu_);
     double t0 = ThreadCpuMs();
     std::vector<ObjectChange> changes;
-    ids = objects_.Integrate(observations, &changes);
+    std::vector<int64_t> seen;  // straddled furniture, then every observation's object
+    ids = objects_.Integrate(observations, &changes, &seen);
+    seen.insert(seen.end(), ids.begin(), ids.end());
     const KeyframeView view{&kf.camera, &products.visibility_depth_m, products.depth_stride,
                             T_map_kf.inverse(), &products.detection_boxes};
-    objects_.ObserveView(view, ids, &changes);
+    objects_.ObserveView(view, seen, &changes);
     AppendEvents(changes, events);
     times->fusion_ms = MsSince(t0);
 

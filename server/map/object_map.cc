@@ -117,8 +117,30 @@ bool ObjectMap::SizeCompatible(double half_a_m, double half_b_m) const {
   return std::max(half_a_m, half_b_m) / lo <= options_.max_size_ratio;
 }
 
+std::vector<int64_t> ObjectMap::StraddledFurniture(const MapObservation& obs,
+                                                   const VoxelSet& obs_keys) const {
+  if (options_.straddle_share <= 0 || obs_keys.empty() ||
+      !IsFlatTopClass(options_.flat_top_classes, obs.class_name)) {
+    return {};
+  }
+  std::vector<int64_t> held;
+  for (const auto& [id, object] : objects_) {
+    if (!IsFlatTopClass(options_.flat_top_classes, object.labels().Argmax())) continue;
+    const double reach = object.half_size_m() + obs.half_size_m;
+    if ((object.centroid_m() - obs.centroid_m).norm() > reach) continue;
+    if (Within(obs_keys, object.KeysAt(options_.overlap_voxel_m)) >= options_.straddle_share) {
+      held.push_back(id);
+    }
+  }
+  if (held.size() < 2) return {};
+  spdlog::debug("keyframe {}: a {} view straddles objects {} and {}: a hit for each, no points",
+                obs.keyframe_id, obs.class_name, held[0], held[1]);
+  return held;
+}
+
 std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& observations,
-                                          std::vector<ObjectChange>* changes) {
+                                          std::vector<ObjectChange>* changes,
+                                          std::vector<int64_t>* straddled_ids) {
   std::vector<int64_t> ids;
   ids.reserve(observations.size());
   const ClassDetectionRates rates = Rates();
@@ -126,6 +148,18 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
     VoxelSet keys;
     for (const ColoredPoint& p : obs.points_m) {
       keys.insert(KeyOf(p.p_m.cast<double>(), options_.overlap_voxel_m));
+    }
+    if (const std::vector<int64_t> held = StraddledFurniture(obs, keys); !held.empty()) {
+      for (int64_t id : held) {
+        FusedObject& object = objects_.at(id);
+        object.Observe(obs.class_name, obs.score, obs.session_row, obs.track_id, obs.robot,
+                       obs.keyframe_id, obs.t_ns);
+        Judge(&object, rates);
+        changes->push_back({ObjectChange::Kind::kUpdated, id, 0, {}});
+        if (straddled_ids != nullptr) straddled_ids->push_back(id);
+      }
+      ids.push_back(0);  // in no object: its points stay unlabelled cloud
+      continue;
     }
     int64_t best_id = 0;
     double best_score = 0, best_d = 0;

@@ -63,10 +63,12 @@ class ObjectMap {
   double AssociationScore(const FusedObject& object, const MapObservation& obs,
                           const VoxelSet& obs_keys) const;
 
-  // Integrates one keyframe's observations; returns the object id of each (after merges) and
-  // appends the changes.
+  // Integrates one keyframe's observations; returns the object id of each (after merges; 0 for
+  // a view of furniture that straddles two objects, StraddledFurniture) and appends the changes.
+  // straddled_ids (may be null) receives the objects such views saw: a hit each, no points.
   std::vector<int64_t> Integrate(const std::vector<MapObservation>& observations,
-                                 std::vector<ObjectChange>* changes);
+                                 std::vector<ObjectChange>* changes,
+                                 std::vector<int64_t>* straddled_ids = nullptr);
 
   // Negative evidence of one keyframe: every object not observed in it (observed_ids) that
   // the view should have shown takes a miss; objects whose existence falls are unconfirmed, or
@@ -115,6 +117,12 @@ class ObjectMap {
   // as a candidate and keeps its evidence (removed, a box recurring at one spot would come back
   // as a new object and be confirmed again before its misses add up).
   double Judge(FusedObject* object, const ClassDetectionRates& rates) const;
+  // Flat-topped furniture (FusionOptions::straddle_share): the objects a view of it lies on by at
+  // least that share of its voxels each, when there are two or more (one detector box over two
+  // desks back to back), else none. Its points would join them: such a view counts as a hit for
+  // each and adds no points.
+  std::vector<int64_t> StraddledFurniture(const MapObservation& obs,
+                                          const VoxelSet& obs_keys) const;
   // Whether the two are one object (MergeDuplicates' rules): the rule that says so, else null;
   // self_keys and self_box cache self's voxel keys and box.
   const char* Duplicates(const FusedObject& self, const FusedObject& other, VoxelSet* self_keys,

@@ -22,10 +22,11 @@
 namespace loci::server {
 
 struct SupportTopsOptions {
-  // Off (default): furniture observations are kept whole, as the detector's mask or box gave
-  // them. On fr1_rpy, turning it on raised precision and recall but cost count error, centroid
-  // error and the keyboard-on-a-desk answer (docs/results.md, session 8).
-  bool enabled = false;
+  // On (default): one observation per top. Off: furniture observations are kept whole, as the
+  // detector's mask or box gave them. With the object map's straddle rule
+  // (FusionOptions::straddle_share) it keeps two desks back to back apart (docs/results.md,
+  // session 25).
+  bool enabled = true;
   // Footprint grid edge, m: coarser than depth noise and the object voxels (1-3 cm on a table
   // seen at 1-3 m), finer than any table top (0.05).
   double cell_m = 0.05;

@@ -1,7 +1,10 @@
 // Object map rules measured on TUM fr1_rpy (docs/results.md, session 9): class size priors across
-// classes, furniture kept apart from what stands on it (session 24), the merge of same-class objects whose boxes overlap (far, smeared duplicates), and
+// classes, furniture kept apart from what stands on it (session 24) and from furniture beside it
+// (session 25), the merge of same-class objects whose boxes overlap (far, smeared duplicates), and
 // existence judged by the class's own detection rate (session 23).
 #include <gtest/gtest.h>
+
+#include <sstream>
 
 #include "server/map/object_map.h"
 #include "server/map/visibility.h"
@@ -81,6 +84,43 @@ TEST(ObjectRules, APieceOfADeskTopNeverJoinsTheBookOnIt) {
   // The size prior alone lets the pieces in: one object, and the book is gone.
   EXPECT_EQ(BookClassAfterDeskPieces(false), "1 dining table");
   EXPECT_EQ(BookClassAfterDeskPieces(true), "2 book");
+}
+
+// fr1_rpy's two desks back to back (objects_gt.json: tops x -0.75..0.19 at z 0.74 and x
+// 0.21..1.04 at z 0.77, y -0.04..1.5), each seen alone in 3 views; then a view of one detector
+// box whose plane runs through both tops (session 24 counted 5 such pieces in about 50).
+// Returns the count of table objects and the views of each.
+std::string DesksAfterAStraddlingView(double straddle_share) {
+  FusionOptions opt = WithSizes(1.5);
+  opt.flat_top_classes = {"dining table"};
+  opt.straddle_share = straddle_share;
+  ObjectMap map(opt, 0.01);
+  std::vector<ObjectChange> changes;
+  for (int64_t kf = 1; kf <= 3; ++kf) {
+    map.Integrate({Rect("dining table", 0.4, 0, kf, 0.21, 1.04, 0.0, 1.0, 0.77),
+                   Rect("dining table", 0.4, 0, kf, -0.75, 0.19, 0.0, 1.0, 0.74)},
+                  &changes);
+  }
+  // One plane through both tops: each part at its own desk's height, one observation.
+  MapObservation across = Rect("dining table", 0.4, 0, 4, 0.21, 0.75, 0.1, 0.9, 0.77);
+  const MapObservation person_part = Rect("dining table", 0.4, 0, 4, -0.45, 0.19, 0.1, 0.9, 0.74);
+  across.points_m.insert(across.points_m.end(), person_part.points_m.begin(),
+                         person_part.points_m.end());
+  across.centroid_m = {0.15, 0.5, 0.755};
+  across.half_size_m = 0.6;
+  std::vector<int64_t> straddled;
+  const auto ids = map.Integrate({across}, &changes, &straddled);
+  std::ostringstream out;
+  out << map.size() << " objects, straddled " << straddled.size() << ", id " << ids[0] << ":";
+  for (const MapObject& o : map.Snapshot(false)) out << " " << o.observation_count;
+  return out.str();
+}
+
+TEST(ObjectRules, AViewStraddlingTwoDesksJoinsNeither) {
+  // Without the rule the straddling view fuses into one desk and then holds the other: one table.
+  EXPECT_EQ(DesksAfterAStraddlingView(0), "1 objects, straddled 0, id 1: 4");
+  // With it the view is a hit for both desks and adds no points: two tables, seen 4 times each.
+  EXPECT_EQ(DesksAfterAStraddlingView(0.25), "2 objects, straddled 2, id 0: 4 4");
 }
 
 // A view whose points fill the grid lo..hi with the given step per axis (map frame, z up).

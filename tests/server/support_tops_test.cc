@@ -79,7 +79,9 @@ TEST(SupportTops, NoLevelTopOrDisabledMeansNoTops) {
   EXPECT_EQ(SupportTops(wall, Eigen::Vector3d::UnitZ(), On(), Mask()).size(), 0u);
   Points top;
   AddTop(0.0, 1.0, 0.0, 1.0, 0.7, &top);
-  const SupportTopsOptions off;  // the default
+  EXPECT_TRUE(SupportTopsOptions{}.enabled);  // on by default (session 25)
+  SupportTopsOptions off;
+  off.enabled = false;
   EXPECT_EQ(SupportTops(top, Eigen::Vector3d::UnitZ(), off, Mask()).size(), 0u);
   // Too small to be furniture (a 20 x 20 cm patch).
   Points patch;
