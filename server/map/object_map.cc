@@ -16,8 +16,7 @@ double VoxelOverlap(const VoxelSet& a, const VoxelSet& b) {
   return static_cast<double>(inter) / static_cast<double>(a.size() + b.size() - inter);
 }
 
-double VoxelContainment(const VoxelSet& a,
-                        const VoxelSet& b) {
+double VoxelContainment(const VoxelSet& a, const VoxelSet& b) {
   if (a.empty() || b.empty()) return 0.0;
   const auto& small = a.size() < b.size() ? a : b;
   const auto& large = a.size() < b.size() ? b : a;
@@ -30,11 +29,11 @@ ObjectMap::ObjectMap(const FusionOptions& options, double voxel_m)
     : options_(options), voxel_m_(voxel_m) {}
 
 FusedObject ObjectMap::NewObject(int64_t id) const {
-  return FusedObject(id, voxel_m_, options_.centroid_from_box,
-                     LabelDistribution(options_.label_universe, options_.min_likelihood),
-                     {options_.support_cell_m, options_.min_support_fraction,
-                      options_.centroid_min_part, options_.flat_top_classes,
-                      options_.flat_top_margin_m, options_.shape_min_label_views});
+  return FusedObject(
+      id, voxel_m_, options_.centroid_from_box,
+      LabelDistribution(options_.label_universe, options_.min_likelihood),
+      {options_.support_cell_m, options_.min_support_fraction, options_.centroid_min_part,
+       options_.flat_top_classes, options_.flat_top_margin_m, options_.shape_min_label_views});
 }
 
 namespace {
@@ -52,8 +51,8 @@ double BoxContainment(const MapObject& a, const MapObject& b) {
   const Eigen::Vector3d lo = a.aabb_min_m.cwiseMax(b.aabb_min_m);
   const Eigen::Vector3d hi = a.aabb_max_m.cwiseMin(b.aabb_max_m);
   if ((hi.array() <= lo.array()).any()) return 0.0;
-  const double smaller = std::min((a.aabb_max_m - a.aabb_min_m).prod(),
-                                  (b.aabb_max_m - b.aabb_min_m).prod());
+  const double smaller =
+      std::min((a.aabb_max_m - a.aabb_min_m).prod(), (b.aabb_max_m - b.aabb_min_m).prod());
   return smaller > 0 ? (hi - lo).prod() / smaller : 0.0;
 }
 
@@ -138,6 +137,18 @@ std::vector<int64_t> ObjectMap::StraddledFurniture(const MapObservation& obs,
   return held;
 }
 
+void ObjectMap::HitWithoutPoints(const MapObservation& obs, const std::vector<int64_t>& object_ids,
+                                 const ClassDetectionRates& rates,
+                                 std::vector<ObjectChange>* changes) {
+  for (int64_t id : object_ids) {
+    FusedObject& object = objects_.at(id);
+    object.Observe(obs.class_name, obs.score, obs.session_row, obs.track_id, obs.robot,
+                   obs.keyframe_id, obs.t_ns);
+    Judge(&object, rates);
+    changes->push_back({ObjectChange::Kind::kUpdated, id, 0, {}});
+  }
+}
+
 std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& observations,
                                           std::vector<ObjectChange>* changes,
                                           std::vector<int64_t>* straddled_ids) {
@@ -150,14 +161,9 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
       keys.insert(KeyOf(p.p_m.cast<double>(), options_.overlap_voxel_m));
     }
     if (const std::vector<int64_t> held = StraddledFurniture(obs, keys); !held.empty()) {
-      for (int64_t id : held) {
-        FusedObject& object = objects_.at(id);
-        object.Observe(obs.class_name, obs.score, obs.session_row, obs.track_id, obs.robot,
-                       obs.keyframe_id, obs.t_ns);
-        Judge(&object, rates);
-        changes->push_back({ObjectChange::Kind::kUpdated, id, 0, {}});
-        if (straddled_ids != nullptr) straddled_ids->push_back(id);
-      }
+      HitWithoutPoints(obs, held, rates, changes);
+      if (straddled_ids != nullptr)
+        straddled_ids->insert(straddled_ids->end(), held.begin(), held.end());
       ids.push_back(0);  // in no object: its points stay unlabelled cloud
       continue;
     }
@@ -196,16 +202,15 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
 }
 
 const char* ObjectMap::Duplicates(const FusedObject& self, const FusedObject& other,
-                                 VoxelSet* self_keys, std::optional<MapObject>* self_box) const {
+                                  VoxelSet* self_keys, std::optional<MapObject>* self_box) const {
   // Other classes merge only with an object of a compatible size (a monitor labelled "laptop"
   // on blurred frames), never a keyboard with the desk it lies on; the label distributions then
   // settle the class.
   const std::string cls = self.labels().Argmax(), other_cls = other.labels().Argmax();
   const bool same_class = other_cls == cls;
-  if (!same_class && (!options_.merge_across_classes ||
-                      !SizeCompatible(self.half_size_m(), other.half_size_m()) ||
-                      !ClassesFit(cls, 2 * self.half_size_m(), other_cls,
-                                  2 * other.half_size_m()))) {
+  if (!same_class &&
+      (!options_.merge_across_classes || !SizeCompatible(self.half_size_m(), other.half_size_m()) ||
+       !ClassesFit(cls, 2 * self.half_size_m(), other_cls, 2 * other.half_size_m()))) {
     return nullptr;
   }
   const double d = (other.centroid_m() - self.centroid_m()).norm();

@@ -51,8 +51,7 @@ struct ObjectChange {
 // M = |A∩B| / (|A| + |B| - |A∩B|) of two voxel sets (0 when both are empty).
 double VoxelOverlap(const VoxelSet& a, const VoxelSet& b);
 // |A∩B| / min(|A|, |B|).
-double VoxelContainment(const VoxelSet& a,
-                        const VoxelSet& b);
+double VoxelContainment(const VoxelSet& a, const VoxelSet& b);
 
 class ObjectMap {
  public:
@@ -123,10 +122,14 @@ class ObjectMap {
   // each and adds no points.
   std::vector<int64_t> StraddledFurniture(const MapObservation& obs,
                                           const VoxelSet& obs_keys) const;
+  // The observation counts as a hit for each object (labels, keyframes, existence), without
+  // its points.
+  void HitWithoutPoints(const MapObservation& obs, const std::vector<int64_t>& object_ids,
+                        const ClassDetectionRates& rates, std::vector<ObjectChange>* changes);
   // Whether the two are one object (MergeDuplicates' rules): the rule that says so, else null;
   // self_keys and self_box cache self's voxel keys and box.
   const char* Duplicates(const FusedObject& self, const FusedObject& other, VoxelSet* self_keys,
-                  std::optional<MapObject>* self_box) const;
+                         std::optional<MapObject>* self_box) const;
   // An object of size_m (longest side) can be of the class (FusionOptions::class_size_slack).
   bool FitsClass(const std::string& class_name, double size_m) const;
   // Same class, or each one's size fits the other's class and neither or both are flat-topped
