@@ -110,11 +110,11 @@ StatusOr<ClientConfig> LoadClientConfig(const std::string& client_config,
     LOCI_RETURN_IF_ERROR(WithFile(classes, c.tracker.ClassWeightsFromYaml(*weights)));
   }
   const std::string camera = tum_dir + "/camera.yaml";
+  const bool configured = node.ok() && (*node)["tracker"] && (*node)["tracker"]["camera"];
   if (access(camera.c_str(), F_OK) == 0) {
     LOCI_ASSIGN_OR_RETURN(YAML::Node cam, LoadYamlFile(camera));
     LOCI_RETURN_IF_ERROR(WithFile(camera, ReadSequenceCamera(camera, cam, &c.tracker)));
-  } else if (const bool configured = node.ok() && (*node)["tracker"] && (*node)["tracker"]["camera"];
-             !tum_dir.empty() && !configured) {
+  } else if (!tum_dir.empty() && !configured) {
     LOCI_RETURN_IF_ERROR(UseFolderCamera(tum_dir, &c.tracker));
   }
   return c;
