@@ -20,7 +20,8 @@ constexpr const char* kFusionKeys[] = {
     "existence_p_false",       "confirm_llr",       "remove_llr",           "visibility",
     "centroid_min_part",       "class_size_slack",  "merge_box_containment",
     "merge_sigmas",            "depth_sigma_at_1m", "view_sigma_rad",       "shape_min_label_views",
-    "existence_class_prior_views", "confirm_min_span_s", "straddle_share"};
+    "existence_class_prior_views", "confirm_min_span_s", "straddle_share",
+    "top_load_reach_m", "top_load_max_gap_m"};
 
 Status CheckMapKeys(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
@@ -142,6 +143,8 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "confirm_observations", &fusion.confirm_observations));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "confirm_min_span_s", &fusion.confirm_min_span_s));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "straddle_share", &fusion.straddle_share));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_reach_m", &fusion.top_loads.reach_m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_max_gap_m", &fusion.top_loads.max_gap_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_centroid_m", &fusion.merge_centroid_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_sigmas", &fusion.merge_sigmas));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "depth_sigma_at_1m", &fusion.depth_sigma_at_1m));
@@ -240,6 +243,12 @@ Status MapOptions::Validate() const {
   }
   if (!(fusion.straddle_share >= 0 && fusion.straddle_share <= 1)) {
     return bad("fusion.straddle_share in [0, 1]");
+  }
+  if (!(fusion.top_loads.reach_m >= 0 && fusion.top_loads.reach_m <= 2)) {
+    return bad("fusion.top_load_reach_m in [0, 2]");
+  }
+  if (!(fusion.top_loads.max_gap_m >= 0 && fusion.top_loads.max_gap_m <= 0.5)) {
+    return bad("fusion.top_load_max_gap_m in [0, 0.5]");
   }
   if (!(fusion.support_cell_m > 0.001) ||
       !(fusion.min_support_fraction >= 0 && fusion.min_support_fraction <= 1)) {

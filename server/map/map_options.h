@@ -12,6 +12,7 @@
 #include "detection/depth_mask.h"
 #include "server/map/map_frame.h"
 #include "server/map/support_tops.h"
+#include "server/map/top_loads.h"
 #include "server/map/visibility.h"
 
 namespace loci::server {
@@ -77,6 +78,10 @@ struct FusionOptions {
   // or more such objects of the map straddles them (one box over two desks back to back, one
   // plane through both tops): it is left out instead of joining them (0.25). 0: off.
   double straddle_share = 0.25;
+  // A table's footprint runs on under the confirmed objects resting on its top (top_loads.h):
+  // objects, answers and exports show the whole top, not the strip between the things on it.
+  // fusion.top_load_reach_m (0.15, 0 = off) and fusion.top_load_max_gap_m (0.05).
+  TopLoadOptions top_loads;
   // Two objects with the same argmax class merge when their centroids are closer than
   // merge_centroid_m (0.1) or when |A∩B| / min(|A|, |B|) exceeds merge_containment (0.5).
   double merge_centroid_m = 0.1;

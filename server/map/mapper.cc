@@ -121,8 +121,9 @@ void Mapper::AppendEvents(const std::vector<ObjectChange>& changes,
       events->push_back(std::move(e));
       continue;
     }
-    const FusedObject* obj = objects_.Find(objects_.Resolve(c.object_id));
-    if (obj != nullptr) e.object = obj->Snapshot();
+    if (auto snapshot = objects_.SnapshotOf(objects_.Resolve(c.object_id))) {
+      e.object = std::move(*snapshot);
+    }
     e.object.id = objects_.Resolve(c.object_id);
     events->push_back(std::move(e));
   }
@@ -350,7 +351,7 @@ std::optional<MapObject> Mapper::GetObject(int64_t id, std::vector<ColoredPoint>
   if (obj == nullptr) return std::nullopt;
   if (cloud_m) *cloud_m = obj->Cloud();
   if (keyframe_ids) *keyframe_ids = obj->keyframes();
-  return obj->Snapshot();
+  return objects_.SnapshotOf(obj->id());
 }
 
 std::vector<SemanticPoint> Mapper::Cloud(double voxel_m,

@@ -345,7 +345,19 @@ std::vector<MapObject> ObjectMap::Snapshot(bool confirmed_only) const {
     if (confirmed_only && !object.confirmed()) continue;
     out.push_back(object.Snapshot());
   }
+  ExtendTopsUnderLoads(options_.flat_top_classes, options_.top_loads, &out);
   return out;
+}
+
+std::optional<MapObject> ObjectMap::SnapshotOf(int64_t id) const {
+  const FusedObject* object = Find(id);
+  if (object == nullptr) return std::nullopt;
+  MapObject one = object->Snapshot();
+  if (!one.confirmed || !IsFlatTopClass(options_.flat_top_classes, one.class_name)) return one;
+  for (MapObject& o : Snapshot(/*confirmed_only=*/true)) {
+    if (o.id == id) return o;
+  }
+  return one;
 }
 
 size_t ObjectMap::confirmed_count() const {

@@ -94,7 +94,11 @@ class ObjectMap {
   // Follows merges: the id an object id lives on as (0 stays 0).
   int64_t Resolve(int64_t id) const;
   const FusedObject* Find(int64_t id) const;
+  // Every object (or the confirmed ones) as queries and exports see it: tables widened under
+  // what rests on them (FusionOptions::top_loads).
   std::vector<MapObject> Snapshot(bool confirmed_only) const;
+  // One object as Snapshot shows it; nullopt when there is no such object (ids not resolved).
+  std::optional<MapObject> SnapshotOf(int64_t id) const;
   size_t size() const { return objects_.size(); }
   size_t confirmed_count() const;
 

@@ -1,0 +1,131 @@
+#include "server/map/top_loads.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+
+#include "server/map/fused_object.h"
+
+namespace loci::server {
+namespace {
+
+bool IsTable(const MapObject& o, const std::vector<std::string>& flat_top_classes) {
+  return o.confirmed && std::isfinite(o.top_surface_z_m) &&
+         IsFlatTopClass(flat_top_classes, o.class_name);
+}
+
+// Gap between two intervals (0 when they overlap) and the overlap's length.
+double IntervalGap(double a0, double a1, double b0, double b1) {
+  return std::max({0.0, b0 - a1, a0 - b1});
+}
+double IntervalOverlap(double a0, double a1, double b0, double b1) {
+  return std::max(0.0, std::min(a1, b1) - std::max(a0, b0));
+}
+
+// The load's footprint corners at the table top's height (map frame).
+std::vector<Eigen::Vector3d> FootprintCorners(const MapObject& load, double z_m) {
+  const Eigen::Vector3d& lo = load.aabb_min_m;
+  const Eigen::Vector3d& hi = load.aabb_max_m;
+  return {{lo.x(), lo.y(), z_m}, {hi.x(), lo.y(), z_m}, {lo.x(), hi.y(), z_m}, {hi.x(), hi.y(), z_m}};
+}
+
+// Grows the table's boxes to hold the loads' footprints; the centroid follows the box centre.
+void Widen(const std::vector<const MapObject*>& loads, MapObject* table) {
+  const Eigen::Vector3d old_centre = 0.5 * (table->aabb_min_m + table->aabb_max_m);
+  const Eigen::Matrix3d& R = table->R_map_box;
+  Eigen::Vector3d lo = -table->obb_half_extent_m, hi = table->obb_half_extent_m;
+  for (const MapObject* load : loads) {
+    for (const Eigen::Vector3d& c : FootprintCorners(*load, table->top_surface_z_m)) {
+      table->aabb_min_m.head<2>() = table->aabb_min_m.head<2>().cwiseMin(c.head<2>());
+      table->aabb_max_m.head<2>() = table->aabb_max_m.head<2>().cwiseMax(c.head<2>());
+      const Eigen::Vector3d q = R.transpose() * (c - table->obb_center_m);
+      lo = lo.cwiseMin(q);
+      hi = hi.cwiseMax(q);
+    }
+  }
+  table->obb_center_m += R * (0.5 * (lo + hi));
+  table->obb_half_extent_m = 0.5 * (hi - lo);
+  const Eigen::Vector3d new_centre = 0.5 * (table->aabb_min_m + table->aabb_max_m);
+  table->centroid_m.head<2>() += (new_centre - old_centre).head<2>();
+}
+
+}  // namespace
+
+bool RestsOn(const MapObject& load, const MapObject& table, const TopLoadOptions& options,
+             double* distance_m, double* overlap) {
+  const Eigen::Vector3d &a0 = load.aabb_min_m, &a1 = load.aabb_max_m;
+  const Eigen::Vector3d &b0 = table.aabb_min_m, &b1 = table.aabb_max_m;
+  const double dx = IntervalGap(a0.x(), a1.x(), b0.x(), b1.x());
+  const double dy = IntervalGap(a0.y(), a1.y(), b0.y(), b1.y());
+  const double area = std::max(1e-9, (a1.x() - a0.x()) * (a1.y() - a0.y()));
+  if (distance_m != nullptr) *distance_m = std::hypot(dx, dy);
+  if (overlap != nullptr) {
+    *overlap = IntervalOverlap(a0.x(), a1.x(), b0.x(), b1.x()) *
+               IntervalOverlap(a0.y(), a1.y(), b0.y(), b1.y()) / area;
+  }
+  return std::abs(a0.z() - table.top_surface_z_m) <= options.max_gap_m &&
+         std::hypot(dx, dy) <= options.reach_m && a1.z() > table.top_surface_z_m;
+}
+
+namespace {
+
+// The table among `tables` that `load` rests on best (TopLoadOptions), or objects.size().
+size_t BestTable(const MapObject& load, const std::vector<MapObject>& objects,
+                 const std::vector<size_t>& tables, const TopLoadOptions& options) {
+  size_t best = objects.size();
+  double best_overlap = 0, best_distance = 0, best_gap = 0;
+  for (size_t t : tables) {
+    double distance = 0, overlap = 0;
+    if (!RestsOn(load, objects[t], options, &distance, &overlap)) continue;
+    const double gap = std::abs(load.aabb_min_m.z() - objects[t].top_surface_z_m);
+    constexpr double kEps = 1e-9;
+    const bool better =
+        overlap > best_overlap + kEps ||
+        (overlap > best_overlap - kEps &&
+         (distance < best_distance - kEps || (distance < best_distance + kEps && gap < best_gap)));
+    if (best == objects.size() || better) {
+      best = t;
+      best_overlap = overlap;
+      best_distance = distance;
+      best_gap = gap;
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+void ExtendTopsUnderLoads(const std::vector<std::string>& flat_top_classes,
+                          const TopLoadOptions& options, std::vector<MapObject>* objects) {
+  if (options.reach_m <= 0) return;
+  std::vector<size_t> tables, loads;
+  for (size_t i = 0; i < objects->size(); ++i) {
+    const MapObject& o = (*objects)[i];
+    if (IsTable(o, flat_top_classes)) {
+      tables.push_back(i);
+    } else if (o.confirmed && !IsFlatTopClass(flat_top_classes, o.class_name)) {
+      loads.push_back(i);
+    }
+  }
+  if (tables.empty()) return;
+  // Rounds: a top grown under the keyboard reaches the mouse beside it. Each load joins one
+  // table, chosen against the footprints of its round, so the result does not depend on order.
+  for (size_t round = 0; round < loads.size() && !loads.empty(); ++round) {
+    std::map<size_t, std::vector<const MapObject*>> on_table;
+    std::vector<size_t> left;
+    for (size_t l : loads) {
+      const size_t t = BestTable((*objects)[l], *objects, tables, options);
+      if (t == objects->size()) {
+        left.push_back(l);
+      } else {
+        on_table[t].push_back(&(*objects)[l]);
+      }
+    }
+    if (on_table.empty()) break;
+    for (const auto& [t, on_top] : on_table) Widen(on_top, &(*objects)[t]);
+    loads.swap(left);
+  }
+}
+
+}  // namespace loci::server

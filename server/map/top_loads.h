@@ -1,0 +1,39 @@
+// A table top runs on under what rests on it. The map object of a desk holds the top the camera
+// sees between the monitors, keyboard and books standing on it, so its box and centroid cover
+// only that part, often a strip in front. ExtendTopsUnderLoads widens the footprint of each
+// confirmed piece of flat-topped furniture (a table) to take in the footprints of the confirmed
+// objects resting on its top: an object whose box bottom lies within max_gap_m of the top's
+// height and whose footprint comes within reach_m of the table's (axis-aligned boxes, map frame,
+// z up), or of the part of the table already grown under other loads. An object near two tables rests on the one its footprint overlaps most, then the one
+// nearest, then the one whose top is closest to its bottom. Only footprints change: the top's
+// height, the table's label and evidence stay; the centroid moves with its box's centre.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "common/map_object.h"
+
+namespace loci::server {
+
+struct TopLoadOptions {
+  // Horizontal distance from a table's footprint within which an object at its top's height
+  // rests on it, m. 0: off (tables keep the footprint of their own points).
+  double reach_m = 0.15;
+  // |box bottom - top height| at most this, m: a thing resting on the top (a few cm of the top
+  // caught in its box, or a foot's height).
+  double max_gap_m = 0.05;
+};
+
+// Widens the tables among `objects` (flat_top_classes, confirmed, with a top height) in place,
+// in rounds: a top grown under one load reaches the next (the mouse beside the keyboard). Each
+// load joins one table; tables are never loads.
+void ExtendTopsUnderLoads(const std::vector<std::string>& flat_top_classes,
+                          const TopLoadOptions& options, std::vector<MapObject>* objects);
+
+// Whether `load` rests on `table` by those rules; its footprint's distance to the table's in
+// *distance_m and the share of its footprint over the table's in *overlap (either may be null).
+bool RestsOn(const MapObject& load, const MapObject& table, const TopLoadOptions& options,
+             double* distance_m, double* overlap);
+
+}  // namespace loci::server

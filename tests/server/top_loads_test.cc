@@ -1,0 +1,122 @@
+// A table's footprint runs on under what rests on it (server/map/top_loads.h), on the geometry of
+// fr1_rpy's main desk from objects_gt.json (world frame, z up, top at z 0.77): the camera sees a
+// strip of the top in front of the keyboard; the book, keyboard, mug, mouse and second monitor
+// stand on the rest of it.
+#include <gtest/gtest.h>
+
+#include "server/map/top_loads.h"
+
+namespace loci::server {
+namespace {
+
+const std::vector<std::string> kFlatTops = {"dining table"};
+
+MapObject Box(int64_t id, const std::string& cls, const Eigen::Vector3d& lo,
+              const Eigen::Vector3d& hi) {
+  MapObject o;
+  o.id = id;
+  o.class_name = cls;
+  o.confirmed = true;
+  o.aabb_min_m = lo;
+  o.aabb_max_m = hi;
+  o.centroid_m = 0.5 * (lo + hi);
+  o.obb_center_m = o.centroid_m;
+  o.obb_half_extent_m = 0.5 * (hi - lo);
+  return o;
+}
+
+MapObject Table(int64_t id, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+  MapObject t = Box(id, "dining table", lo, hi);
+  t.top_surface_z_m = hi.z();
+  return t;
+}
+
+// desk_main's visible strip (top z 0.77) and what rests on it (objects_gt.json boxes).
+std::vector<MapObject> MainDesk() {
+  return {Table(1, {0.75, 0.30, 0.75}, {1.04, 1.00, 0.77}),
+          Box(2, "book", {0.265, 0.035, 0.782}, {0.515, 0.225, 0.828}),      // book_mvg
+          Box(3, "keyboard", {0.606, 0.69, 0.77}, {0.87, 1.15, 0.83}),       // keyboard
+          Box(4, "cup", {0.498, 0.63, 0.78}, {0.606, 0.73, 0.894}),          // cup_mug
+          Box(5, "mouse", {0.562, 1.18, 0.789}, {0.678, 1.29, 0.841}),       // mouse
+          Box(6, "tv", {0.405, 1.22, 0.81}, {0.695, 1.64, 1.27})};           // monitor_second
+}
+
+const MapObject& Find(const std::vector<MapObject>& objects, int64_t id) {
+  for (const MapObject& o : objects) {
+    if (o.id == id) return o;
+  }
+  throw std::runtime_error("no object " + std::to_string(id));
+}
+
+TEST(TopLoads, TheDeskRunsOnUnderWhatStandsOnIt) {
+  const Eigen::Vector3d top_centre_gt(0.625, 0.74, 0.77);  // desk_main's top: x 0.21..1.04, y -0.04..1.52
+  std::vector<MapObject> objects = MainDesk();
+  const double error_before = (Find(objects, 1).centroid_m - top_centre_gt).norm();
+  ExtendTopsUnderLoads(kFlatTops, TopLoadOptions{}, &objects);
+  const MapObject& desk = Find(objects, 1);
+  EXPECT_NEAR(desk.aabb_min_m.x(), 0.265, 1e-9);
+  EXPECT_NEAR(desk.aabb_min_m.y(), 0.035, 1e-9);
+  EXPECT_NEAR(desk.aabb_max_m.y(), 1.64, 1e-9);
+  EXPECT_NEAR(desk.aabb_max_m.x(), 1.04, 1e-9);
+  EXPECT_DOUBLE_EQ(desk.aabb_min_m.z(), 0.75);  // heights stay
+  EXPECT_DOUBLE_EQ(desk.centroid_m.z(), 0.76);
+  EXPECT_DOUBLE_EQ(desk.top_surface_z_m, 0.77);
+  // The centroid moves from the strip in front (0.29 m off) to within 0.11 m of the top's centre.
+  const double error_after = (desk.centroid_m - top_centre_gt).norm();
+  EXPECT_GT(error_before, 0.28);
+  EXPECT_LT(error_after, 0.11);
+  // The oriented box holds the same footprint (its axes are the map's here).
+  EXPECT_NEAR(desk.obb_center_m.x(), 0.5 * (0.265 + 1.04), 1e-9);
+  EXPECT_NEAR(desk.obb_half_extent_m.y(), 0.5 * (1.64 - 0.035), 1e-9);
+  // The loads themselves do not change.
+  EXPECT_EQ(Find(objects, 3).aabb_min_m, MainDesk()[2].aabb_min_m);
+}
+
+TEST(TopLoads, OnlyConfirmedThingsAtTheTopsHeightAndWithinReach) {
+  std::vector<MapObject> objects = {Table(1, {0.75, 0.30, 0.75}, {1.04, 1.00, 0.77})};
+  objects.push_back(Box(2, "chair", {1.1, 0.4, 0.0}, {1.6, 0.9, 1.0}));   // on the floor beside it
+  objects.push_back(Box(3, "cup", {0.8, 0.4, 1.20}, {0.9, 0.5, 1.30}));   // on a shelf above it
+  objects.push_back(Box(4, "book", {0.2, 0.4, 0.78}, {0.4, 0.6, 0.82}));  // 0.35 m beyond its edge
+  objects.push_back(Box(5, "mouse", {0.6, 0.4, 0.78}, {0.7, 0.5, 0.82}));
+  objects.back().confirmed = false;  // a candidate is no evidence of the top
+  objects.push_back(Table(6, {1.05, 0.30, 0.70}, {1.50, 1.00, 0.77}));  // a table is no load
+  const std::vector<MapObject> before = objects;
+  ExtendTopsUnderLoads(kFlatTops, TopLoadOptions{}, &objects);
+  for (size_t i = 0; i < objects.size(); ++i) {
+    EXPECT_EQ(objects[i].aabb_min_m, before[i].aabb_min_m) << objects[i].id;
+    EXPECT_EQ(objects[i].aabb_max_m, before[i].aabb_max_m) << objects[i].id;
+  }
+  // Off: nothing changes either.
+  objects = MainDesk();
+  ExtendTopsUnderLoads(kFlatTops, TopLoadOptions{0.0, 0.05}, &objects);
+  EXPECT_EQ(Find(objects, 1).aabb_min_m, MainDesk()[0].aabb_min_m);
+}
+
+TEST(TopLoads, AThingBetweenTwoDesksRestsOnTheOneUnderMostOfIt) {
+  // Two desks back to back, 3 cm apart in height (fr1_rpy's desk_main and desk_person); a book
+  // lies across the seam, 0.28 m of its 0.4 m over the lower desk.
+  std::vector<MapObject> objects = {Table(1, {0.20, 0.0, 0.75}, {1.0, 1.0, 0.77}),
+                                    Table(2, {-0.70, 0.0, 0.72}, {0.18, 1.0, 0.74}),
+                                    Box(3, "book", {-0.10, 0.2, 0.765}, {0.30, 0.4, 0.80})};
+  double distance = 0, overlap = 0;
+  ASSERT_TRUE(RestsOn(objects[2], objects[0], TopLoadOptions{}, &distance, &overlap));
+  EXPECT_NEAR(overlap, 0.25, 1e-9);
+  ASSERT_TRUE(RestsOn(objects[2], objects[1], TopLoadOptions{}, &distance, &overlap));
+  EXPECT_NEAR(overlap, 0.7, 1e-9);
+  ExtendTopsUnderLoads(kFlatTops, TopLoadOptions{}, &objects);
+  EXPECT_NEAR(Find(objects, 2).aabb_max_m.x(), 0.30, 1e-9);  // the lower desk takes it
+  EXPECT_NEAR(Find(objects, 1).aabb_min_m.x(), 0.20, 1e-9);  // the other one does not grow
+  // Beyond both footprints' ends (y < 0), over neither: the nearer one, then the one whose top
+  // is nearer its bottom (desk 1: 5 mm, desk 2: 25 mm).
+  objects = {Table(1, {0.20, 0.0, 0.75}, {1.0, 1.0, 0.77}),
+             Table(2, {-0.70, 0.0, 0.72}, {0.18, 1.0, 0.74}),
+             Box(3, "book", {0.05, -0.3, 0.765}, {0.33, -0.1, 0.80})};
+  ASSERT_TRUE(RestsOn(objects[2], objects[0], TopLoadOptions{}, &distance, nullptr));
+  EXPECT_NEAR(distance, 0.1, 1e-9);
+  ExtendTopsUnderLoads(kFlatTops, TopLoadOptions{}, &objects);
+  EXPECT_NEAR(Find(objects, 1).aabb_min_m.y(), -0.3, 1e-9);
+  EXPECT_NEAR(Find(objects, 2).aabb_min_m.y(), 0.0, 1e-9);
+}
+
+}  // namespace
+}  // namespace loci::server
