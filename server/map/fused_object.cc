@@ -156,8 +156,8 @@ double FusedObject::ExistenceLlr(const ExistenceModel& m) const {
 }
 
 void FusedObject::UpdateConfirmed(int confirm_observations, int64_t min_span_ns,
-                                  const ExistenceModel& m, double min_llr) {
-  confirmed_ = static_cast<int>(keyframes_.size()) >= confirm_observations &&
+                                  const ExistenceModel& m, double min_llr, bool size_fits) {
+  confirmed_ = size_fits && static_cast<int>(keyframes_.size()) >= confirm_observations &&
                last_seen_ns_ - first_seen_ns_ >= min_span_ns &&
                ExistenceLlr(m) >= min_llr;
 }

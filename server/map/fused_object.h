@@ -114,9 +114,10 @@ class FusedObject {
   };
   double ExistenceLlr(const ExistenceModel& m) const;
   // Confirmed: seen in at least confirm_observations keyframes, over at least min_span_ns from
-  // its first detection to its last, and an LLR of at least min_llr.
+  // its first detection to its last, with an LLR of at least min_llr, and of a size its most
+  // likely class can have (size_fits, the caller's class size prior).
   void UpdateConfirmed(int confirm_observations, int64_t min_span_ns, const ExistenceModel& m,
-                       double min_llr);
+                       double min_llr, bool size_fits);
   // Hits / (hits + misses), for display.
   double existence() const {
     return observation_count() / std::max(1.0, double(observation_count()) + misses_);

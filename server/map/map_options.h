@@ -132,7 +132,8 @@ struct FusionOptions {
   // observation is not associated with an object of another class, and objects of other classes
   // do not merge, when either one is longer than class_size_slack x the other's class limit (a
   // 1.6 m desk is no "laptop", whatever a blurred view said). A fused box is the union of many
-  // views, longer than one view's 5-95 % box; <= 0 = off (1.5).
+  // views, longer than one view's 5-95 % box. An object longer (oriented box) than this x its
+  // own most likely class's limit is not confirmed (a fused 0.4 m "mouse"). <= 0 = off (1.5).
   std::map<std::string, double> max_size_m;
   double class_size_slack = 1.5;
   // Two objects of the same class whose axis-aligned boxes (map frame) overlap by more than this

@@ -320,8 +320,11 @@ ClassDetectionRates ObjectMap::Rates() const {
 
 double ObjectMap::Judge(FusedObject* object, const ClassDetectionRates& rates) const {
   const auto min_span_ns = static_cast<int64_t>(options_.confirm_min_span_s * 1e9);
+  // A fused 0.4 m "mouse" is a wrong label or a box smeared over what lies around it: it stays a
+  // candidate (its evidence kept) while its size does not fit its class.
+  const bool size_fits = FitsClass(object->labels().Argmax(), 2.0 * object->half_size_m());
   object->UpdateConfirmed(options_.confirm_observations, min_span_ns, rates.For(*object),
-                          options_.confirm_llr);
+                          options_.confirm_llr, size_fits);
   return object->ExistenceLlr(rates.base());
 }
 
