@@ -139,7 +139,9 @@ struct FusionOptions {
   // Two objects of the same class whose axis-aligned boxes (map frame) overlap by more than this
   // share of the smaller box's volume are one object: two solid things do not interpenetrate.
   // Far objects (3 m and more: depth noise ~z^2, a degree of pose error moves them 5 cm) come back
-  // as several smeared boxes whose voxels no longer overlap; >= 1 = off (0.75).
+  // as several smeared boxes whose voxels no longer overlap. Not flat-topped furniture: two desks
+  // back to back that lie diagonally to the map's axes have boxes that hold each other; >= 1 =
+  // off (0.75).
   double merge_box_containment = 0.75;
   // Objects of the same class also merge when their centroids are closer than merge_sigmas
   // times the pair's position uncertainty, sqrt(2) s(r), where r is the distance of the nearer

@@ -222,7 +222,12 @@ const char* ObjectMap::Duplicates(const FusedObject& self, const FusedObject& ot
       options_.merge_containment) {
     return "voxel containment";
   }
-  if (!same_class || options_.merge_box_containment >= 1) return nullptr;
+  // Not for tables: their map-frame boxes are no solids. Two desks back to back that lie
+  // diagonally to the map's axes have boxes that hold each other (fr1_rpy, session 26).
+  if (!same_class || options_.merge_box_containment >= 1 ||
+      IsFlatTopClass(options_.flat_top_classes, cls)) {
+    return nullptr;
+  }
   if (!*self_box) *self_box = self.Snapshot();
   return BoxContainment(**self_box, other.Snapshot()) > options_.merge_box_containment
              ? "box containment"
