@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <map>
 
 #include "server/map/fused_object.h"
@@ -50,26 +49,6 @@ void Widen(const std::vector<const MapObject*>& loads, MapObject* table) {
   table->centroid_m.head<2>() += (new_centre - old_centre).head<2>();
 }
 
-}  // namespace
-
-bool RestsOn(const MapObject& load, const MapObject& table, const TopLoadOptions& options,
-             double* distance_m, double* overlap) {
-  const Eigen::Vector3d &a0 = load.aabb_min_m, &a1 = load.aabb_max_m;
-  const Eigen::Vector3d &b0 = table.aabb_min_m, &b1 = table.aabb_max_m;
-  const double dx = IntervalGap(a0.x(), a1.x(), b0.x(), b1.x());
-  const double dy = IntervalGap(a0.y(), a1.y(), b0.y(), b1.y());
-  const double area = std::max(1e-9, (a1.x() - a0.x()) * (a1.y() - a0.y()));
-  if (distance_m != nullptr) *distance_m = std::hypot(dx, dy);
-  if (overlap != nullptr) {
-    *overlap = IntervalOverlap(a0.x(), a1.x(), b0.x(), b1.x()) *
-               IntervalOverlap(a0.y(), a1.y(), b0.y(), b1.y()) / area;
-  }
-  return std::abs(a0.z() - table.top_surface_z_m) <= options.max_gap_m &&
-         std::hypot(dx, dy) <= options.reach_m && a1.z() > table.top_surface_z_m;
-}
-
-namespace {
-
 // The table among `tables` that `load` rests on best (TopLoadOptions), or objects.size().
 size_t BestTable(const MapObject& load, const std::vector<MapObject>& objects,
                  const std::vector<size_t>& tables, const TopLoadOptions& options) {
@@ -96,6 +75,23 @@ size_t BestTable(const MapObject& load, const std::vector<MapObject>& objects,
 
 }  // namespace
 
+bool RestsOn(const MapObject& load, const MapObject& table, const TopLoadOptions& options,
+             double* distance_m, double* overlap) {
+  const Eigen::Vector3d &a0 = load.aabb_min_m, &a1 = load.aabb_max_m;
+  const Eigen::Vector3d &b0 = table.aabb_min_m, &b1 = table.aabb_max_m;
+  const double dx = IntervalGap(a0.x(), a1.x(), b0.x(), b1.x());
+  const double dy = IntervalGap(a0.y(), a1.y(), b0.y(), b1.y());
+  const double distance = std::hypot(dx, dy);
+  const double area = std::max(1e-9, (a1.x() - a0.x()) * (a1.y() - a0.y()));
+  if (distance_m != nullptr) *distance_m = distance;
+  if (overlap != nullptr) {
+    *overlap = IntervalOverlap(a0.x(), a1.x(), b0.x(), b1.x()) *
+               IntervalOverlap(a0.y(), a1.y(), b0.y(), b1.y()) / area;
+  }
+  return std::abs(a0.z() - table.top_surface_z_m) <= options.max_gap_m &&
+         distance <= options.reach_m && a1.z() > table.top_surface_z_m;
+}
+
 void ExtendTopsUnderLoads(const std::vector<std::string>& flat_top_classes,
                           const TopLoadOptions& options, std::vector<MapObject>* objects) {
   if (options.reach_m <= 0) return;
@@ -111,7 +107,7 @@ void ExtendTopsUnderLoads(const std::vector<std::string>& flat_top_classes,
   if (tables.empty()) return;
   // Rounds: a top grown under the keyboard reaches the mouse beside it. Each load joins one
   // table, chosen against the footprints of its round, so the result does not depend on order.
-  for (size_t round = 0; round < loads.size() && !loads.empty(); ++round) {
+  while (!loads.empty()) {
     std::map<size_t, std::vector<const MapObject*>> on_table;
     std::vector<size_t> left;
     for (size_t l : loads) {
