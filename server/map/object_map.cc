@@ -25,6 +25,13 @@ double VoxelContainment(const VoxelSet& a, const VoxelSet& b) {
   return static_cast<double>(inter) / static_cast<double>(small.size());
 }
 
+double Within(const VoxelSet& a, const VoxelSet& b) {
+  if (a.empty()) return 0.0;
+  size_t inter = 0;
+  for (VoxelKey k : a) inter += b.count(k);
+  return static_cast<double>(inter) / static_cast<double>(a.size());
+}
+
 ObjectMap::ObjectMap(const FusionOptions& options, double voxel_m)
     : options_(options), voxel_m_(voxel_m) {}
 
@@ -37,14 +44,6 @@ FusedObject ObjectMap::NewObject(int64_t id) const {
 }
 
 namespace {
-
-// |A∩B| / |A|: the share of A inside B.
-double Within(const VoxelSet& a, const VoxelSet& b) {
-  if (a.empty()) return 0.0;
-  size_t inter = 0;
-  for (VoxelKey k : a) inter += b.count(k);
-  return static_cast<double>(inter) / static_cast<double>(a.size());
-}
 
 // Volume of the intersection of two boxes over the smaller box's volume (0 when either is flat).
 double BoxContainment(const MapObject& a, const MapObject& b) {
@@ -245,25 +244,38 @@ int64_t ObjectMap::MergeDuplicates(int64_t id, std::vector<ObjectChange>* change
       if (other_id == id) continue;
       const char* rule = Duplicates(self, other, &self_keys, &self_box);
       if (rule == nullptr) continue;
-      // The older object survives, so ids handed out earlier stay valid where possible.
-      const int64_t keep = std::min(id, other_id), drop = std::max(id, other_id);
-      spdlog::debug("objects {} ({}, {} views) and {} ({}, {} views) merged by {}, {:.2f} m apart",
-                    id, self.labels().Argmax(), self.observation_count(), other_id,
-                    other.labels().Argmax(), other.observation_count(), rule,
-                    (other.centroid_m() - self.centroid_m()).norm());
-      objects_.at(keep).Absorb(objects_.at(drop));
-      Judge(&objects_.at(keep), Rates());
-      ObjectChange removed{ObjectChange::Kind::kRemoved, drop, 0, objects_.at(drop).Snapshot()};
-      objects_.erase(drop);
-      merged_into_[drop] = keep;
-      changes->push_back({ObjectChange::Kind::kMerged, keep, drop, {}});
-      changes->push_back(std::move(removed));
-      id = keep;
+      id = Merge(id, other_id, rule, changes);
       merged = true;
       break;
     }
+    if (merged) continue;
+    if (const auto [part, whole] = FindPart(id); part != 0) {
+      const int64_t kept = Merge(part, whole, "part containment", changes);
+      if (part == id || whole == id) id = kept;
+      merged = true;
+    }
   }
   return id;
+}
+
+int64_t ObjectMap::Merge(int64_t a, int64_t b, const char* rule,
+                         std::vector<ObjectChange>* changes) {
+  const FusedObject& first = objects_.at(a);
+  const FusedObject& second = objects_.at(b);
+  spdlog::debug("objects {} ({}, {} views) and {} ({}, {} views) merged by {}, {:.2f} m apart", a,
+                first.labels().Argmax(), first.observation_count(), b, second.labels().Argmax(),
+                second.observation_count(), rule,
+                (second.centroid_m() - first.centroid_m()).norm());
+  // The older object survives, so ids handed out earlier stay valid where possible.
+  const int64_t keep = std::min(a, b), drop = std::max(a, b);
+  objects_.at(keep).Absorb(objects_.at(drop));
+  Judge(&objects_.at(keep), Rates());
+  ObjectChange removed{ObjectChange::Kind::kRemoved, drop, 0, objects_.at(drop).Snapshot()};
+  objects_.erase(drop);
+  merged_into_[drop] = keep;
+  changes->push_back({ObjectChange::Kind::kMerged, keep, drop, {}});
+  changes->push_back(std::move(removed));
+  return keep;
 }
 
 bool ObjectMap::MoveObservation(int64_t object_id, const std::vector<ColoredPoint>& old_m,
