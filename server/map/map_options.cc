@@ -21,7 +21,7 @@ constexpr const char* kFusionKeys[] = {
     "centroid_min_part",       "class_size_slack",  "merge_box_containment",
     "merge_sigmas",            "depth_sigma_at_1m", "view_sigma_rad",       "shape_min_label_views",
     "existence_class_prior_views", "confirm_min_span_s", "straddle_share",
-    "top_load_reach_m", "top_load_max_gap_m", "merge_part_containment", "part_never_into"};
+    "top_load_reach_m", "top_load_max_gap_m", "part_containment", "never_part_of"};
 
 Status CheckMapKeys(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
@@ -135,8 +135,8 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(
         ReadOptional(n, "merge_box_containment", &fusion.merge_box_containment));
     LOCI_RETURN_IF_ERROR(
-        ReadOptional(n, "merge_part_containment", &fusion.merge_part_containment));
-    LOCI_RETURN_IF_ERROR(ReadOptional(n, "part_never_into", &fusion.part_never_into));
+        ReadOptional(n, "part_containment", &fusion.part_containment));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "never_part_of", &fusion.never_part_of));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "overlap_voxel_m", &fusion.overlap_voxel_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "weight_track", &fusion.weight_track));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "weight_centroid", &fusion.weight_centroid));
@@ -259,7 +259,7 @@ Status MapOptions::Validate() const {
   }
   if (fusion.label_universe < 2) return bad("fusion.label_universe >= 2");
   if (!(fusion.merge_box_containment > 0)) return bad("fusion.merge_box_containment > 0");
-  if (!(fusion.merge_part_containment > 0)) return bad("fusion.merge_part_containment > 0");
+  if (!(fusion.part_containment > 0)) return bad("fusion.part_containment > 0");
   if (!(fusion.merge_sigmas >= 0 && fusion.merge_sigmas <= 5 && fusion.depth_sigma_at_1m >= 0 &&
         fusion.view_sigma_rad >= 0 && fusion.view_sigma_rad < 0.5)) {
     return bad(

@@ -143,16 +143,15 @@ struct FusionOptions {
   // back to back that lie diagonally to the map's axes have boxes that hold each other; >= 1 =
   // off (0.75).
   double merge_box_containment = 0.75;
-  // A part is no second object (object_parts.cc): an object whose voxels (overlap_voxel_m) lie
-  // at least merge_part_containment inside another object's merges into it, whatever the sizes
-  // (a monitor's stand called "mouse" on a few frames: fr1_rpy, session 27). That object is of
-  // another class, larger,
-  // seen at least as often, not flat-topped furniture, not of a part_never_into class, which
-  // holds things on a seat or in a hand (a book on a chair is not the chair's), and its class
-  // still wins with the part's labels. A real thing beside or in front of another has its own
-  // surface. > 1 = off (0.9).
-  double merge_part_containment = 0.9;
-  std::vector<std::string> part_never_into = {"chair", "couch", "bed", "bench", "person"};
+  // A part is no object of its own (object_parts.cc): an object whose voxels (overlap_voxel_m)
+  // lie at least part_containment inside another object's stays a candidate, with its evidence,
+  // while they do (a monitor's stand called "mouse" on a few frames: fr1_rpy, session 27). The
+  // other object is of another class, larger, seen at least as often, not flat-topped furniture
+  // and not of a never_part_of class, which holds things on a seat or in a hand (a book on a
+  // chair is not the chair's). A real thing beside or in front of another has its own surface.
+  // > 1 = off (0.9).
+  double part_containment = 0.9;
+  std::vector<std::string> never_part_of = {"chair", "couch", "bed", "bench", "person"};
   // Objects of the same class also merge when their centroids are closer than merge_sigmas
   // times the pair's position uncertainty, sqrt(2) s(r), where r is the distance of the nearer
   // object's nearest view (both must be far; a near object does not take in a far view's blob

@@ -194,7 +194,9 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
     object.ObserveRange(obs.range_m);
     Judge(&object, rates);
     changes->push_back({kind, best_id, 0, {}});
-    ids.push_back(MergeDuplicates(best_id, changes));
+    const int64_t id = MergeDuplicates(best_id, changes);
+    JudgeParts(id, rates, changes);
+    ids.push_back(id);
   }
   for (int64_t& id : ids) id = Resolve(id);
   return ids;
@@ -247,12 +249,6 @@ int64_t ObjectMap::MergeDuplicates(int64_t id, std::vector<ObjectChange>* change
       id = Merge(id, other_id, rule, changes);
       merged = true;
       break;
-    }
-    if (merged) continue;
-    if (const auto [part, whole] = FindPart(id); part != 0) {
-      const int64_t kept = Merge(part, whole, "part containment", changes);
-      if (part == id || whole == id) id = kept;
-      merged = true;
     }
   }
   return id;
@@ -342,6 +338,12 @@ double ObjectMap::Judge(FusedObject* object, const ClassDetectionRates& rates) c
   const bool size_fits = FitsClass(object->labels().Argmax(), 2.0 * object->half_size_m());
   object->UpdateConfirmed(options_.confirm_observations, min_span_ns, rates.For(*object),
                           options_.confirm_llr, size_fits);
+  // So does a part of another object (object_parts.cc); only asked of an object that would be
+  // confirmed, the test reads voxels.
+  if (object->confirmed() && WholeOf(*object) != 0) {
+    object->UpdateConfirmed(options_.confirm_observations, min_span_ns, rates.For(*object),
+                            options_.confirm_llr, false);
+  }
   return object->ExistenceLlr(rates.base());
 }
 

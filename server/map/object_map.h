@@ -148,21 +148,22 @@ class ObjectMap {
   // (FusionOptions::merge_sigmas); 0 when off or a range is unknown.
   double RangeMergeGate(const FusedObject& a, const FusedObject& b) const;
   // Merges duplicates of `id` into the older object (a kMerged change for the survivor, then a
-  // kRemoved one for the absorbed object), then parts (FindPart); returns the surviving id.
+  // kRemoved one for the absorbed object); returns the surviving id.
   int64_t MergeDuplicates(int64_t id, std::vector<ObjectChange>* changes);
   // Merges objects a and b into the older one (the changes as above; `rule` is logged); returns
   // the surviving id.
   int64_t Merge(int64_t a, int64_t b, const char* rule, std::vector<ObjectChange>* changes);
 
-  // Parts (object_parts.cc, FusionOptions::merge_part_containment). `whole` can take `part` in:
+  // Parts (object_parts.cc, FusionOptions::part_containment). `whole` can hold `part`:
   // another class, larger, seen at least as often, near, not flat-topped furniture nor a
-  // part_never_into class, and its class still wins once the part's labels join it.
+  // never_part_of class.
   bool CanHoldPart(const FusedObject& whole, const FusedObject& part) const;
-  // The object that holds most of `part`'s voxels when such objects together hold at least
-  // merge_part_containment of them, else 0.
+  // The object holding at least part_containment of `part`'s voxels, else 0.
   int64_t WholeOf(const FusedObject& part) const;
-  // A part among `id` and the smaller objects near it, and its whole: {part, whole}, or {0, 0}.
-  std::pair<int64_t, int64_t> FindPart(int64_t id) const;
+  // Judges again the objects that `id` (just observed) can hold: whether they are its parts may
+  // have changed (a kUpdated change for each whose confirmation changed).
+  void JudgeParts(int64_t id, const ClassDetectionRates& rates,
+                  std::vector<ObjectChange>* changes);
 
   FusionOptions options_;
   double voxel_m_;

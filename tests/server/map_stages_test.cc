@@ -401,9 +401,9 @@ TEST(ObjectMap, MergesDuplicatesThatEndUpOverlapping) {
   EXPECT_EQ(removed.removed_state.id, merged.merged_from_id);
   EXPECT_NEAR(removed.removed_state.centroid_m.x(), 0.04, 0.006);
   EXPECT_EQ(map.Find(removed.object_id), nullptr);
-  // A small object of another class lying on it (its own surface, 3 cm above) is neither
-  // associated nor merged (sizes 5x apart)...
-  const auto m = map.Integrate({Obs(3, {0.0, 0, 1.03}, 0.02, 3, "mouse")}, &changes);
+  // A small object of another class lying on it is neither associated nor merged (sizes 5x
+  // apart)...
+  const auto m = map.Integrate({Obs(3, {0.0, 0, 1}, 0.02, 3, "mouse")}, &changes);
   EXPECT_NE(m[0], a[0]);
   EXPECT_EQ(map.size(), 2u);
   // ... while a same-sized object of another class at the same place is the same object under a
