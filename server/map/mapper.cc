@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <set>
 #include <unordered_map>
 
 #include "server/map/keyframe_products.h"
@@ -111,6 +112,7 @@ MapObservation ToMap(const ObjectObservation& o, const MapperKeyframe& kf,
 
 void Mapper::AppendEvents(const std::vector<ObjectChange>& changes,
                           std::vector<ObjectEventOut>* events) const {
+  const size_t first = events->size();
   for (const ObjectChange& c : changes) {
     ObjectEventOut e;
     e.kind = c.kind;
@@ -125,6 +127,23 @@ void Mapper::AppendEvents(const std::vector<ObjectChange>& changes,
       e.object = std::move(*snapshot);
     }
     e.object.id = objects_.Resolve(c.object_id);
+    events->push_back(std::move(e));
+  }
+  AppendLoadedTables(first, events);
+}
+
+void Mapper::AppendLoadedTables(size_t first, std::vector<ObjectEventOut>* events) const {
+  std::vector<MapObject> loads;
+  std::set<int64_t> emitted;
+  for (size_t i = first; i < events->size(); ++i) {
+    loads.push_back((*events)[i].object);
+    if ((*events)[i].kind != ObjectChange::Kind::kRemoved) emitted.insert((*events)[i].object.id);
+  }
+  for (MapObject& table : objects_.TablesUnder(loads)) {
+    if (!emitted.insert(table.id).second) continue;
+    ObjectEventOut e;
+    e.kind = ObjectChange::Kind::kUpdated;
+    e.object = std::move(table);
     events->push_back(std::move(e));
   }
 }

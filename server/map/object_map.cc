@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <optional>
 #include <set>
 
@@ -380,6 +381,18 @@ std::optional<MapObject> ObjectMap::SnapshotOf(int64_t id) const {
     if (o.id == id) return o;
   }
   return one;
+}
+
+std::vector<MapObject> ObjectMap::TablesUnder(const std::vector<MapObject>& loads) const {
+  std::vector<MapObject> tables;
+  if (loads.empty() || options_.top_loads.reach_m <= 0) return tables;
+  std::vector<MapObject> all = Snapshot(/*confirmed_only=*/true);
+  const std::vector<int64_t> ids =
+      TablesUnderLoads(options_.flat_top_classes, options_.top_loads, loads, all);
+  for (MapObject& o : all) {
+    if (std::find(ids.begin(), ids.end(), o.id) != ids.end()) tables.push_back(std::move(o));
+  }
+  return tables;
 }
 
 size_t ObjectMap::confirmed_count() const {

@@ -101,6 +101,8 @@ class ObjectMap {
   std::vector<MapObject> Snapshot(bool confirmed_only) const;
   // One object as Snapshot shows it; nullopt when there is no such object (ids not resolved).
   std::optional<MapObject> SnapshotOf(int64_t id) const;
+  // The confirmed tables that one of `loads` rests on, as Snapshot shows them (TablesUnderLoads).
+  std::vector<MapObject> TablesUnder(const std::vector<MapObject>& loads) const;
   size_t size() const { return objects_.size(); }
   size_t confirmed_count() const;
 

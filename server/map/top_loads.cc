@@ -124,4 +124,24 @@ void ExtendTopsUnderLoads(const std::vector<std::string>& flat_top_classes,
   }
 }
 
+std::vector<int64_t> TablesUnderLoads(const std::vector<std::string>& flat_top_classes,
+                                      const TopLoadOptions& options,
+                                      const std::vector<MapObject>& loads,
+                                      const std::vector<MapObject>& objects) {
+  std::vector<int64_t> ids;
+  if (options.reach_m <= 0) return ids;
+  for (const MapObject& table : objects) {
+    if (!IsTable(table, flat_top_classes)) continue;
+    for (const MapObject& load : loads) {
+      if (IsFlatTopClass(flat_top_classes, load.class_name) ||
+          !RestsOn(load, table, options, nullptr, nullptr)) {
+        continue;
+      }
+      ids.push_back(table.id);
+      break;
+    }
+  }
+  return ids;
+}
+
 }  // namespace loci::server

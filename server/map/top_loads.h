@@ -31,6 +31,14 @@ struct TopLoadOptions {
 void ExtendTopsUnderLoads(const std::vector<std::string>& flat_top_classes,
                           const TopLoadOptions& options, std::vector<MapObject>* objects);
 
+// Ids of the tables among `objects` (a snapshot that ExtendTopsUnderLoads widened) that one of
+// `loads` rests on (RestsOn; a load that is gone or unconfirmed as it was last): when only a
+// load changed, the table's snapshot changed too. Tables among `loads` are no loads.
+std::vector<int64_t> TablesUnderLoads(const std::vector<std::string>& flat_top_classes,
+                                      const TopLoadOptions& options,
+                                      const std::vector<MapObject>& loads,
+                                      const std::vector<MapObject>& objects);
+
 // Whether `load` rests on `table` by those rules; its footprint's distance to the table's in
 // *distance_m and the share of its footprint over the table's in *overlap (either may be null).
 bool RestsOn(const MapObject& load, const MapObject& table, const TopLoadOptions& options,

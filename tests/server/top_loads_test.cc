@@ -118,5 +118,24 @@ TEST(TopLoads, AThingBetweenTwoDesksRestsOnTheOneUnderMostOfIt) {
   EXPECT_NEAR(Find(objects, 2).aabb_min_m.y(), 0.0, 1e-9);
 }
 
+TEST(TopLoads, ATableIsAnnouncedAgainWhenOnlyItsLoadsChanged) {
+  // The desk's snapshot holds the keyboard's footprint: a new keyboard, a mouse gone (its last
+  // state) or a book that became a candidate change the desk too; a chair on the floor beside
+  // it, a shelf cup above it and the desk itself do not.
+  std::vector<MapObject> objects = MainDesk();
+  ExtendTopsUnderLoads(kFlatTops, TopLoadOptions{}, &objects);
+  MapObject book = Find(MainDesk(), 2);
+  book.confirmed = false;
+  const std::vector<MapObject> loads = {Find(objects, 3), Find(MainDesk(), 5), book};
+  EXPECT_EQ(TablesUnderLoads(kFlatTops, TopLoadOptions{}, loads, objects),
+            std::vector<int64_t>{1});
+  const std::vector<MapObject> elsewhere = {
+      Box(7, "chair", {1.1, 0.4, 0.0}, {1.6, 0.9, 1.0}),
+      Box(8, "cup", {0.8, 0.4, 1.20}, {0.9, 0.5, 1.30}), Find(objects, 1)};
+  EXPECT_TRUE(TablesUnderLoads(kFlatTops, TopLoadOptions{}, elsewhere, objects).empty());
+  // Off: tables keep their own points, no load changes them.
+  EXPECT_TRUE(TablesUnderLoads(kFlatTops, TopLoadOptions{0.0, 0.05}, loads, objects).empty());
+}
+
 }  // namespace
 }  // namespace loci::server
