@@ -15,9 +15,11 @@ struct LoopOptions {
   // (true). false: no loop closure; a merged session's placement is refined from its later
   // matches instead (refine_max_matches).
   bool enabled = true;
-  // A loop joins keyframes captured at least this far apart, s (5.0): nearer ones are odometry
-  // neighbours (place.query.exclude_recent_keyframes also applies).
-  double min_gap_s = 5.0;
+  // A loop joins keyframes captured at least this far apart, s (2.0): nearer ones are odometry
+  // neighbours (place.query.exclude_recent_keyframes also applies). A camera that turns fast
+  // sees its first views again within seconds; a loop to them is what corrects the odometry's
+  // early drift (fr1_rpy: the first keyframe, 3.6 deg off the rest, is reached from 2.7 s on).
+  double min_gap_s = 2.0;
   // Standard deviations of a verified match as a graph edge: translation (m) and rotation (rad)
   // (0.02, 0.01). The wrong-loop guard (graph.pcm) works in these units.
   double sigma_trans_m = 0.02;

@@ -47,8 +47,8 @@ struct VocabularyOptions {
 struct QueryOptions {
   int max_candidates = 5;  // candidates returned, best score first (5)
   // The querying robot's own newest N keyframes are never candidates (they are its odometry
-  // neighbours, not a loop) (30).
-  int exclude_recent_keyframes = 30;
+  // neighbours, not a loop) (10). Keyframes are made by view change, so N counts views, not time.
+  int exclude_recent_keyframes = 10;
   // Candidates need at least this normalised score (the query's tf-idf mass shared with the
   // candidate, 0..1) (0.02).
   double min_score = 0.02;

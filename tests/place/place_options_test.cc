@@ -19,12 +19,12 @@ TEST_F(PlaceOptionsTest, DefaultsAreValid) { EXPECT_TRUE(PlaceOptions().Validate
 TEST_F(PlaceOptionsTest, ReadsOnlyThePresentKeys) {
   PlaceOptions o;
   ASSERT_TRUE(o.FromYaml(YAML::Load("verify: {ratio: 0.7, min_inliers: 40}\n"
-                                    "query: {exclude_recent_keyframes: 10}\n"
+                                    "query: {exclude_recent_keyframes: 25}\n"
                                     "consistency: {min_matches: 4, max_rotation_deg: 2.0}\n"))
                   .ok());
   EXPECT_DOUBLE_EQ(o.verify.ratio, 0.7);
   EXPECT_EQ(o.verify.min_inliers, 40);
-  EXPECT_EQ(o.query.exclude_recent_keyframes, 10);
+  EXPECT_EQ(o.query.exclude_recent_keyframes, 25);
   EXPECT_EQ(o.consistency.min_matches, 4);
   EXPECT_DOUBLE_EQ(o.consistency.max_rotation_deg, 2.0);
   EXPECT_EQ(o.features.max_features, PlaceOptions().features.max_features);  // untouched
