@@ -15,6 +15,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
 
@@ -49,11 +50,37 @@ double Ate(const Trajectory& truth, const Trajectory& estimate) {
   return ate.ok() ? ate->trans_m.rmse : 1e9;
 }
 
-TEST(LoopClosure, SyntheticDriftIsCutToAThirdByTheServersPoseGraph) {
+// An empty folder of the system's temporary directory for this process.
+std::string FreshDir(const std::string& prefix) {
   const std::string dir =
-      (fs::temp_directory_path() / ("loci_loop_closure_" + std::to_string(getpid()))).string();
+      (fs::temp_directory_path() / (prefix + std::to_string(getpid()))).string();
   fs::remove_all(dir);
   fs::create_directories(dir);
+  return dir;
+}
+
+// Robot A's keyframe ATE as it sent its keyframes and as the server maps them, printed with the
+// pose graph's figures; nullopt when `r` lacks either trajectory of A.
+struct KeyframeAtes {
+  double sent_m = 0, server_m = 0;
+};
+std::optional<KeyframeAtes> SentAndServerAte(const char* what, const Trajectory& truth,
+                                             const testing::RobotsResult& r) {
+  if (r.keyframes.count("A") == 0 || r.mapped.count("A") == 0) return std::nullopt;
+  const KeyframeAtes a{Ate(truth, r.keyframes.at("A")), Ate(truth, r.mapped.at("A"))};
+  const v1::PoseGraphStats& g = r.stats.pose_graph();
+  std::printf("%s keyframe ATE: sent %.4f m, server %.4f m (%zu keyframes); %llu loop matches, "
+              "%llu solves, last: %llu loops kept, %llu rejected, %.0f ms\n",
+              what, a.sent_m, a.server_m, r.mapped.at("A").size(),
+              static_cast<unsigned long long>(g.loop_matches()),
+              static_cast<unsigned long long>(g.optimizations()),
+              static_cast<unsigned long long>(g.loops_accepted()),
+              static_cast<unsigned long long>(g.loops_rejected()), g.last_solve_ms());
+  return a;
+}
+
+TEST(LoopClosure, SyntheticDriftIsCutToAThirdByTheServersPoseGraph) {
+  const std::string dir = FreshDir("loci_loop_closure_");
   const std::string scene = dir + "/scene";
   const std::string synth = std::string(LOCI_BIN) + " synth --out " + scene +
                             " --seed 7 --frames 450 --objects 8 --noise > /dev/null";
@@ -66,18 +93,10 @@ TEST(LoopClosure, SyntheticDriftIsCutToAThirdByTheServersPoseGraph) {
   testing::RobotRun robot{"A", 0, 0, dir + "/A_keyframes.txt", "",
                           "--detections " + scene + "/detections.jsonl --poses " + drifted};
   const testing::RobotsResult r = testing::RunRobots(scene, {robot}, dir);
-  ASSERT_EQ(r.keyframes.count("A"), 1u);
-  ASSERT_EQ(r.mapped.count("A"), 1u);
-  const double before = Ate(*truth, r.keyframes.at("A"));
-  const double after = Ate(*truth, r.mapped.at("A"));
+  const std::optional<KeyframeAtes> ate = SentAndServerAte("synthetic", *truth, r);
+  ASSERT_TRUE(ate.has_value()) << "robot A's keyframes were not written or not mapped";
+  const double before = ate->sent_m, after = ate->server_m;
   const v1::PoseGraphStats& g = r.stats.pose_graph();
-  std::printf("keyframe ATE: sent %.4f m, server %.4f m (%zu keyframes); %llu loop matches, "
-              "%llu solves, last: %llu loops kept, %llu rejected, %.0f ms\n",
-              before, after, r.mapped.at("A").size(),
-              static_cast<unsigned long long>(g.loop_matches()),
-              static_cast<unsigned long long>(g.optimizations()),
-              static_cast<unsigned long long>(g.loops_accepted()),
-              static_cast<unsigned long long>(g.loops_rejected()), g.last_solve_ms());
   EXPECT_GT(before, 0.05);  // the drift is real
   EXPECT_LE(after, before / 3);
   EXPECT_GT(g.optimizations(), 0u);
@@ -148,26 +167,15 @@ int LoopsIntoTheFirstSeconds(const std::string& db_path, double first_s) {
 TEST(LoopClosure, Fr1RpyServerKeyframesBeatTheOdometry) {
   const std::string tum = testing::FullTumSequence("tum_fr1_rpy", {"groundtruth.txt"});
   if (tum.empty()) GTEST_SKIP() << "no tum_fr1_rpy in $LOCI_DATA or ../shared/data";
-  const std::string dir =
-      (fs::temp_directory_path() / ("loci_loop_fr1_" + std::to_string(getpid()))).string();
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const std::string dir = FreshDir("loci_loop_fr1_");
   auto truth = ReadTumTrajectory(tum + "/groundtruth.txt");
   ASSERT_TRUE(truth.ok()) << truth.status();
   testing::RobotRun robot{"A", 0, 0, dir + "/A_keyframes.txt", "", "--detections none"};
   const testing::RobotsResult r = testing::RunRobots(tum, {robot}, dir);
-  ASSERT_EQ(r.keyframes.count("A"), 1u);
-  ASSERT_EQ(r.mapped.count("A"), 1u);
-  const double sent = Ate(*truth, r.keyframes.at("A"));
-  const double server = Ate(*truth, r.mapped.at("A"));
+  const std::optional<KeyframeAtes> ate = SentAndServerAte("fr1_rpy", *truth, r);
+  ASSERT_TRUE(ate.has_value()) << "robot A's keyframes were not written or not mapped";
+  const double sent = ate->sent_m, server = ate->server_m;
   const v1::PoseGraphStats& g = r.stats.pose_graph();
-  std::printf("fr1_rpy keyframe ATE: sent %.4f m, server %.4f m (%zu keyframes); %llu loop "
-              "matches, %llu solves, last: %llu loops kept, %llu rejected\n",
-              sent, server, r.mapped.at("A").size(),
-              static_cast<unsigned long long>(g.loop_matches()),
-              static_cast<unsigned long long>(g.optimizations()),
-              static_cast<unsigned long long>(g.loops_accepted()),
-              static_cast<unsigned long long>(g.loops_rejected()));
   const int early = LoopsIntoTheFirstSeconds(dir + "/loci.db", 1.0);
   std::printf("loop matches into the first second: %d\n", early);
   EXPECT_GT(early, 0);
