@@ -8,19 +8,21 @@
 // On the real fr1_rpy, the server's keyframes must be closer to the ground truth than the
 // odometry's.
 #include <gtest/gtest.h>
-#include <sqlite3.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <optional>
 #include <sstream>
 #include <string>
 
 #include "common/trajectory_eval.h"
 #include "common/tum_io.h"
+#include "server/storage/sqlite_store.h"
 #include "tests/e2e/robot_runs.h"
 #include "tests/support/tum_data.h"
 
@@ -134,26 +136,33 @@ TEST(LoopClosure, SyntheticDriftIsCutToAThirdByTheServersPoseGraph) {
   if (!::testing::Test::HasFailure()) fs::remove_all(dir);
 }
 
-// Verified loop matches (stored in `place_matches`) whose older keyframe was captured in the
+// Verified loop matches (the store's place matches) whose older keyframe was captured in the
 // session's first `first_s` seconds; -1 when the database cannot be read.
 int LoopsIntoTheFirstSeconds(const std::string& db_path, double first_s) {
-  sqlite3* db = nullptr;
-  if (sqlite3_open_v2(db_path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
-    sqlite3_close(db);
-    return -1;
+  server::SqliteStoreOptions read_only;
+  read_only.read_only = true;
+  auto store = server::SqliteStore::Open(db_path, read_only);
+  if (!store.ok()) return -1;
+  std::map<int64_t, int64_t> t_ns_by_id;
+  server::KeyframeScan scan;
+  scan.images = false;
+  const Status read = (*store)->ForEachKeyframe(
+      0,
+      [&](server::KeyframeRecord kf) {
+        t_ns_by_id[kf.id] = kf.t_ns;
+        return absl::OkStatus();
+      },
+      scan);
+  auto matches = (*store)->ListPlaceMatches();
+  if (!read.ok() || !matches.ok() || t_ns_by_id.empty()) return -1;
+  int64_t first_ns = t_ns_by_id.begin()->second;
+  for (const auto& [id, t_ns] : t_ns_by_id) first_ns = std::min(first_ns, t_ns);
+  const int64_t end_ns = first_ns + static_cast<int64_t>(first_s * 1e9);
+  int count = 0;
+  for (const server::PlaceMatchRecord& m : *matches) {
+    const auto a = t_ns_by_id.find(m.a_keyframe_id);
+    if (a != t_ns_by_id.end() && a->second < end_ns) ++count;
   }
-  const std::string sql =
-      "SELECT COUNT(*) FROM place_matches m JOIN keyframes k ON k.id = m.a_keyframe_id "
-      "WHERE k.t_ns < (SELECT MIN(t_ns) FROM keyframes) + " +
-      std::to_string(static_cast<int64_t>(first_s * 1e9));
-  sqlite3_stmt* stmt = nullptr;
-  int count = -1;
-  if (sqlite3_prepare_v2(db, sql.c_str(), -1, &stmt, nullptr) == SQLITE_OK &&
-      sqlite3_step(stmt) == SQLITE_ROW) {
-    count = sqlite3_column_int(stmt, 0);
-  }
-  sqlite3_finalize(stmt);
-  sqlite3_close(db);
   return count;
 }
 
