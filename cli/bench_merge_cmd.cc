@@ -117,6 +117,7 @@ void PrintFigures(const loci::v1::GetStatsResponse& stats, const SE3d& T_map_odo
                 1000 * T_err.translation().norm(), RotationAngleRad(T_err) * 180 / M_PI);
   }
   const auto& a = stats.alignment();
+  std::printf("  mapping worker: %.1f ms per keyframe\n", stats.ingest_ms_mean());
   std::printf("  place recognition: %.1f ms per keyframe, %llu keyframes indexed; %llu verified, "
               "%llu rejected candidates; %llu merges accepted\n",
               a.place_ms_mean(), static_cast<unsigned long long>(a.keyframes_indexed()),
@@ -227,10 +228,16 @@ Status RunMerge(const BenchMergeArgs& a, const std::string& dir) {
     streaming = false;
   });
   size_t sent_at_alignment = 0;
+  int64_t queue_at_overlap = -1;  // GetStats.queue_depth at the first poll after B's first
+                                  // keyframe in A's room was written
   for (bool done = false; !done;) {
+    const bool overlapping = sent > static_cast<size_t>(a.held);
     const bool last_round = !streaming;
     if (last_round) srv->Flush();  // B has sent everything: wait until it is all processed
     LOCI_ASSIGN_OR_RETURN(loci::v1::GetStatsResponse stats, GetStats(*query));
+    if (overlapping && queue_at_overlap < 0) {
+      queue_at_overlap = static_cast<int64_t>(stats.queue_depth());
+    }
     const loci::v1::SessionAlignment* s = SessionOf(stats, "B");
     if (s != nullptr && s->aligned()) {
       aligned_at = Clock::now();
@@ -248,6 +255,9 @@ Status RunMerge(const BenchMergeArgs& a, const std::string& dir) {
                 "%zu keyframes)\n",
                 std::chrono::duration<double>(aligned_at - first_sent).count(),
                 sent_at_alignment);
+    std::printf("  keyframes waiting for the mapping worker or place recognition when it was "
+                "sent: %lld\n",
+                static_cast<long long>(queue_at_overlap));
   }
   const loci::v1::SessionAlignment* sa = SessionOf(stats, "A");
   const SE3d T_map_odomA = sa != nullptr ? PoseFromProto(sa->t_map_odom()) : SE3d::Identity();
