@@ -124,6 +124,8 @@ void FusedObject::Absorb(const FusedObject& other) {
   }
   std::sort(keyframes_.begin(), keyframes_.end());
   tracks_.insert(other.tracks_.begin(), other.tracks_.end());
+  straddled_with_.insert(straddled_with_.end(), other.straddled_with_.begin(),
+                         other.straddled_with_.end());
   misses_ += other.misses_;
   ObserveRange(other.nearest_range_m_);
   RecomputeGeometry();
@@ -142,6 +144,13 @@ void FusedObject::Observe(const std::string& class_name, double score, int64_t s
   robots_.insert(robot);
   if (keyframes_.empty() || keyframes_.back() != keyframe_id) keyframes_.push_back(keyframe_id);
   if (track_id != 0) tracks_.insert({session_row, track_id});
+}
+
+int FusedObject::StraddledWith(int64_t id,
+                               const std::function<int64_t(int64_t)>& resolve) const {
+  int n = 0;
+  for (int64_t other : straddled_with_) n += resolve(other) == id ? 1 : 0;
+  return n;
 }
 
 void FusedObject::ObserveRange(double range_m) {

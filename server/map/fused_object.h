@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cstdint>
+#include <functional>
 #include <set>
 #include <string>
 #include <unordered_map>
@@ -142,6 +143,12 @@ class FusedObject {
   uint32_t observation_count() const { return static_cast<uint32_t>(keyframes_.size()); }
   bool confirmed() const { return confirmed_; }
   const std::vector<int64_t>& keyframes() const { return keyframes_; }
+  // Records a view of flat-topped furniture that straddled this object and object other_id
+  // (ObjectMap::StraddledFurniture): the map held the two apart then.
+  void AddStraddled(int64_t other_id) { straddled_with_.push_back(other_id); }
+  // How many views straddled this object and object `id`; `resolve` maps the ids recorded
+  // then to the ids they live on as now (merges).
+  int StraddledWith(int64_t id, const std::function<int64_t(int64_t)>& resolve) const;
   size_t voxel_count() const { return voxels_.size(); }
 
   // Fused cloud (one point per supported voxel, see SupportOptions) in the map frame.
@@ -195,6 +202,7 @@ class FusedObject {
   std::string last_robot_;
   std::vector<int64_t> keyframes_;                // distinct, in observation order
   std::set<std::pair<int64_t, int64_t>> tracks_;  // (session_row, track_id)
+  std::vector<int64_t> straddled_with_;  // one id per straddling view, as it was then
   bool confirmed_ = false;
   uint32_t misses_ = 0;
   double nearest_range_m_ = 0;

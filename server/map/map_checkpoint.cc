@@ -69,6 +69,7 @@ void FusedObject::SaveState(loci::store::v1::FusedObjectState* out) const {
     out->add_track_session(session);
     out->add_track_id(track);
   }
+  for (int64_t id : straddled_with_) out->add_straddled_with(id);
   out->set_confirmed(confirmed_);
   out->set_misses(misses_);
   out->set_nearest_range_m(nearest_range_m_);
@@ -127,6 +128,7 @@ Status FusedObject::LoadState(const loci::store::v1::FusedObjectState& in) {
   last_robot_ = in.last_robot();
   keyframes_ = {in.keyframes().begin(), in.keyframes().end()};
   for (int i = 0; i < in.track_id_size(); ++i) tracks_.insert({in.track_session(i), in.track_id(i)});
+  straddled_with_ = {in.straddled_with().begin(), in.straddled_with().end()};
   confirmed_ = in.confirmed();
   misses_ = in.misses();
   nearest_range_m_ = in.nearest_range_m();

@@ -21,6 +21,7 @@ constexpr const char* kFusionKeys[] = {
     "centroid_min_part",       "class_size_slack",  "merge_box_containment",
     "merge_sigmas",            "depth_sigma_at_1m", "view_sigma_rad",       "shape_min_label_views",
     "existence_class_prior_views", "confirm_min_span_s", "straddle_share",
+    "straddle_apart_views",
     "top_load_reach_m", "top_load_max_gap_m", "part_containment", "never_part_of"};
 
 Status CheckMapKeys(const YAML::Node& node) {
@@ -146,6 +147,7 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "confirm_observations", &fusion.confirm_observations));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "confirm_min_span_s", &fusion.confirm_min_span_s));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "straddle_share", &fusion.straddle_share));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "straddle_apart_views", &fusion.straddle_apart_views));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_reach_m", &fusion.top_loads.reach_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_max_gap_m", &fusion.top_loads.max_gap_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_centroid_m", &fusion.merge_centroid_m));
@@ -247,6 +249,7 @@ Status MapOptions::Validate() const {
   if (!(fusion.straddle_share >= 0 && fusion.straddle_share <= 1)) {
     return bad("fusion.straddle_share in [0, 1]");
   }
+  if (fusion.straddle_apart_views < 0) return bad("fusion.straddle_apart_views >= 0");
   if (!(fusion.top_loads.reach_m >= 0 && fusion.top_loads.reach_m <= 2)) {
     return bad("fusion.top_load_reach_m in [0, 2]");
   }

@@ -78,6 +78,10 @@ struct FusionOptions {
   // or more such objects of the map straddles them (one box over two desks back to back, one
   // plane through both tops): it is left out instead of joining them (0.25). 0: off.
   double straddle_share = 0.25;
+  // Pieces of furniture that at least this many views straddled (straddle_share) never merge,
+  // whatever their voxels share later (a piece grew between them, a pose moved): those views
+  // were left out because the map held the two apart, and a merge would undo that (1). 0: off.
+  int straddle_apart_views = 1;
   // A table's footprint runs on under the confirmed objects resting on its top (top_loads.h):
   // objects, answers and exports show the whole top, not the strip between the things on it.
   // fusion.top_load_reach_m (0.15, 0 = off) and fusion.top_load_max_gap_m (0.05).
@@ -216,6 +220,6 @@ struct MapOptions {
 
 // Version of the product and fusion code; bump it when a change alters products or the map
 // for the same options (stored products and checkpoints of another version are recomputed).
-inline constexpr int kMapCodeVersion = 7;
+inline constexpr int kMapCodeVersion = 8;
 
 }  // namespace loci::server

@@ -142,6 +142,9 @@ void ObjectMap::HitWithoutPoints(const MapObservation& obs, const std::vector<in
                                  std::vector<ObjectChange>* changes) {
   for (int64_t id : object_ids) {
     FusedObject& object = objects_.at(id);
+    for (int64_t other : object_ids) {
+      if (other != id) object.AddStraddled(other);
+    }
     object.Observe(obs.class_name, obs.score, obs.session_row, obs.track_id, obs.robot,
                    obs.keyframe_id, obs.t_ns);
     Judge(&object, rates);
@@ -214,6 +217,11 @@ const char* ObjectMap::Duplicates(const FusedObject& self, const FusedObject& ot
       (!options_.merge_across_classes || !SizeCompatible(self.half_size_m(), other.half_size_m()) ||
        !ClassesFit(cls, 2 * self.half_size_m(), other_cls, 2 * other.half_size_m()))) {
     return nullptr;
+  }
+  if (same_class && options_.straddle_apart_views > 0 &&
+      self.StraddledWith(other.id(), [this](int64_t id) { return Resolve(id); }) >=
+          options_.straddle_apart_views) {
+    return nullptr;  // a view left out because the map held these two apart
   }
   const double d = (other.centroid_m() - self.centroid_m()).norm();
   if (d < options_.merge_centroid_m) return "centroids";
