@@ -80,8 +80,9 @@ struct FusionOptions {
   double straddle_share = 0.25;
   // Pieces of furniture that at least this many views straddled (straddle_share) never merge,
   // whatever their voxels share later (a piece grew between them, a pose moved): those views
-  // were left out because the map held the two apart, and a merge would undo that (1). 0: off.
-  int straddle_apart_views = 1;
+  // were left out because the map held the two apart, and a merge would undo that. 0: off (the
+  // default: measured mixed on fr1_rpy, docs/results.md session 29).
+  int straddle_apart_views = 0;
   // A table's footprint runs on under the confirmed objects resting on its top (top_loads.h):
   // objects, answers and exports show the whole top, not the strip between the things on it.
   // fusion.top_load_reach_m (0.15, 0 = off) and fusion.top_load_max_gap_m (0.05).
@@ -220,6 +221,6 @@ struct MapOptions {
 
 // Version of the product and fusion code; bump it when a change alters products or the map
 // for the same options (stored products and checkpoints of another version are recomputed).
-inline constexpr int kMapCodeVersion = 8;
+inline constexpr int kMapCodeVersion = 7;
 
 }  // namespace loci::server

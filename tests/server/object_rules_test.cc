@@ -41,6 +41,13 @@ FusionOptions WithSizes(double class_size_slack) {
   return opt;
 }
 
+// Size priors, and "dining table" as flat-topped furniture.
+FusionOptions TableOptions() {
+  FusionOptions opt = WithSizes(1.5);
+  opt.flat_top_classes = {"dining table"};
+  return opt;
+}
+
 // A desk seen in part (1.0 x 0.6 m, weak "dining table" boxes), then blurred views that call the
 // monitor on it and the desk under the monitor a "laptop" (0.55 m, inside the desk's points, a
 // compatible size): they must not turn the desk into a laptop.
@@ -92,8 +99,7 @@ TEST(ObjectRules, APieceOfADeskTopNeverJoinsTheBookOnIt) {
 // box whose plane runs through both tops (session 24 counted 5 such pieces in about 50).
 // Returns the count of table objects and the views of each.
 std::string DesksAfterAStraddlingView(double straddle_share) {
-  FusionOptions opt = WithSizes(1.5);
-  opt.flat_top_classes = {"dining table"};
+  FusionOptions opt = TableOptions();
   opt.straddle_share = straddle_share;
   ObjectMap map(opt, 0.01);
   std::vector<ObjectChange> changes;
@@ -132,8 +138,7 @@ TEST(ObjectRules, AViewStraddlingTwoDesksJoinsNeither) {
 // `checkpoint`: the map goes through SaveState / LoadState before keyframe 5. Returns how many
 // objects the map holds.
 size_t TablesAfterTheDeskGrows(int straddle_apart_views, bool checkpoint) {
-  FusionOptions opt = WithSizes(1.5);
-  opt.flat_top_classes = {"dining table"};
+  FusionOptions opt = TableOptions();
   opt.straddle_apart_views = straddle_apart_views;
   ObjectMap map(opt, 0.01);
   std::vector<ObjectChange> changes;
