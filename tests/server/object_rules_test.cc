@@ -48,6 +48,22 @@ FusionOptions TableOptions() {
   return opt;
 }
 
+// A level table top x0..x1, y0..y1 at z_m, seen as one tracker's box (0: untracked).
+struct Top {
+  int64_t track;
+  double x0, x1, y0, y1, z_m;
+};
+
+// Each of keyframes 1-3 sees both tops, one "dining table" observation each.
+void SeeTopsInThreeKeyframes(ObjectMap* map, const Top& a, const Top& b) {
+  std::vector<ObjectChange> changes;
+  for (int64_t kf = 1; kf <= 3; ++kf) {
+    map->Integrate({Rect("dining table", 0.4, a.track, kf, a.x0, a.x1, a.y0, a.y1, a.z_m),
+                    Rect("dining table", 0.4, b.track, kf, b.x0, b.x1, b.y0, b.y1, b.z_m)},
+                   &changes);
+  }
+}
+
 // A desk seen in part (1.0 x 0.6 m, weak "dining table" boxes), then blurred views that call the
 // monitor on it and the desk under the monitor a "laptop" (0.55 m, inside the desk's points, a
 // compatible size): they must not turn the desk into a laptop.
@@ -102,12 +118,8 @@ std::string DesksAfterAStraddlingView(double straddle_share) {
   FusionOptions opt = TableOptions();
   opt.straddle_share = straddle_share;
   ObjectMap map(opt, 0.01);
+  SeeTopsInThreeKeyframes(&map, {0, 0.21, 1.04, 0.0, 1.0, 0.77}, {0, -0.75, 0.19, 0.0, 1.0, 0.74});
   std::vector<ObjectChange> changes;
-  for (int64_t kf = 1; kf <= 3; ++kf) {
-    map.Integrate({Rect("dining table", 0.4, 0, kf, 0.21, 1.04, 0.0, 1.0, 0.77),
-                   Rect("dining table", 0.4, 0, kf, -0.75, 0.19, 0.0, 1.0, 0.74)},
-                  &changes);
-  }
   // One plane through both tops: each part at its own desk's height, one observation.
   MapObservation across = Rect("dining table", 0.4, 0, 4, 0.21, 0.75, 0.1, 0.9, 0.77);
   const MapObservation person_part = Rect("dining table", 0.4, 0, 4, -0.45, 0.19, 0.1, 0.9, 0.74);
@@ -141,12 +153,8 @@ size_t TablesAfterTheDeskGrows(int straddle_apart_views, bool checkpoint) {
   FusionOptions opt = TableOptions();
   opt.straddle_apart_views = straddle_apart_views;
   ObjectMap map(opt, 0.01);
+  SeeTopsInThreeKeyframes(&map, {1, 0.0, 1.0, 0.0, 1.0, 0.77}, {2, 1.1, 1.4, 0.0, 0.3, 0.77});
   std::vector<ObjectChange> changes;
-  for (int64_t kf = 1; kf <= 3; ++kf) {
-    map.Integrate({Rect("dining table", 0.4, 1, kf, 0.0, 1.0, 0.0, 1.0, 0.77),
-                   Rect("dining table", 0.4, 2, kf, 1.1, 1.4, 0.0, 0.3, 0.77)},
-                  &changes);
-  }
   std::vector<int64_t> straddled;
   map.Integrate({Rect("dining table", 0.4, 0, 4, 0.7, 1.4, 0.0, 0.3, 0.77)}, &changes, &straddled);
   EXPECT_EQ(straddled.size(), 2u);
