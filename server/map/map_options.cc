@@ -21,7 +21,7 @@ constexpr const char* kFusionKeys[] = {
     "centroid_min_part",       "class_size_slack",  "merge_box_containment",
     "merge_sigmas",            "depth_sigma_at_1m", "view_sigma_rad",       "shape_min_label_views",
     "existence_class_prior_views", "confirm_min_span_s", "straddle_share",
-    "straddle_apart_views",
+    "straddle_apart_views", "furniture_merge_containment",
     "top_load_reach_m", "top_load_max_gap_m", "part_containment", "never_part_of"};
 
 Status CheckMapKeys(const YAML::Node& node) {
@@ -155,6 +155,8 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "depth_sigma_at_1m", &fusion.depth_sigma_at_1m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "view_sigma_rad", &fusion.view_sigma_rad));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_containment", &fusion.merge_containment));
+    LOCI_RETURN_IF_ERROR(
+        ReadOptional(n, "furniture_merge_containment", &fusion.furniture_merge_containment));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_across_classes", &fusion.merge_across_classes));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "assoc_containment", &fusion.assoc_containment));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_size_ratio", &fusion.max_size_ratio));
@@ -248,6 +250,9 @@ Status MapOptions::Validate() const {
   }
   if (!(fusion.straddle_share >= 0 && fusion.straddle_share <= 1)) {
     return bad("fusion.straddle_share in [0, 1]");
+  }
+  if (!(fusion.furniture_merge_containment >= 0 && fusion.furniture_merge_containment <= 1)) {
+    return bad("fusion.furniture_merge_containment in [0, 1]");
   }
   if (fusion.straddle_apart_views < 0) return bad("fusion.straddle_apart_views >= 0");
   if (!(fusion.top_loads.reach_m >= 0 && fusion.top_loads.reach_m <= 2)) {

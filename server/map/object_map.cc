@@ -228,8 +228,12 @@ const char* ObjectMap::Duplicates(const FusedObject& self, const FusedObject& ot
   if (d >= options_.track_gate_m + 1.0) return nullptr;
   if (same_class && d < RangeMergeGate(self, other)) return "range uncertainty";
   if (self_keys->empty()) *self_keys = self.KeysAt(options_.overlap_voxel_m);
-  if (VoxelContainment(*self_keys, other.KeysAt(options_.overlap_voxel_m)) >
-      options_.merge_containment) {
+  const double containment =
+      same_class && IsFlatTopClass(options_.flat_top_classes, cls) &&
+              options_.furniture_merge_containment > 0
+          ? options_.furniture_merge_containment
+          : options_.merge_containment;
+  if (VoxelContainment(*self_keys, other.KeysAt(options_.overlap_voxel_m)) > containment) {
     return "voxel containment";
   }
   // Not for tables: their map-frame boxes are no solids. Two desks back to back that lie
