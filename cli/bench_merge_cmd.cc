@@ -1,8 +1,9 @@
 // `loci bench merge [--views 60] [--objects 8] [--start 30] [--robot-hz 5] [--held N]
-// [--config FILE]`: how fast a robot that starts anywhere joins the shared map (issue 15). An
-// in-process loci-server on loopback gRPC; robot A streams a rendered synthetic room (a `loci
-// synth` scene) and is mapped; then robot B, under its own name, streams the same room from view
-// --start on with its own odometry (identity at its first view), paced at --robot-hz. With
+// [--config FILE] [--query-ahead-backlog N]`: how fast a robot that starts anywhere joins the
+// shared map (issue 15). An in-process loci-server on loopback gRPC; robot A streams a
+// rendered synthetic room (a `loci synth` scene) and is mapped; then robot B, under its own
+// name, streams the same room from view --start on with its own odometry (identity at its
+// first view), paced at --robot-hz. With
 // --held N, B first streams N keyframes of another room (its views cycled, 100 m away in B's
 // odometry; unpaced, a backlog), which the server holds back until B is aligned and then maps
 // while B's next keyframes in A's room arrive at --robot-hz. B's first keyframe
@@ -45,6 +46,7 @@ struct BenchMergeArgs {
   std::string config;  // "" = config/server.yaml
   uint64_t other_room = 0;  // B streams a room rendered with this seed instead (0 = A's room)
   int held = 0;             // B's keyframes in another room before it enters A's
+  int query_ahead_backlog = -1;  // align.query_ahead_backlog (-1: the config's)
 };
 
 // A session of robot `robot` streaming `views` as they are, from view `paced_from` on paced at
@@ -119,11 +121,14 @@ void PrintFigures(const loci::v1::GetStatsResponse& stats, const SE3d& T_map_odo
   const auto& a = stats.alignment();
   std::printf("  mapping worker: %.1f ms per keyframe\n", stats.ingest_ms_mean());
   std::printf("  place recognition: %.1f ms per keyframe, %llu keyframes indexed; %llu verified, "
-              "%llu rejected candidates; %llu merges accepted\n",
+              "%llu rejected candidates; %llu merges accepted (%llu of them ahead of the "
+              "backlog, %llu keyframes queried ahead)\n",
               a.place_ms_mean(), static_cast<unsigned long long>(a.keyframes_indexed()),
               static_cast<unsigned long long>(a.verified()),
               static_cast<unsigned long long>(a.rejected()),
-              static_cast<unsigned long long>(a.merges_accepted()));
+              static_cast<unsigned long long>(a.merges_accepted()),
+              static_cast<unsigned long long>(a.merges_ahead()),
+              static_cast<unsigned long long>(a.queries_ahead()));
   const auto& g = stats.pose_graph();
   std::printf("  pose graph: %llu solves, last %.0f ms over %llu keyframes, %llu unconnected "
               "parts\n",
@@ -192,6 +197,7 @@ Status RunMerge(const BenchMergeArgs& a, const std::string& dir) {
   LOCI_RETURN_IF_ERROR(options.FromYamlFile(
       a.config.empty() ? SourceDir() + "/config/server.yaml" : a.config));
   options.db_path = dir + "/merge.db";
+  if (a.query_ahead_backlog >= 0) options.align.query_ahead_backlog = a.query_ahead_backlog;
   LOCI_ASSIGN_OR_RETURN(auto srv, server::MapServer::Open(options));
   LOCI_ASSIGN_OR_RETURN(
       auto grpc_server,
@@ -287,6 +293,9 @@ void RegisterBenchMergeCommand(CLI::App& app) {
                 "keyframes B streams in a room elsewhere before it enters A's (held back until it "
                 "is aligned)")
       ->capture_default_str();
+  c->add_option("--query-ahead-backlog", args->query_ahead_backlog,
+                "align.query_ahead_backlog for this run (0 = B's keyframes recognised in order "
+                "only; default: the config's)");
   c->add_option("--other-room", args->other_room,
                 "B streams a room rendered with this seed: a different place that must not merge");
   c->callback([args] {

@@ -96,11 +96,15 @@ void PrintAlignment(const loci::v1::GetStatsResponse& resp) {
                 static_cast<unsigned long long>(a.dense_without_images()),
                 static_cast<unsigned long long>(a.dense_frames_read()));
     std::printf("merges             %llu accepted, %llu disagreeing matches; %llu verified, "
-                "%llu rejected candidates\n",
+                "%llu rejected candidates; %llu keyframes queried ahead of a backlog, %llu "
+                "merges from them; %llu islands aligned by an aligned robot's keyframes\n",
                 static_cast<unsigned long long>(a.merges_accepted()),
                 static_cast<unsigned long long>(a.merge_resets()),
                 static_cast<unsigned long long>(a.verified()),
-                static_cast<unsigned long long>(a.rejected()));
+                static_cast<unsigned long long>(a.rejected()),
+                static_cast<unsigned long long>(a.queries_ahead()),
+                static_cast<unsigned long long>(a.merges_ahead()),
+                static_cast<unsigned long long>(a.islands_pulled()));
     if (a.merged_keyframes() > 0) {
       std::printf("held keyframes     %llu entered the map on alignments; the last in %.0f ms, "
                   "%llu chunks; mapping paused at most %.0f ms (%.0f ms since start)\n",

@@ -57,6 +57,11 @@ class BoundedQueue {
     return items_.size();
   }
   size_t capacity() const { return capacity_; }
+  // Closed: Pop and PopFor return nullopt once it is drained.
+  bool closed() const {
+    std::lock_guard<std::mutex> lock(mu_);
+    return closed_;
+  }
 
  private:
   std::optional<T> PopLocked() {

@@ -8,7 +8,8 @@ Status AlignOptions::FromYaml(const YAML::Node& node) {
   if (!node) return absl::OkStatus();
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
       node, "align", {"enabled", "max_verify", "level_with_gravity", "min_gravity_keyframes",
-                 "refine_max_matches", "held_chunk_keyframes", "island_octomap", "loops"}));
+                 "refine_max_matches", "held_chunk_keyframes", "island_octomap",
+                 "query_ahead_backlog", "loops"}));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "enabled", &enabled));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "max_verify", &max_verify));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "level_with_gravity", &level_with_gravity));
@@ -16,6 +17,7 @@ Status AlignOptions::FromYaml(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "refine_max_matches", &refine_max_matches));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "held_chunk_keyframes", &held_chunk_keyframes));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "island_octomap", &island_octomap));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "query_ahead_backlog", &query_ahead_backlog));
   LOCI_RETURN_IF_ERROR(loops.FromYaml(node["loops"]));
   return Validate();
 }
@@ -70,6 +72,9 @@ Status AlignOptions::Validate() const {
   LOCI_RETURN_IF_ERROR(loops.Validate());
   if (refine_max_matches < 0) {
     return absl::InvalidArgumentError("align.refine_max_matches must be >= 0 (0 = off)");
+  }
+  if (query_ahead_backlog < 0) {
+    return absl::InvalidArgumentError("align.query_ahead_backlog must be >= 0 (0 = off)");
   }
   if (held_chunk_keyframes < 0) {
     return absl::InvalidArgumentError("align.held_chunk_keyframes must be >= 0 (0 = all at once)");

@@ -81,6 +81,15 @@ struct AlignOptions {
   // thread and a tree per island, and ray casting, about 20 ms per keyframe, that the shared
   // map does again once the robot is aligned). false: islands have objects and a cloud only.
   bool island_octomap = true;
+  // When at least this many keyframes wait to be mapped or recognised (both queues), an
+  // unaligned robot's newest keyframe is matched against the shared map ahead of them
+  // (RobotAligner::QueryAhead), so that a robot that streamed a backlog elsewhere is aligned
+  // within about its next three keyframes instead of after the backlog (16; 0 = off). Below
+  // it every keyframe goes through place recognition once, in order: a burst (a robot's first
+  // 20 keyframes sent at once) is worked through in order as fast, and the newest keyframe
+  // would only complete a consensus its first ones were about to. Both queues hold up to
+  // 2 x server.queue_capacity keyframes, so keep it below that.
+  int query_ahead_backlog = 16;
   LoopOptions loops;
 
   // Reads the keys of `align`; unknown keys are errors.

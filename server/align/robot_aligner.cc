@@ -90,7 +90,13 @@ StatusOr<bool> RobotAligner::CountIn(const AlignKeyframe& kf) {
     return absl::FailedPreconditionError(
         absl::StrCat("keyframe ", kf.keyframe_id, ": session ", kf.session_row, " not declared"));
   }
-  if (it->second.keyframes++ == 0) it->second.first_t_ns = kf.t_ns;
+  Session& s = it->second;
+  if (s.keyframes++ == 0) s.first_t_ns = kf.t_ns;
+  s.last_t_ns = kf.t_ns;
+  if (kf.keyframe_id == s.delay_keyframe_id) {
+    s.delay = AlignmentDelay{s.keyframes, 1e-9 * static_cast<double>(kf.t_ns - s.first_t_ns)};
+    s.delay_keyframe_id = 0;
+  }
   if (kf.gravity_cam) {
     it->second.gravity_sum_odom += kf.T_odom_kf.linear() * *kf.gravity_cam;
     ++it->second.gravity_count;
@@ -140,6 +146,7 @@ StatusOr<AlignOutcome> RobotAligner::AddKeyframe(const AlignKeyframe& kf, const 
     }
   } else if (match && options_.loops.enabled) {
     out.matches = Match(kf, features, bow, /*loops=*/true, /*query_aligned=*/true, dense.get());
+    out.island_alignments = Pull(kf, out.matches);
   } else if (match && Refining(kf.session_row)) {
     out.matches = Match(kf, features, bow, /*loops=*/false, /*query_aligned=*/true, dense.get());
     result = Refine(kf, Estimates(kf, out.matches));
@@ -175,7 +182,8 @@ std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
                                                const place::KeyframeFeatures& features,
                                                const place::BowVector& bow, bool loops,
                                                bool query_aligned,
-                                               const place::DenseFrame* dense) {
+                                               const place::DenseFrame* dense,
+                                               bool aligned_only) {
   std::vector<VerifiedMatch> matches;
   // An unaligned query verifies loops.island_max_verify candidates of its own island (its loops)
   // and max_verify of the rest (where it may be aligned or joined), so revisiting its own places
@@ -192,7 +200,9 @@ std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
     // with loops.
     const bool own_island = !query_aligned && !Alignment(a->second.session_row) &&
                             SameIsland(a->second.session_row, kf.session_row);
-    if (!loop && !Alignment(a->second.session_row) && (query_aligned || (own_island && !loops))) {
+    // An aligned query verifies unaligned islands' keyframes too (Pull), with loops only.
+    if (!loop && !Alignment(a->second.session_row) &&
+        (aligned_only || (query_aligned && !loops) || (own_island && !loops))) {
       continue;
     }
     int& budget = own_island ? tried_own_island : tried;
@@ -293,7 +303,8 @@ std::vector<SE3d> RobotAligner::Estimates(const AlignKeyframe& kf,
 }
 
 std::optional<SessionAlignment> RobotAligner::Gate(const AlignKeyframe& kf,
-                                                   const std::vector<SE3d>& estimates) {
+                                                   const std::vector<SE3d>& estimates,
+                                                   bool counted) {
   // One estimate per keyframe: the best-ranked verified candidate's (the gate counts keyframes).
   if (estimates.empty()) return std::nullopt;
   const place::ConsistencyGate::Decision d =
@@ -309,7 +320,11 @@ std::optional<SessionAlignment> RobotAligner::Gate(const AlignKeyframe& kf,
   if (options_.level_with_gravity) out.levelled = Level(s, kf.T_odom_kf.translation(), &out.T_base_odom);
   s.T_base_odom = out.T_base_odom;
   s.recognised = true;
-  s.delay = AlignmentDelay{s.keyframes, 1e-9 * static_cast<double>(kf.t_ns - s.first_t_ns)};
+  if (counted) {
+    s.delay = AlignmentDelay{s.keyframes, 1e-9 * static_cast<double>(kf.t_ns - s.first_t_ns)};
+  } else {
+    s.delay_keyframe_id = kf.keyframe_id;  // CountIn sets it when the keyframe comes in order
+  }
   s.estimates.assign(static_cast<size_t>(d.agreeing), d.T_x_y);
   s.next_refine = 2 * s.estimates.size();
   if (static_cast<int>(s.next_refine) > options_.refine_max_matches) s.next_refine = 0;
@@ -411,17 +426,22 @@ std::optional<SessionAlignment> RobotAligner::Refine(const AlignKeyframe& kf,
 bool RobotAligner::Level(const Session& session, const Vec3d& pivot_odom,
                          SE3d* T_base_odom) const {
   if (session.gravity_count < options_.min_gravity_keyframes) return false;
-  Vec3d down_base = Vec3d::Zero();
-  int count = 0;
-  for (const auto& [row, other] : sessions_) {
-    if (!other.T_base_odom || other.gravity_count == 0) continue;
-    down_base += other.T_base_odom->linear() * other.gravity_sum_odom;
-    count += other.gravity_count;
-  }
+  const auto [down_base, count] = BaseDown();
   if (count < options_.min_gravity_keyframes || down_base.norm() < 1e-9) return false;
   *T_base_odom = LevelOnto(*T_base_odom, session.gravity_sum_odom, down_base,
                            *T_base_odom * pivot_odom);
   return true;
+}
+
+std::pair<Vec3d, int> RobotAligner::BaseDown() const {
+  Vec3d down = Vec3d::Zero();
+  int count = 0;
+  for (const auto& [row, s] : sessions_) {
+    if (!s.T_base_odom || s.gravity_count == 0) continue;
+    down += s.T_base_odom->linear() * s.gravity_sum_odom;
+    count += s.gravity_count;
+  }
+  return {down, count};
 }
 
 std::pair<Vec3d, int> RobotAligner::IslandDown(int64_t island_row) const {

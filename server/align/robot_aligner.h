@@ -108,6 +108,9 @@ struct AlignStats {
   uint64_t rejected = 0;          // candidates that did not
   uint64_t merges_accepted = 0;   // sessions aligned
   uint64_t refinements = 0;       // placements re-estimated from more matches
+  uint64_t queries_ahead = 0;     // newest keyframes queried ahead of a backlog (QueryAhead)
+  uint64_t merges_ahead = 0;      // ... that aligned their session (also in merges_accepted)
+  uint64_t islands_pulled = 0;    // islands aligned by an aligned robot's keyframes (Pull)
   uint64_t merge_resets = 0;      // verified estimates that disagreed with the collected ones
   double place_ms_total = 0;      // features + words + query + verification, thread CPU ms
   uint64_t vocabulary_words = 0;
@@ -167,6 +170,17 @@ class RobotAligner {
   StatusOr<AlignOutcome> AddKeyframe(const AlignKeyframe& kf, const cv::Mat& bgr,
                                      const cv::Mat& depth_m, const PinholeCamera& camera,
                                      bool match = true);
+  // Place recognition of an unaligned session's newest keyframe ahead of the keyframes waiting
+  // before it for the mapping worker and AddKeyframe (a robot that streamed a backlog elsewhere
+  // first): its features are matched against the aligned sessions' keyframes only, and the
+  // estimate goes to the same consistency gate, but nothing is indexed or counted. AddKeyframe
+  // later indexes it as usual; the gate ignores its second estimate (a keyframe counts once).
+  // The outcome holds the verified matches (pose-graph merge edges once the keyframe is mapped;
+  // AddKeyframe may find the same pairs again) and the alignment (and its island's) when this
+  // keyframe completes the consensus. Empty for a keyframe already indexed or a session that is
+  // aligned or not declared.
+  StatusOr<AlignOutcome> QueryAhead(const AlignKeyframe& kf, const cv::Mat& bgr,
+                                    const cv::Mat& depth_m, const PinholeCamera& camera);
   // Indexes a keyframe from features read back from the store (re-indexing after a restart):
   // AddKeyframe with match = false, without extracting or storing them again.
   Status IndexStored(const AlignKeyframe& kf, place::KeyframeFeatures features);
@@ -194,6 +208,9 @@ class RobotAligner {
     size_t next_refine = 0;       // refine when estimates reach this many (0 = done)
     int keyframes = 0;            // seen by AddKeyframe
     int64_t first_t_ns = 0;
+    int64_t last_t_ns = 0;
+    // Aligned by a keyframe queried ahead (not counted yet): the delay is set when it is.
+    int64_t delay_keyframe_id = 0;
     std::optional<AlignmentDelay> delay;
     int64_t island_row = 0;  // unaligned: the island joined (0 = its own)
     SE3d T_island_odom = SE3d::Identity();
@@ -212,11 +229,11 @@ class RobotAligner {
   void CountIndexed(double t0_ms);
   // Verifies the best candidates (max_verify, in rank order) among the keyframes of aligned
   // sessions and, with loops, the older ones of kf's own session; every match that verifies.
-  // An unaligned query also verifies candidates of unaligned sessions in other islands.
-  // `dense`: the query's reduced images (null: no dense refinement).
+  // An unaligned query also verifies candidates of unaligned sessions in other islands, unless
+  // aligned_only. `dense`: the query's reduced images (null: no dense refinement).
   std::vector<VerifiedMatch> Match(const AlignKeyframe& kf, const place::KeyframeFeatures& features,
                                    const place::BowVector& bow, bool loops, bool query_aligned,
-                                   const place::DenseFrame* dense);
+                                   const place::DenseFrame* dense, bool aligned_only = false);
   // T_a_b refined by the dense alignment when it can be (b null: not tried); counts the outcome.
   SE3d RefinedDense(int64_t a_id, const place::DenseFrame* b, const SE3d& T_a_b);
   // Keyframe a_id's reduced images: from the cache, else read back through images_ and cached;
@@ -236,7 +253,9 @@ class RobotAligner {
   std::vector<SessionAlignment> AlignIsland(const SessionAlignment& aligned);
   // The estimates of T_base_odom(kf's session), one per merge match.
   std::vector<SE3d> Estimates(const AlignKeyframe& kf, const std::vector<VerifiedMatch>& matches) const;
-  std::optional<SessionAlignment> Gate(const AlignKeyframe& kf, const std::vector<SE3d>& estimates);
+  // `counted`: kf went through CountIn (not a keyframe queried ahead).
+  std::optional<SessionAlignment> Gate(const AlignKeyframe& kf, const std::vector<SE3d>& estimates,
+                                       bool counted = true);
   // For an aligned session: keeps the estimates that agree with its placement; a refined
   // placement when their count reached the next refinement.
   std::optional<SessionAlignment> Refine(const AlignKeyframe& kf,
@@ -248,6 +267,16 @@ class RobotAligner {
   // The sum of the gravity (unit vectors, pointing down) of an island's sessions in its frame,
   // and how many keyframes it sums (sessions_mu_ held).
   std::pair<Vec3d, int> IslandDown(int64_t island_row) const;
+  // The sum of the aligned sessions' gravity in the base frame, and its count (sessions_mu_
+  // held).
+  std::pair<Vec3d, int> BaseDown() const;
+  // An aligned keyframe's verified matches to keyframes of unaligned islands: each estimates
+  // where its island's frame sits in the base frame (hypothesis per island in the gate). When 3
+  // keyframes agree, every session of the island is aligned (levelled with both sides' gravity
+  // as a merge is): an island whose robot has stopped streaming still enters the shared map
+  // when an aligned robot sees its places.
+  std::vector<SessionAlignment> Pull(const AlignKeyframe& kf,
+                                     const std::vector<VerifiedMatch>& matches);
   static std::string Key(int64_t session_row);
 
   place::PlaceOptions place_;

@@ -412,6 +412,7 @@ loci::v1::KeyframeAck MapServer::Ingest(const loci::v1::Keyframe& kf,
       std::lock_guard<std::mutex> lock(progress_mu_);
       ++enqueued_;
     }
+    OfferAhead(decoded);
     // Blocks while the mapping worker is behind: back-pressure on this client's stream.
     if (!queue_.Push(std::move(decoded))) {
       std::lock_guard<std::mutex> lock(progress_mu_);
@@ -512,7 +513,18 @@ void MapServer::WorkerLoop() {
 }
 
 void MapServer::AlignLoop() {
-  while (std::optional<MapperKeyframe> kf = align_queue_.Pop()) {
+  while (true) {
+    if (std::optional<MapperKeyframe> ahead = TakeAhead()) {
+      QueryAhead(*ahead);
+      continue;
+    }
+    // A short wait: a keyframe offered ahead meanwhile is taken within it.
+    std::optional<MapperKeyframe> kf = align_queue_.PopFor(std::chrono::milliseconds(20));
+    if (!kf) {
+      if (align_queue_.closed()) return;
+      continue;
+    }
+    ++recognised_since_ahead_;
     RecognisePlace(*kf);
     --align_pending_;
     std::lock_guard<std::mutex> lock(progress_mu_);

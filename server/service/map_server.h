@@ -12,6 +12,7 @@
 #include <memory>
 #include <mutex>
 #include <semaphore>
+#include <set>
 #include <thread>
 #include <vector>
 
@@ -144,6 +145,23 @@ class MapServer {
   // worker; then, with mapping_mu_, its matches, an alignment it completes, a graph solve.
   void AlignLoop();
   void RecognisePlace(const MapperKeyframe& kf);
+  // One place-recognition call for kf (`recognise`, given kf as the aligner takes it); an error
+  // or an exception (OpenCV asserts by throwing) is logged with `what` and gives an empty
+  // outcome: a keyframe's place recognition must not end the server.
+  static AlignOutcome Guarded(const MapperKeyframe& kf, const char* what,
+                              const std::function<StatusOr<AlignOutcome>(const AlignKeyframe&)>&
+                                  recognise);
+  // Applies what place recognition gave for kf (its matches, alignments, a join) under
+  // mapping_mu_, then maps the held keyframes and moves what it placed (aligning thread).
+  void ApplyOutcome(const MapperKeyframe& kf, const AlignOutcome& outcome);
+  // Ingest: keeps a copy of an unaligned session's keyframe as its newest, to be queried ahead
+  // of the backlog (AlignOptions::query_ahead_backlog) when at least that many keyframes wait.
+  void OfferAhead(const MapperKeyframe& kf);
+  // Aligning thread: the newest offered keyframe of one session, when one is due: at once for
+  // a session whose last keyframe queried ahead verified a match (it sees the shared map) or
+  // when none wait, else after kRecognisedPerAhead keyframes recognised in order.
+  std::optional<MapperKeyframe> TakeAhead();
+  void QueryAhead(const MapperKeyframe& kf);
   // Tells the aligner about a session on its first keyframe; the map's first keyframe makes its
   // session the origin.
   void DeclareSession(int64_t session_row);
@@ -339,6 +357,10 @@ class MapServer {
   BoundedQueue<MapperKeyframe> align_queue_;  // mapped or held keyframes, with their images
   std::thread align_thread_;
   std::atomic<uint64_t> align_pending_{0};    // pushed, not yet through RecognisePlace
+  std::mutex ahead_mu_;
+  std::map<int64_t, MapperKeyframe> ahead_;   // by session row: its newest offered keyframe
+  std::set<int64_t> ahead_matched_;           // sessions whose last ahead query verified a match
+  int recognised_since_ahead_ = 0;            // aligning thread only
   std::atomic<int64_t> worker_last_id_{0};    // the last keyframe the worker mapped or held
   std::atomic<int64_t> first_live_id_{0};     // the first keyframe ingested since the start
   std::mutex progress_mu_;

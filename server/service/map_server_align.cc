@@ -41,34 +41,46 @@ bool MapServer::MapQueued(MapperKeyframe& kf) {
   return true;
 }
 
-void MapServer::RecognisePlace(const MapperKeyframe& kf) {
+AlignOutcome MapServer::Guarded(
+    const MapperKeyframe& kf, const char* what,
+    const std::function<StatusOr<AlignOutcome>(const AlignKeyframe&)>& recognise) {
   AlignKeyframe in{kf.keyframe_id, kf.session_row, kf.t_ns, kf.T_odom_kf, std::nullopt};
   if (kf.has_gravity) in.gravity_cam = kf.gravity_cam;
   StatusOr<AlignOutcome> outcome = AlignOutcome();
-  try {  // OpenCV asserts by throwing; a keyframe's place recognition must not end the server
-    outcome = aligner_->AddKeyframe(in, kf.bgr, kf.depth_m, kf.camera);
+  try {
+    outcome = recognise(in);
   } catch (const std::exception& e) {
     outcome = absl::InternalError(e.what());
   }
-  if (!outcome.ok()) {
-    spdlog::warn("place recognition skipped keyframe {}: {}", kf.keyframe_id,
-                 outcome.status().ToString());
-    outcome = AlignOutcome();
-  }
+  if (outcome.ok()) return *std::move(outcome);
+  spdlog::warn("{} skipped keyframe {}: {}", what, kf.keyframe_id, outcome.status().ToString());
+  return AlignOutcome();
+}
+
+void MapServer::RecognisePlace(const MapperKeyframe& kf) {
+  const AlignOutcome outcome =
+      Guarded(kf, "place recognition", [&](const AlignKeyframe& in) {
+        return aligner_->AddKeyframe(in, kf.bgr, kf.depth_m, kf.camera);
+      });
+  ApplyOutcome(kf, outcome);
+  MaybeCloseLoops();  // takes mapping_mu_ itself, but not while the graph solves
+}
+
+void MapServer::ApplyOutcome(const MapperKeyframe& kf, const AlignOutcome& outcome) {
   std::vector<HeldKeyframes> held;
   std::optional<JoinedIsland> joined;
   std::vector<Mapper::KeyframePoseUpdate> moves;  // refined placements
   {
     std::lock_guard<HandoffMutex> mapping(mapping_mu_);
-    RecordMatches(kf.session_row, outcome->matches);
+    RecordMatches(kf.session_row, outcome.matches);
     auto apply = [&](const SessionAlignment& a) {
       if (std::optional<HeldKeyframes> h = ApplyAlignment(a, &moves)) {
         held.push_back(std::move(*h));
       }
     };
-    if (outcome->alignment) apply(*outcome->alignment);
-    for (const SessionAlignment& a : outcome->island_alignments) apply(a);
-    if (outcome->join) joined = ApplyJoin(*outcome->join);
+    if (outcome.alignment) apply(*outcome.alignment);
+    for (const SessionAlignment& a : outcome.island_alignments) apply(a);
+    if (outcome.join) joined = ApplyJoin(*outcome.join);
     // No checkpoint until they are all in: one taken between two chunks would hold a later
     // keyframe id than held keyframes it lacks, which a restart would then not map.
     merging_held_ = !held.empty();
@@ -76,7 +88,6 @@ void MapServer::RecognisePlace(const MapperKeyframe& kf) {
   if (!held.empty()) MapHeldKeyframes(held);
   if (joined) MapJoinedIsland(*joined);
   if (!moves.empty()) MoveSessions(std::move(moves));
-  MaybeCloseLoops();  // takes mapping_mu_ itself, but not while the graph solves
 }
 
 std::optional<SessionRecord> MapServer::SessionByRow(int64_t session_row) {

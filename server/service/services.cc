@@ -369,6 +369,9 @@ grpc::Status QueryService::FillAlignment(const std::vector<SessionRecord>& sessi
   a->set_rejected(st->rejected);
   a->set_merges_accepted(st->merges_accepted);
   a->set_merge_resets(st->merge_resets);
+  a->set_queries_ahead(st->queries_ahead);
+  a->set_merges_ahead(st->merges_ahead);
+  a->set_islands_pulled(st->islands_pulled);
   a->set_merged_keyframes(server_->merged_keyframes());
   const MapServer::HeldMergeStats held = server_->held_merge_stats();
   a->set_last_merge_ms(held.last_ms);

@@ -4,7 +4,8 @@
 // centroids within 2 cm, in B's own frame), FindObjects and GetObject give them with their
 // island, GetStats lists the island, Ask names it, it equals the map B makes alone, and a
 // restart re-derives it. Robot C then
-// starts in A's room with its own odometry: it is aligned, and its island is gone.
+// starts in A's room with its own odometry: it is aligned, and its island is gone. An island is
+// also brought in by an aligned robot that sees its places.
 #include <grpcpp/create_channel.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -44,6 +45,7 @@ using testing::SessionsByRobot;
 using testing::Start;
 using testing::Stats;
 using testing::Stream;
+using testing::StreamInto;
 
 namespace fs = std::filesystem;
 
@@ -307,6 +309,66 @@ TEST_F(Islands, OverlappingIslandsJoinIntoOne) {
   ASSERT_TRUE(sessions.count("C"));
   EXPECT_EQ(sessions.at("C").island(), b);
   EXPECT_EQ(InIsland(Find(r.query.get(), true), b).size(), joined_objects);
+}
+
+// An island whose robot has stopped streaming is brought in by an aligned robot: B maps room b
+// (an island) and stops; then A, aligned, walks on from room a into room b, 6 m beside it and
+// turned by 0.3 rad. A's keyframes there match B's island, which is aligned through them: B is
+// placed within 3 cm and 1.5 deg of the truth, no island is left, and each object of room b is in
+// the shared map once (what A and B both saw fused).
+TEST_F(Islands, AnAlignedRobotThatSeesAnIslandsPlacesBringsItIn) {
+  Running r = Start(dir_ + "/pull.db");
+  ASSERT_TRUE(r.server);
+  const std::string a = Stream(r.mapping.get(), "A", Rebased(views_["a"], 0, false));
+  const std::string b = Stream(r.mapping.get(), "B", Rebased(views_["b"], 0, true));
+  r.server->Flush();
+  ASSERT_FALSE(SessionsByRobot(Stats(r.query.get())).at("B").aligned());
+  const SE3d T_a_b =
+      MakeSE3(Vec3d(6.0, 0.0, 0.0), Quatd(Eigen::AngleAxisd(0.3, Vec3d::UnitZ()))).inverse();
+  std::vector<loci::v1::Keyframe> a_in_b;
+  for (const loci::v1::Keyframe& view : views_["b"]) {
+    loci::v1::Keyframe kf = view;
+    kf.set_t_ns(kf.t_ns() + 100'000'000'000);
+    ToProto(T_a_b * PoseFromProto(view.t_odom_cam()), kf.mutable_t_odom_cam());
+    a_in_b.push_back(kf);
+  }
+  StreamInto(r.mapping.get(), a, a_in_b, static_cast<int64_t>(views_["a"].size()));
+  r.server->Flush();
+  const loci::v1::GetStatsResponse stats = Stats(r.query.get());
+  const auto sessions = SessionsByRobot(stats);
+  ASSERT_TRUE(sessions.at("B").aligned()) << "A saw room b, and B's island stayed out";
+  EXPECT_GE(stats.alignment().islands_pulled(), 1u);
+  EXPECT_EQ(sessions.at("B").aligned_after_keyframes(), views_["b"].size());
+  const std::vector<loci::v1::Object> all = Find(r.query.get(), true);
+  for (const auto& o : all) EXPECT_EQ(o.island(), "") << "island object #" << o.id() << " left";
+  const SE3d T_map_a = PoseFromProto(sessions.at("A").t_map_odom());
+  const SE3d T_map_odomB = PoseFromProto(sessions.at("B").t_map_odom());
+  const SE3d T_map_b = T_map_a * T_a_b;  // room b's world in the map
+  const SE3d T_err =
+      (T_map_b * PoseFromProto(views_["b"][0].t_odom_cam())).inverse() * T_map_odomB;
+  const double err_deg = Eigen::AngleAxisd(T_err.linear()).angle() * 180 / M_PI;
+  std::printf("  B placed through A's keyframes %.1f mm, %.2f deg from the truth\n",
+              1e3 * T_err.translation().norm(), err_deg);
+  EXPECT_LT(T_err.translation().norm(), 0.03);  // 9.0 mm, 0.84 deg here
+  EXPECT_LT(err_deg, 1.5);
+  auto gt = ReadObjectsJson(dir_ + "/b/objects.json");
+  ASSERT_TRUE(gt.ok());
+  std::map<int64_t, int> detected_in;
+  for (const auto& kf : views_["b"]) {
+    for (const auto& d : kf.detections()) ++detected_in[d.track_id()];
+  }
+  int checked = 0;
+  for (const GroundTruthObject& g : gt->objects) {
+    if (detected_in[g.id] < 3 || g.dynamic) continue;
+    int near = 0;
+    for (const auto& o : all) {
+      const Vec3d c_m(o.centroid_m().x(), o.centroid_m().y(), o.centroid_m().z());
+      near += o.class_name() == g.class_name && (c_m - T_map_b * g.centroid_m).norm() < 0.05;
+    }
+    EXPECT_EQ(near, 1) << g.class_name << " (gt " << g.id << ") of room b";
+    ++checked;
+  }
+  EXPECT_GE(checked, 4);
 }
 
 // An island aligns as a whole: B and C join in room b (as above); then C walks on into room a,

@@ -3,8 +3,11 @@
 // TUM sample, robot A (frames 0-39, aligned: it defines the map) and robot B (frames 20-59, its
 // own odometry from the identity at its first frame, unaligned). B is aligned the same way, to
 // the same transform, whether every keyframe's features and reduced images stay in memory or
-// only two do and the rest are read back from the store.
+// only two do and the rest are read back from the store; and from its newest keyframes queried
+// ahead of a backlog.
 #include <gtest/gtest.h>
+
+#include <memory>
 
 #include "common/config.h"
 #include "server/align/robot_aligner.h"
@@ -23,6 +26,28 @@ const std::vector<TumKeyframe>& Sample() {
     return r.ok() ? *r : std::vector<TumKeyframe>{};
   }();
   return kfs;
+}
+
+// Sample frame i as session `session` sends it: id 1000 * session + i, its odometry from the
+// identity at frame `first`.
+AlignKeyframe SampleKeyframe(int session, int i, int first) {
+  const auto& kfs = Sample();
+  return AlignKeyframe{1000 * session + i, session, kfs[i].t_ns,
+                       kfs[first].T_world_cam.inverse() * kfs[i].T_world_cam, std::nullopt};
+}
+
+// These tests' aligner: no loop closure, no refinement (the first consensus is the placement);
+// session 1 (A) is aligned, session 2 (B) is not.
+std::unique_ptr<RobotAligner> AlignerForAAndB(const place::PlaceOptions& place,
+                                              place::FeatureStore* store,
+                                              place::KeyframeImageSource* images) {
+  AlignOptions options;
+  options.loops.enabled = false;
+  options.refine_max_matches = 0;
+  auto aligner = std::make_unique<RobotAligner>(place, options, store, images);
+  aligner->AddSession(1, SE3d::Identity());
+  aligner->AddSession(2, std::nullopt);
+  return aligner;
 }
 
 struct AlignRun {
@@ -60,21 +85,16 @@ AlignRun AlignBToA(int cache_keyframes, place::FeatureStore* store, int dense_ca
   place::PlaceOptions place;
   place.features.cache_keyframes = cache_keyframes;
   place.dense.cache_keyframes = dense_cache;
-  AlignOptions options;
-  options.loops.enabled = false;
-  options.refine_max_matches = 0;
-  RobotAligner aligner(place, options, store, images);
-  aligner.AddSession(1, SE3d::Identity());
-  aligner.AddSession(2, std::nullopt);
+  const std::unique_ptr<RobotAligner> owned = AlignerForAAndB(place, store, images);
+  RobotAligner& aligner = *owned;
   const PinholeCamera camera = kfs.front().features.camera;
   AlignRun run;
   auto add = [&](int session, int i, int first) {
-    SE3d T_odom_kf = kfs[first].T_world_cam.inverse() * kfs[i].T_world_cam;
+    AlignKeyframe kf = SampleKeyframe(session, i, first);
     if (session == 1 && i >= 10) {
-      if (slip.corrected) aligner.SetMappedPoses(kSharedGraph, {{1000 + i, T_odom_kf}});
-      T_odom_kf = slip.T_slip * T_odom_kf;
+      if (slip.corrected) aligner.SetMappedPoses(kSharedGraph, {{1000 + i, kf.T_odom_kf}});
+      kf.T_odom_kf = slip.T_slip * kf.T_odom_kf;
     }
-    AlignKeyframe kf{1000 * session + i, session, kfs[i].t_ns, T_odom_kf, std::nullopt};
     auto out = aligner.AddKeyframe(kf, kfs[i].bgr, kfs[i].depth_m, camera);
     ASSERT_TRUE(out.ok()) << out.status();
     if (out->alignment && !run.alignment) run.alignment = out->alignment;
@@ -149,6 +169,62 @@ TEST(RobotAlignerTest, ARobotIsAlignedToWhereTheMatchedKeyframesAreMappedNow) {
               "poses\n", odometry_err_m, corrected_err_m);
   EXPECT_GT(odometry_err_m, 0.10);
   EXPECT_LT(corrected_err_m, 0.05);
+}
+
+// A robot that streamed a backlog: B's keyframes 20-49 still wait to be indexed when its newest
+// ones are queried ahead of them. B is aligned from those alone, nothing is indexed until
+// AddKeyframe works through the backlog, and then B is not aligned a second time.
+TEST(RobotAlignerTest, NewestKeyframesQueriedAheadOfABacklogAlignTheRobot) {
+  const auto& kfs = Sample();
+  ASSERT_EQ(kfs.size(), 60u);
+  const std::unique_ptr<RobotAligner> owned = AlignerForAAndB({}, nullptr, nullptr);
+  RobotAligner& aligner = *owned;
+  const PinholeCamera camera = kfs.front().features.camera;
+  for (int i = 0; i < 40; ++i) {
+    const auto out = aligner.AddKeyframe(SampleKeyframe(1, i, 0), kfs[i].bgr, kfs[i].depth_m,
+                                         camera);
+    ASSERT_TRUE(out.ok()) << out.status();
+  }
+  // Neither an undeclared session nor an aligned one is queried.
+  AlignKeyframe stray = SampleKeyframe(2, 50, 20);
+  stray.session_row = 7;
+  auto none = aligner.QueryAhead(stray, kfs[50].bgr, kfs[50].depth_m, camera);
+  ASSERT_TRUE(none.ok()) << none.status();
+  EXPECT_FALSE(none->alignment.has_value());
+  EXPECT_TRUE(aligner.QueryAhead(SampleKeyframe(1, 45, 0), kfs[45].bgr, kfs[45].depth_m, camera)
+                  ->matches.empty());
+
+  std::optional<SessionAlignment> ahead;
+  int queried = 0;
+  for (int i = 50; i < 60 && !ahead; ++i, ++queried) {
+    auto out = aligner.QueryAhead(SampleKeyframe(2, i, 20), kfs[i].bgr, kfs[i].depth_m, camera);
+    ASSERT_TRUE(out.ok()) << out.status();
+    ahead = out->alignment;
+  }
+  ASSERT_TRUE(ahead.has_value()) << "B not aligned by its newest 10 keyframes";
+  EXPECT_LE(queried, 5);
+  AlignStats stats = aligner.Stats();
+  EXPECT_EQ(stats.keyframes, 40u);  // nothing indexed ahead
+  EXPECT_EQ(stats.queries_ahead, static_cast<uint64_t>(queried));
+  EXPECT_EQ(stats.merges_ahead, 1u);
+  EXPECT_TRUE(aligner.Alignment(2).has_value());
+  const SE3d T_a_b = place::testing::GroundTruthT_a_b(kfs[0], kfs[20]);
+  EXPECT_LT((ahead->T_base_odom.translation() - T_a_b.translation()).norm(), 0.05);
+  EXPECT_FALSE(aligner.Delay(2).has_value()) << "known once the aligning keyframe comes in order";
+
+  for (int i = 20; i < 60; ++i) {
+    auto out = aligner.AddKeyframe(SampleKeyframe(2, i, 20), kfs[i].bgr, kfs[i].depth_m, camera);
+    ASSERT_TRUE(out.ok()) << out.status();
+    EXPECT_FALSE(out->alignment.has_value()) << "B aligned again at its keyframe " << i;
+  }
+  stats = aligner.Stats();
+  EXPECT_EQ(stats.keyframes, 80u);
+  ASSERT_TRUE(aligner.Delay(2).has_value());
+  EXPECT_EQ(aligner.Delay(2)->keyframes, ahead->keyframe_id - 2020 + 1);
+  EXPECT_EQ(stats.merges_accepted, 1u);
+  // A keyframe indexed since is not queried ahead again.
+  EXPECT_TRUE(aligner.QueryAhead(SampleKeyframe(2, 59, 20), kfs[59].bgr, kfs[59].depth_m, camera)
+                  ->matches.empty());
 }
 
 }  // namespace
