@@ -196,11 +196,10 @@ std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
     if (a == indexed_.end()) continue;
     const bool loop = a->second.session_row == kf.session_row;
     if (loop && (!loops || kf.t_ns - a->second.t_ns < options_.loops.min_gap_ns())) continue;
-    // A candidate of an unaligned session: only for an unaligned query; in its own island only
-    // with loops.
+    // A candidate of an unaligned session: for an unaligned query (in its own island only with
+    // loops), and for an aligned one with loops (Pull); never for a query ahead (aligned_only).
     const bool own_island = !query_aligned && !Alignment(a->second.session_row) &&
                             SameIsland(a->second.session_row, kf.session_row);
-    // An aligned query verifies unaligned islands' keyframes too (Pull), with loops only.
     if (!loop && !Alignment(a->second.session_row) &&
         (aligned_only || (query_aligned && !loops) || (own_island && !loops))) {
       continue;

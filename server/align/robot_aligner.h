@@ -230,7 +230,8 @@ class RobotAligner {
   // Verifies the best candidates (max_verify, in rank order) among the keyframes of aligned
   // sessions and, with loops, the older ones of kf's own session; every match that verifies.
   // An unaligned query also verifies candidates of unaligned sessions in other islands, unless
-  // aligned_only. `dense`: the query's reduced images (null: no dense refinement).
+  // aligned_only; an aligned query with loops, those of every island (Pull). `dense`: the
+  // query's reduced images (null: no dense refinement).
   std::vector<VerifiedMatch> Match(const AlignKeyframe& kf, const place::KeyframeFeatures& features,
                                    const place::BowVector& bow, bool loops, bool query_aligned,
                                    const place::DenseFrame* dense, bool aligned_only = false);
