@@ -123,14 +123,11 @@ StatusOr<AlignOutcome> RobotAligner::AddKeyframe(const AlignKeyframe& kf, const 
   std::lock_guard<std::mutex> work(work_mu_);
   if (indexed_.count(kf.keyframe_id)) return AlignOutcome();  // re-indexed
   LOCI_ASSIGN_OR_RETURN(const bool aligned, CountIn(kf));
-  LOCI_ASSIGN_OR_RETURN(place::KeyframeFeatures features,
-                        place::ExtractFeatures(bgr, depth_m, camera, place_.features));
-  const place::BowVector bow = db_.Quantise(features.descriptors, /*add_words=*/true);
-  std::shared_ptr<const place::DenseFrame> dense;
-  if (match && place_.dense.enabled) {
-    dense = std::make_shared<const place::DenseFrame>(
-        place::MakeDenseFrame(bgr, depth_m, camera, place_.dense));
-  }
+  LOCI_ASSIGN_OR_RETURN(Described q,
+                        Describe(bgr, depth_m, camera, /*add_words=*/true, /*dense=*/match));
+  place::KeyframeFeatures& features = q.features;
+  const place::BowVector& bow = q.bow;
+  const std::shared_ptr<const place::DenseFrame>& dense = q.dense;
   AlignOutcome out;
   std::optional<SessionAlignment>& result = out.alignment;
   if (match && !aligned) {
@@ -155,11 +152,26 @@ StatusOr<AlignOutcome> RobotAligner::AddKeyframe(const AlignKeyframe& kf, const 
     spdlog::warn("keyframe {}: features not stored ({}); it is matched while cached",
                  kf.keyframe_id, st.ToString());
   }
-  if (dense) dense_cache_.Put(kf.keyframe_id, std::move(dense));
+  if (dense) dense_cache_.Put(kf.keyframe_id, dense);
   LOCI_RETURN_IF_ERROR(Index(kf, bow));
   std::lock_guard<std::mutex> lock(stats_mu_);
   CountIndexed(t0_ms);
   if (result) ++(result->refined ? stats_.refinements : stats_.merges_accepted);
+  return out;
+}
+
+StatusOr<RobotAligner::Described> RobotAligner::Describe(const cv::Mat& bgr,
+                                                         const cv::Mat& depth_m,
+                                                         const PinholeCamera& camera,
+                                                         bool add_words, bool dense) {
+  Described out;
+  LOCI_ASSIGN_OR_RETURN(out.features,
+                        place::ExtractFeatures(bgr, depth_m, camera, place_.features));
+  out.bow = db_.Quantise(out.features.descriptors, add_words);
+  if (dense && place_.dense.enabled) {
+    out.dense = std::make_shared<const place::DenseFrame>(
+        place::MakeDenseFrame(bgr, depth_m, camera, place_.dense));
+  }
   return out;
 }
 

@@ -220,6 +220,15 @@ class RobotAligner {
     int64_t t_ns = 0;
     SE3d T_odom_kf = SE3d::Identity();
   };
+  // A query keyframe's features, its bag of words (new words go into the vocabulary with
+  // add_words) and, with `dense` and place.dense on, its reduced images.
+  struct Described {
+    place::KeyframeFeatures features;
+    place::BowVector bow;
+    std::shared_ptr<const place::DenseFrame> dense;
+  };
+  StatusOr<Described> Describe(const cv::Mat& bgr, const cv::Mat& depth_m,
+                               const PinholeCamera& camera, bool add_words, bool dense);
   // Counts the keyframe into its session (an error when it is not declared); whether the
   // session is aligned.
   StatusOr<bool> CountIn(const AlignKeyframe& kf);

@@ -17,17 +17,11 @@ StatusOr<AlignOutcome> RobotAligner::QueryAhead(const AlignKeyframe& kf, const c
     auto it = sessions_.find(kf.session_row);
     if (it == sessions_.end() || it->second.T_base_odom) return out;
   }
-  LOCI_ASSIGN_OR_RETURN(place::KeyframeFeatures features,
-                        place::ExtractFeatures(bgr, depth_m, camera, place_.features));
   // Words are added when AddKeyframe indexes it: the vocabulary grows in keyframe order.
-  const place::BowVector bow = db_.Quantise(features.descriptors, /*add_words=*/false);
-  std::shared_ptr<const place::DenseFrame> dense;
-  if (place_.dense.enabled) {
-    dense = std::make_shared<const place::DenseFrame>(
-        place::MakeDenseFrame(bgr, depth_m, camera, place_.dense));
-  }
-  out.matches = Match(kf, features, bow, /*loops=*/false, /*query_aligned=*/false, dense.get(),
-                      /*aligned_only=*/true);
+  LOCI_ASSIGN_OR_RETURN(const Described q,
+                        Describe(bgr, depth_m, camera, /*add_words=*/false, /*dense=*/true));
+  out.matches = Match(kf, q.features, q.bow, /*loops=*/false, /*query_aligned=*/false,
+                      q.dense.get(), /*aligned_only=*/true);
   out.alignment = Gate(kf, Estimates(kf, out.matches), /*counted=*/false);
   if (out.alignment) out.island_alignments = AlignIsland(*out.alignment);
   std::lock_guard<std::mutex> lock(stats_mu_);

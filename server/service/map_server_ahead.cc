@@ -22,9 +22,9 @@ void MapServer::OfferAhead(const MapperKeyframe& kf) {
   if (!aligner_ || backlog <= 0) return;
   if (queue_.size() + align_queue_.size() < static_cast<size_t>(backlog)) return;
   if (!aligner_->Known(kf.session_row) || aligner_->Alignment(kf.session_row)) return;
-  MapperKeyframe copy = kf;  // the images are cloned: the worker owns the queued ones
-  copy.bgr = kf.bgr.clone();
-  copy.depth_m = kf.depth_m.clone();
+  // The images are shared, not copied (this runs under the ingest lock): every consumer of a
+  // queued keyframe's images only reads them.
+  MapperKeyframe copy = kf;
   copy.detections.clear();
   std::lock_guard<std::mutex> lock(ahead_mu_);
   ahead_[kf.session_row] = std::move(copy);
