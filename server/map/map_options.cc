@@ -21,7 +21,7 @@ constexpr const char* kFusionKeys[] = {
     "centroid_min_part",       "class_size_slack",  "merge_box_containment",
     "merge_sigmas",            "depth_sigma_at_1m", "view_sigma_rad",       "shape_min_label_views",
     "existence_class_prior_views", "confirm_min_span_s", "straddle_share",
-    "straddle_apart_views", "furniture_merge_containment",
+    "straddle_apart_views", "straddle_pieces", "furniture_merge_containment",
     "top_load_reach_m", "top_load_max_gap_m", "part_containment", "never_part_of"};
 
 Status CheckMapKeys(const YAML::Node& node) {
@@ -148,6 +148,7 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "confirm_min_span_s", &fusion.confirm_min_span_s));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "straddle_share", &fusion.straddle_share));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "straddle_apart_views", &fusion.straddle_apart_views));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "straddle_pieces", &fusion.straddle_pieces));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_reach_m", &fusion.top_loads.reach_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_max_gap_m", &fusion.top_loads.max_gap_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_centroid_m", &fusion.merge_centroid_m));

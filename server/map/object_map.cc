@@ -116,27 +116,6 @@ bool ObjectMap::SizeCompatible(double half_a_m, double half_b_m) const {
   return std::max(half_a_m, half_b_m) / lo <= options_.max_size_ratio;
 }
 
-std::vector<int64_t> ObjectMap::StraddledFurniture(const MapObservation& obs,
-                                                   const VoxelSet& obs_keys) const {
-  if (options_.straddle_share <= 0 || obs_keys.empty() ||
-      !IsFlatTopClass(options_.flat_top_classes, obs.class_name)) {
-    return {};
-  }
-  std::vector<int64_t> held;
-  for (const auto& [id, object] : objects_) {
-    if (!IsFlatTopClass(options_.flat_top_classes, object.labels().Argmax())) continue;
-    const double reach = object.half_size_m() + obs.half_size_m;
-    if ((object.centroid_m() - obs.centroid_m).norm() > reach) continue;
-    if (Within(obs_keys, object.KeysAt(options_.overlap_voxel_m)) >= options_.straddle_share) {
-      held.push_back(id);
-    }
-  }
-  if (held.size() < 2) return {};
-  spdlog::debug("keyframe {}: a {} view straddles objects {} and {}: a hit for each, no points",
-                obs.keyframe_id, obs.class_name, held[0], held[1]);
-  return held;
-}
-
 void ObjectMap::HitWithoutPoints(const MapObservation& obs, const std::vector<int64_t>& object_ids,
                                  const ClassDetectionRates& rates,
                                  std::vector<ObjectChange>* changes) {
@@ -200,6 +179,7 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
     changes->push_back({kind, best_id, 0, {}});
     const int64_t id = MergeDuplicates(best_id, changes);
     JudgeParts(id, rates, changes);
+    JudgeStraddlers(id, rates, changes);
     ids.push_back(id);
   }
   for (int64_t& id : ids) id = Resolve(id);
@@ -351,9 +331,10 @@ double ObjectMap::Judge(FusedObject* object, const ClassDetectionRates& rates) c
   const bool size_fits = FitsClass(object->labels().Argmax(), 2.0 * object->half_size_m());
   object->UpdateConfirmed(options_.confirm_observations, min_span_ns, rates.For(*object),
                           options_.confirm_llr, size_fits);
-  // So does a part of another object (object_parts.cc); only asked of an object that would be
-  // confirmed, the test reads voxels.
-  if (object->confirmed() && WholeOf(*object) != 0) {
+  // So does a part of another object (object_parts.cc) and a piece of furniture lying across two
+  // others (object_straddlers.cc); only asked of an object that would be confirmed, the tests
+  // read voxels.
+  if (object->confirmed() && (WholeOf(*object) != 0 || LiesAcrossTables(*object))) {
     object->UpdateConfirmed(options_.confirm_observations, min_span_ns, rates.For(*object),
                             options_.confirm_llr, false);
   }

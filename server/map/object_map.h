@@ -166,6 +166,12 @@ class ObjectMap {
   // have changed (a kUpdated change for each whose confirmation changed).
   void JudgeParts(int64_t id, const ClassDetectionRates& rates,
                   std::vector<ObjectChange>* changes);
+  // Straddling pieces (object_straddlers.cc, FusionOptions::straddle_pieces): `piece` is
+  // flat-topped furniture lying across two confirmed such objects apart from each other.
+  bool LiesAcrossTables(const FusedObject& piece) const;
+  // Judges again the flat-topped furniture near `id` (just observed), as JudgeParts does.
+  void JudgeStraddlers(int64_t id, const ClassDetectionRates& rates,
+                       std::vector<ObjectChange>* changes);
 
   FusionOptions options_;
   double voxel_m_;
