@@ -166,6 +166,22 @@ StatusOr<TumSequence> LoadTumSequence(const std::string& dir, int64_t max_dt_ns)
   return seq;
 }
 
+std::optional<SE3d> InterpolatePose(const Trajectory& sorted, int64_t t_ns, int64_t max_gap_ns) {
+  const auto hi = std::lower_bound(sorted.begin(), sorted.end(), t_ns,
+                                   [](const StampedPose& p, int64_t t) { return p.t_ns < t; });
+  if (hi == sorted.end()) return std::nullopt;
+  if (hi->t_ns == t_ns) return hi->T_world_cam;
+  if (hi == sorted.begin()) return std::nullopt;
+  const StampedPose& lo = *(hi - 1);
+  if (hi->t_ns - lo.t_ns > max_gap_ns) return std::nullopt;
+  const double f = static_cast<double>(t_ns - lo.t_ns) / static_cast<double>(hi->t_ns - lo.t_ns);
+  const Eigen::Quaterniond q0(lo.T_world_cam.rotation()), q1(hi->T_world_cam.rotation());
+  SE3d T = SE3d::Identity();
+  T.linear() = q0.slerp(f, q1).toRotationMatrix();
+  T.translation() = (1 - f) * lo.T_world_cam.translation() + f * hi->T_world_cam.translation();
+  return T;
+}
+
 StatusOr<Eigen::Vector3d> GravityInCamAt(const std::vector<AccelSample>& accel, int64_t t_ns,
                                          int64_t max_dt_ns) {
   auto lo = std::lower_bound(accel.begin(), accel.end(), t_ns - max_dt_ns,

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -59,6 +60,11 @@ std::vector<std::pair<size_t, size_t>> AssociateStamps(const std::vector<int64_t
 StatusOr<TumSequence> LoadTumSequence(const std::string& dir, int64_t max_dt_ns = 20'000'000);
 
 StatusOr<Trajectory> ReadTumTrajectory(const std::string& path);
+// The pose at t_ns between the two poses of `sorted` (ascending t_ns) around it: translation
+// linear, rotation slerp; nullopt when t_ns lies outside it or the two are more than max_gap_ns
+// apart. A 100 Hz ground truth turns 1.2 deg between samples at 120 deg/s, so its nearest sample
+// can be 0.6 deg off the pose at an image's stamp.
+std::optional<SE3d> InterpolatePose(const Trajectory& sorted, int64_t t_ns, int64_t max_gap_ns);
 Status WriteTumTrajectory(const std::string& path, const Trajectory& traj);
 
 // Gravity direction (unit, pointing down) in the cam frame from the mean of the accelerometer
