@@ -138,6 +138,15 @@ std::string FormatGroundTruthEval(const GroundTruthEval& e) {
   if (!e.on_pairs.empty()) {
     absl::StrAppendFormat(&s, "X-on-Y answers right: %d of %zu (%.0f %%)\n", e.on_right,
                           e.on_pairs.size(), 100 * e.on_share);
+    // The relations apart from detection: pairs whose two objects both have a map object.
+    int mapped = 0, mapped_right = 0;
+    for (const OnPairCheck& c : e.on_pairs) {
+      const bool both = c.subject_id != 0 && c.support_id != 0;
+      mapped += both;
+      mapped_right += both && c.right;
+    }
+    absl::StrAppendFormat(&s, "  of the %d pairs whose X and Y are both matched: %d right\n",
+                          mapped, mapped_right);
     for (const OnPairCheck& c : e.on_pairs) {
       absl::StrAppendFormat(&s, "  [%s] %s on %s: \"%s?\" -> %s\n", c.right ? "ok" : "--",
                             c.gt_subject, c.gt_support, c.question, c.answer);
