@@ -83,7 +83,7 @@ struct FusionOptions {
   // were left out because the map held the two apart, and a merge would undo that. 0: off (the
   // default: measured mixed on fr1_rpy, docs/results.md session 29).
   int straddle_apart_views = 0;
-  // A piece of such furniture lying across two others by straddle_share of its voxels each
+  // A piece of such furniture whose footprint lies across two others by straddle_share each
   // (both confirmed, apart from each other, each seen at least as often as the piece) stays a
   // candidate while it does: it is the views of one box over both, fused before the two stood
   // apart in the map (object_straddlers.cc). false: off.
