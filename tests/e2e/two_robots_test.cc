@@ -17,6 +17,7 @@
 #include <string>
 #include <thread>
 
+#include "common/clock_offset.h"
 #include "common/objects_json.h"
 #include "common/time.h"
 #include "common/trajectory_eval.h"
@@ -57,13 +58,16 @@ std::optional<SE3d> EstimatedAToB(const v1::GetStatsResponse& stats) {
   return T_map_odom["A"].inverse() * T_map_odom["B"];
 }
 
-// Ground truth T_odomA_odomB: each odometry frame is its robot's first keyframe's camera.
-SE3d TrueAToB(const std::string& tum, const RobotsResult& r) {
+// Ground truth T_odomA_odomB: each odometry frame is its robot's first keyframe's camera, the
+// ground truth read at its image's stamp + clock_offset_ns.
+SE3d TrueAToB(const std::string& tum, const RobotsResult& r, int64_t clock_offset_ns) {
   auto gt = ReadTumTrajectory(tum + "/groundtruth.txt");
   EXPECT_TRUE(gt.ok());
   // At each first image's stamp (fr1_rpy's camera turns up to 120 deg/s between 100 Hz samples).
-  const auto a0 = InterpolatePose(*gt, r.keyframes.at("A").front().t_ns, 40'000'000);
-  const auto b0 = InterpolatePose(*gt, r.keyframes.at("B").front().t_ns, 40'000'000);
+  const auto a0 =
+      InterpolatePose(*gt, r.keyframes.at("A").front().t_ns + clock_offset_ns, 40'000'000);
+  const auto b0 =
+      InterpolatePose(*gt, r.keyframes.at("B").front().t_ns + clock_offset_ns, 40'000'000);
   EXPECT_TRUE(a0.has_value() && b0.has_value());
   if (!a0.has_value() || !b0.has_value()) return SE3d::Identity();
   return a0->inverse() * *b0;
@@ -134,7 +138,7 @@ struct MappedCheck {
   std::optional<SE3d> T_gt_map;  // that joint alignment
 };
 
-MappedCheck CheckMapped(const std::string& tum, const RobotsResult& r) {
+MappedCheck CheckMapped(const std::string& tum, const RobotsResult& r, int64_t clock_offset_ns) {
   MappedCheck out;
   auto gt = ReadTumTrajectory(tum + "/groundtruth.txt");
   EXPECT_TRUE(gt.ok());
@@ -144,8 +148,8 @@ MappedCheck CheckMapped(const std::string& tum, const RobotsResult& r) {
   }
   const Trajectory& a = r.mapped.at("A");
   const Trajectory& b = r.mapped.at("B");
-  const auto ga = InterpolatePose(*gt, a.front().t_ns, 40'000'000);
-  const auto gb = InterpolatePose(*gt, b.front().t_ns, 40'000'000);
+  const auto ga = InterpolatePose(*gt, a.front().t_ns + clock_offset_ns, 40'000'000);
+  const auto gb = InterpolatePose(*gt, b.front().t_ns + clock_offset_ns, 40'000'000);
   if (ga.has_value() && gb.has_value()) {
     out.start = Error(ga->inverse() * *gb,
                       a.front().T_world_cam.inverse() * b.front().T_world_cam);
@@ -190,6 +194,19 @@ GtPair GroundTruthPair(const std::string& tum, const MappedCheck& mapped) {
   };
 }
 
+// The images' clock offset to the ground truth (common/clock_offset.h), from A's frame-rate
+// odometry; 0 without it.
+int64_t ImageClockOffsetNs(const std::string& tum, const RobotsResult& r) {
+  auto gt = ReadTumTrajectory(tum + "/groundtruth.txt");
+  if (!gt.ok() || !r.frames.count("A")) return 0;
+  auto off = EstimateClockOffset(*gt, r.frames.at("A"));
+  if (!off.ok()) return 0;
+  std::printf("images' clock offset to the ground truth (from A's odometry): %+.0f ms; A's "
+              "orientation residual %.2f deg at the stamps, %.2f deg at the offset\n",
+              off->offset_ns * 1e-6, off->rms_deg_at_zero, off->rms_deg);
+  return off->offset_ns;
+}
+
 void CheckTwoRobots(const std::string& tum, const RobotRun& a, const RobotRun& b,
                     double max_gt_t_m, double max_gt_r_deg, double max_same_t_m,
                     double max_same_r_deg, bool check_duplicates) {
@@ -219,7 +236,9 @@ void CheckTwoRobots(const std::string& tum, const RobotRun& a, const RobotRun& b
                 s.aligned_after_keyframes(), s.aligned_after_s());
     EXPECT_GT(s.aligned_after_keyframes(), 0u);
   }
-  const PoseError gt = Error(TrueAToB(tum, r), *est);
+  const PoseError gt = Error(TrueAToB(tum, r, 0), *est);
+  const int64_t offset_ns = ImageClockOffsetNs(tum, r);
+  const PoseError gt_at_offset = Error(TrueAToB(tum, r, offset_ns), *est);
   int pairs = 0;
   const PoseError same = MedianSameImageError(r, "A", "B", *est, &pairs);
   // A's own odometry at B's first image against the ground truth: what no alignment to A's map
@@ -229,9 +248,11 @@ void CheckTwoRobots(const std::string& tum, const RobotRun& a, const RobotRun& b
           ? NearestByTime<StampedPose>(r.frames.at("A"), r.keyframes.at("B").front().t_ns, 1'000'000)
           : nullptr;
   if (a_at_b0 != nullptr) {
-    const PoseError drift = Error(TrueAToB(tum, r), a_at_b0->T_world_cam);
-    std::printf("A's odometry at B's first image: %.4f m, %.3f deg from the ground truth\n",
-                drift.t_m, drift.r_deg);
+    const PoseError drift = Error(TrueAToB(tum, r, 0), a_at_b0->T_world_cam);
+    const PoseError drift_at = Error(TrueAToB(tum, r, offset_ns), a_at_b0->T_world_cam);
+    std::printf("A's odometry at B's first image: %.4f m, %.3f deg from the ground truth "
+                "(at the clock offset: %.4f m, %.3f deg)\n",
+                drift.t_m, drift.r_deg, drift_at.t_m, drift_at.r_deg);
   }
   std::printf("B aligned to A: %.4f m, %.3f deg from the ground truth's relative transform; "
               "same-image keyframes (%d): median %.4f m, %.3f deg; place recognition %.1f ms/kf; "
@@ -242,7 +263,10 @@ void CheckTwoRobots(const std::string& tum, const RobotRun& a, const RobotRun& b
               static_cast<unsigned long long>(r.stats.alignment().merged_keyframes()));
   // The same from the server's keyframe poses (after its pose graph moved them): B's first
   // keyframe seen from A's first, and both robots' keyframes against the ground truth at once.
-  const MappedCheck mapped = CheckMapped(tum, r);
+  std::printf("B aligned to A, ground truth at the clock offset: %.4f m, %.3f deg\n",
+              gt_at_offset.t_m, gt_at_offset.r_deg);
+  const MappedCheck mapped = CheckMapped(tum, r, 0);
+  const MappedCheck mapped_at = CheckMapped(tum, r, offset_ns);
   std::printf("server's keyframes: B's first from A's first %.4f m, %.3f deg from the ground truth; "
               "joint keyframe ATE %.4f m (A alone %.4f m); %llu graph solves, %llu merges kept, "
               "%llu loops kept\n",
@@ -250,6 +274,8 @@ void CheckTwoRobots(const std::string& tum, const RobotRun& a, const RobotRun& b
               static_cast<unsigned long long>(r.stats.pose_graph().optimizations()),
               static_cast<unsigned long long>(r.stats.pose_graph().merges_accepted()),
               static_cast<unsigned long long>(r.stats.pose_graph().loops_accepted()));
+  std::printf("server's keyframes, ground truth at the clock offset: B's first from A's first "
+              "%.4f m, %.3f deg\n", mapped_at.start.t_m, mapped_at.start.r_deg);
   EXPECT_LT(gt.t_m, max_gt_t_m);
   EXPECT_LT(gt.r_deg, max_gt_r_deg);
   EXPECT_GT(pairs, 0);
