@@ -22,6 +22,7 @@ constexpr const char* kFusionKeys[] = {
     "merge_sigmas",            "depth_sigma_at_1m", "view_sigma_rad",       "shape_min_label_views",
     "existence_class_prior_views", "confirm_min_span_s", "straddle_share",
     "straddle_apart_views", "straddle_pieces", "furniture_merge_containment",
+    "furniture_footprint_containment",
     "top_load_reach_m", "top_load_max_gap_m", "part_containment", "never_part_of"};
 
 Status CheckMapKeys(const YAML::Node& node) {
@@ -39,7 +40,8 @@ Status CheckMapKeys(const YAML::Node& node) {
   if (const YAML::Node observation = node["observation"]) {
     LOCI_RETURN_IF_ERROR(CheckKnownKeys(observation["support_tops"], "map.observation.support_tops",
                                         {"enabled", "cell_m", "max_tilt_deg", "min_top_area_m2",
-                                         "reach_m", "max_planes", "ransac_iterations"}));
+                                         "reach_m", "max_planes", "ransac_iterations",
+                                         "cell_band_share"}));
   }
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["fusion"], "map.fusion", kFusionKeys));
   if (const YAML::Node fusion = node["fusion"]) {
@@ -120,6 +122,7 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
       LOCI_RETURN_IF_ERROR(ReadOptional(t, "reach_m", &o.reach_m));
       LOCI_RETURN_IF_ERROR(ReadOptional(t, "max_planes", &o.max_planes));
       LOCI_RETURN_IF_ERROR(ReadOptional(t, "ransac_iterations", &o.ransac_iterations));
+      LOCI_RETURN_IF_ERROR(ReadOptional(t, "cell_band_share", &o.cell_band_share));
     }
   }
   if (const YAML::Node n = node["fusion"]) {
@@ -158,6 +161,8 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_containment", &fusion.merge_containment));
     LOCI_RETURN_IF_ERROR(
         ReadOptional(n, "furniture_merge_containment", &fusion.furniture_merge_containment));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "furniture_footprint_containment",
+                                      &fusion.furniture_footprint_containment));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_across_classes", &fusion.merge_across_classes));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "assoc_containment", &fusion.assoc_containment));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_size_ratio", &fusion.max_size_ratio));
@@ -241,9 +246,10 @@ Status MapOptions::Validate() const {
   const SupportTopsOptions& tops = observation.support_tops;
   if (!(tops.cell_m > 0.001) || !(tops.max_tilt_deg >= 0 && tops.max_tilt_deg < 90) ||
       !(tops.min_top_area_m2 >= 0) || !(tops.reach_m >= 0) || tops.max_planes < 1 ||
-      tops.ransac_iterations < 1) {
+      tops.ransac_iterations < 1 || !(tops.cell_band_share <= 1)) {
     return bad("observation.support_tops: cell_m > 0.001, max_tilt_deg in [0, 90), "
-               "min_top_area_m2 >= 0, reach_m >= 0, max_planes >= 1, ransac_iterations >= 1");
+               "min_top_area_m2 >= 0, reach_m >= 0, max_planes >= 1, ransac_iterations >= 1, "
+               "cell_band_share <= 1");
   }
   if (fusion.confirm_observations < 1) return bad("fusion.confirm_observations >= 1");
   if (!(fusion.confirm_min_span_s >= 0 && fusion.confirm_min_span_s <= 3600)) {
@@ -251,6 +257,10 @@ Status MapOptions::Validate() const {
   }
   if (!(fusion.straddle_share >= 0 && fusion.straddle_share <= 1)) {
     return bad("fusion.straddle_share in [0, 1]");
+  }
+  if (!(fusion.furniture_footprint_containment >= 0 &&
+        fusion.furniture_footprint_containment <= 1)) {
+    return bad("fusion.furniture_footprint_containment in [0, 1]");
   }
   if (!(fusion.furniture_merge_containment >= 0 && fusion.furniture_merge_containment <= 1)) {
     return bad("fusion.furniture_merge_containment in [0, 1]");

@@ -100,6 +100,12 @@ struct FusionOptions {
   // lies half inside a table adds its other half to it, and such pieces let one desk creep over
   // the desk beside it (fr1_rpy, docs/results.md session 29). 0: merge_containment.
   double furniture_merge_containment = 0.85;
+  // Two pieces of flat-topped furniture also merge when this share of the smaller one's
+  // footprint (horizontal cells of overlap_voxel_m under its voxels) lies under the other and
+  // neither lies across two tables (straddle_pieces): views of one desk from afar and from near
+  // see its top a few centimetres apart in height, and their voxels do not meet (0 = off;
+  // config/server.yaml sets 0.6).
+  double furniture_footprint_containment = 0.0;
   // Association ignores the class; so can merging: objects of other argmax classes merge by the
   // same rules when their sizes are compatible (true).
   bool merge_across_classes = true;
@@ -230,6 +236,6 @@ struct MapOptions {
 
 // Version of the product and fusion code; bump it when a change alters products or the map
 // for the same options (stored products and checkpoints of another version are recomputed).
-inline constexpr int kMapCodeVersion = 9;
+inline constexpr int kMapCodeVersion = 10;
 
 }  // namespace loci::server

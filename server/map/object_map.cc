@@ -216,6 +216,14 @@ const char* ObjectMap::Duplicates(const FusedObject& self, const FusedObject& ot
   if (VoxelContainment(*self_keys, other.KeysAt(options_.overlap_voxel_m)) > containment) {
     return "voxel containment";
   }
+  if (same_class && options_.furniture_footprint_containment > 0 &&
+      IsFlatTopClass(options_.flat_top_classes, cls) &&
+      VoxelContainment(FootprintOf(self, options_.overlap_voxel_m),
+                       FootprintOf(other, options_.overlap_voxel_m)) >
+          options_.furniture_footprint_containment &&
+      !LiesAcrossTables(self) && !LiesAcrossTables(other)) {
+    return "footprint containment";
+  }
   // Not for tables: their map-frame boxes are no solids. Two desks back to back that lie
   // diagonally to the map's axes have boxes that hold each other (fr1_rpy, session 26).
   if (!same_class || options_.merge_box_containment >= 1 ||

@@ -54,6 +54,8 @@ double VoxelOverlap(const VoxelSet& a, const VoxelSet& b);
 double VoxelContainment(const VoxelSet& a, const VoxelSet& b);
 // |A∩B| / |A|: the share of A inside B (0 when A is empty).
 double Within(const VoxelSet& a, const VoxelSet& b);
+// The cells of a horizontal grid (the map frame is z-up) under the object's voxels.
+VoxelSet FootprintOf(const FusedObject& object, double cell_m);
 
 class ObjectMap {
  public:

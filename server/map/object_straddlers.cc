@@ -18,9 +18,7 @@
 #include "server/map/object_map.h"
 
 namespace loci::server {
-namespace {
 
-// The cells of a horizontal grid (the map frame is z-up) under the object's voxels.
 VoxelSet FootprintOf(const FusedObject& object, double cell_m) {
   VoxelSet cells;
   for (VoxelKey key : object.KeysAt(cell_m)) {
@@ -29,8 +27,6 @@ VoxelSet FootprintOf(const FusedObject& object, double cell_m) {
   }
   return cells;
 }
-
-}  // namespace
 
 std::vector<int64_t> ObjectMap::StraddledFurniture(const MapObservation& obs,
                                                    const VoxelSet& obs_keys) const {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <unordered_map>
 
 #include "detection/background_planes.h"
 
@@ -62,18 +63,70 @@ struct Plane {
   size_t inliers = 0;
 };
 
-bool OnPlane(const Eigen::Vector3d& p, const Plane& plane, const detection::MaskOptions& mask) {
-  return std::abs(plane.normal.dot(p) - plane.offset_m) <=
-         detection::PlaneToleranceM(p.z(), mask);
+// The points a plane search works on: each point's footprint cell (a dense index into `cells`)
+// and its plane tolerance (detection::PlaneToleranceM at its depth).
+struct PlanePoints {
+  const std::vector<Eigen::Vector3d>* points = nullptr;
+  std::vector<int64_t> cells;      // cell keys, each once
+  std::vector<int> cell_of;        // per point: index into cells
+  std::vector<int> cell_size;      // per cell: points
+  std::vector<double> tolerance_m; // per point
+};
+
+template <typename CellOf>
+PlanePoints Prepare(const std::vector<Eigen::Vector3d>& pts, const detection::MaskOptions& mask,
+                    const CellOf& cell_of) {
+  PlanePoints out;
+  out.points = &pts;
+  std::unordered_map<int64_t, int> index;
+  out.cell_of.reserve(pts.size());
+  out.tolerance_m.reserve(pts.size());
+  for (const Eigen::Vector3d& p : pts) {
+    const auto [it, added] = index.emplace(cell_of(p), static_cast<int>(out.cells.size()));
+    if (added) {
+      out.cells.push_back(it->first);
+      out.cell_size.push_back(0);
+    }
+    ++out.cell_size[it->second];
+    out.cell_of.push_back(it->second);
+    out.tolerance_m.push_back(detection::PlaneToleranceM(p.z(), mask));
+  }
+  return out;
+}
+
+// The cells on `plane` (SupportTopsOptions::cell_band_share) as flags per cell, and the plane's
+// inlier count (points within their tolerance).
+std::vector<char> OnPlaneCells(const PlanePoints& pp, double band_share, Plane* plane) {
+  std::vector<int> tight(pp.cells.size(), 0);
+  plane->inliers = 0;
+  const std::vector<Eigen::Vector3d>& pts = *pp.points;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    const double d = std::abs(plane->normal.dot(pts[i]) - plane->offset_m);
+    if (d > pp.tolerance_m[i]) continue;
+    ++plane->inliers;
+    if (band_share <= 0 || d <= band_share * pp.tolerance_m[i]) ++tight[pp.cell_of[i]];
+  }
+  std::vector<char> on(pp.cells.size(), 0);
+  for (size_t c = 0; c < on.size(); ++c) {
+    on[c] = band_share <= 0 ? tight[c] > 0 : tight[c] > 0 && 2 * tight[c] >= pp.cell_size[c];
+  }
+  return on;
+}
+
+std::unordered_set<int64_t> CellKeys(const PlanePoints& pp, const std::vector<char>& on) {
+  std::unordered_set<int64_t> keys;
+  for (size_t c = 0; c < on.size(); ++c) {
+    if (on[c]) keys.insert(pp.cells[c]);
+  }
+  return keys;
 }
 
 // The level plane whose largest connected footprint region is largest (RANSAC). Not the one
 // with the most inliers: a plane tilted within the tolerance can cut strips out of two tops a
 // few centimetres apart and hold more points than either.
-template <typename CellOf>
-Plane BestLevelPlane(const std::vector<Eigen::Vector3d>& pts, const Eigen::Vector3d& up,
-                     double cos_max_tilt, int iterations, const detection::MaskOptions& mask,
-                     const CellOf& cell_of) {
+Plane BestLevelPlane(const PlanePoints& pp, const Eigen::Vector3d& up, double cos_max_tilt,
+                     int iterations, double band_share) {
+  const std::vector<Eigen::Vector3d>& pts = *pp.points;
   Plane best;
   size_t best_region = 0;
   Lcg rng;
@@ -87,16 +140,12 @@ Plane BestLevelPlane(const std::vector<Eigen::Vector3d>& pts, const Eigen::Vecto
     if (n.dot(up) < 0) n = -n;
     if (n.dot(up) < cos_max_tilt) continue;
     Plane plane{n, n.dot(a), 0};
-    std::unordered_set<int64_t> cells;
-    for (const Eigen::Vector3d& p : pts) {
-      if (OnPlane(p, plane, mask)) {
-        ++plane.inliers;
-        cells.insert(cell_of(p));
-      }
+    const std::vector<char> on = OnPlaneCells(pp, band_share, &plane);
+    if (static_cast<size_t>(std::count(on.begin(), on.end(), 1)) <= best_region) {
+      continue;  // no region of it can be larger
     }
-    if (cells.size() <= best_region) continue;  // no region of it can be larger
     size_t region = 0;
-    for (const auto& r : Regions(std::move(cells))) region = std::max(region, r.size());
+    for (const auto& r : Regions(CellKeys(pp, on))) region = std::max(region, r.size());
     if (region > best_region) {
       best = plane;
       best_region = region;
@@ -116,12 +165,19 @@ SupportTops::SupportTops(const std::vector<Eigen::Vector3d>& points_kf, const Ei
   const double cos_max_tilt = std::cos(options_.max_tilt_deg * M_PI / 180.0);
   std::vector<Eigen::Vector3d> rest = points_kf;
   for (int k = 0; k < options_.max_planes && rest.size() >= 3; ++k) {
-    const Plane plane =
-        BestLevelPlane(rest, up_, cos_max_tilt, options_.ransac_iterations, mask,
-                       [this](const Eigen::Vector3d& p) { return CellOf(p); });
+    const PlanePoints pp =
+        Prepare(rest, mask, [this](const Eigen::Vector3d& p) { return CellOf(p); });
+    Plane plane = BestLevelPlane(pp, up_, cos_max_tilt, options_.ransac_iterations,
+                                 options_.cell_band_share);
     if (plane.inliers < 3) break;
+    // The plane's points: within its tolerance and in its cells; the others stay for the next.
+    const std::vector<char> on = OnPlaneCells(pp, options_.cell_band_share, &plane);
     std::vector<Eigen::Vector3d> inliers, outliers;
-    for (const Eigen::Vector3d& p : rest) (OnPlane(p, plane, mask) ? inliers : outliers).push_back(p);
+    for (size_t i = 0; i < rest.size(); ++i) {
+      const bool near = std::abs(plane.normal.dot(rest[i]) - plane.offset_m) <= pp.tolerance_m[i];
+      (near && on[pp.cell_of[i]] ? inliers : outliers).push_back(rest[i]);
+    }
+    if (inliers.size() < 3) break;
     AddPlaneTops(inliers, plane.normal, plane.offset_m);
     rest.swap(outliers);
   }

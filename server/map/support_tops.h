@@ -43,6 +43,15 @@ struct SupportTopsOptions {
   int max_planes = 4;
   // RANSAC samples per plane (deterministic sequence) (200).
   int ransac_iterations = 200;
+  // A footprint cell lies on a plane when at least half of its points are within this share of
+  // the plane's tolerance (detection::PlaneToleranceM: 2.5 sigma of the depth noise) of it: the
+  // plane runs through the surface in that cell, not beside it. Two tops a few centimetres apart
+  // (desks back to back) both lie in the band of a plane halfway between them, about half of
+  // each cell's points inside; when every cell with any inlier counted, that plane's one region
+  // over both tops was the largest, and the two desks made one top in views from 2 m and more.
+  // 0.5 (~1.25 sigma) keeps them apart out to about 2.7 m. <= 0: any inlier puts its cell on
+  // the plane (as before session 32) (0.5).
+  double cell_band_share = 0.5;
 };
 
 // The tops of one view's points (camera frame) of a flat-topped furniture detection.
@@ -68,6 +77,7 @@ class SupportTops {
   // Adds the tops of one plane's inliers (its connected footprint regions large enough).
   void AddPlaneTops(const std::vector<Eigen::Vector3d>& inliers, const Eigen::Vector3d& normal,
                     double offset_m);
+
   void DropShelves();
 
   SupportTopsOptions options_;

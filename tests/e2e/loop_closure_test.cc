@@ -33,7 +33,7 @@ namespace fs = std::filesystem;
 
 // The ground truth with a drift that grows with time: the odometry frame turns about the world's
 // up axis by yaw_deg_per_s and slides by v_m_per_s, so roll and pitch stay true (the robot's
-// gravity agrees with them) and the drift is what 4-DoF loop closure must remove.
+// gravity agrees with them) and the drift is what loop closure must remove.
 Trajectory Drifted(const Trajectory& truth, double yaw_deg_per_s, const Vec3d& v_m_per_s) {
   Trajectory out;
   for (const StampedPose& p : truth) {
@@ -103,7 +103,7 @@ TEST(LoopClosure, SyntheticDriftIsCutToAThirdByTheServersPoseGraph) {
   EXPECT_LE(after, before / 3);
   EXPECT_GT(g.optimizations(), 0u);
   EXPECT_GT(g.loops_accepted(), 0u);
-  EXPECT_TRUE(g.four_dof());  // gravity levels the map; graph.gravity priors are off by default
+  EXPECT_FALSE(g.four_dof());  // config/server.yaml: graph.dof 6dof; gravity priors are off
   EXPECT_EQ(g.gravity_priors(), 0u);
   EXPECT_EQ(r.mapped.at("A").size(), r.keyframes.at("A").size());
 
