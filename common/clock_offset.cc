@@ -6,16 +6,10 @@
 #include <optional>
 #include <vector>
 
-#include <Eigen/SVD>
+#include "common/trajectory_eval.h"
 
 namespace loci {
 namespace {
-
-Trajectory SortedByTime(Trajectory t) {
-  std::sort(t.begin(), t.end(),
-            [](const StampedPose& a, const StampedPose& b) { return a.t_ns < b.t_ns; });
-  return t;
-}
 
 // Ground-truth orientations at each estimate stamp + offset; nullopt where gt has none.
 std::vector<std::optional<Mat3d>> GtRotations(const Trajectory& gt_sorted, const Trajectory& est,
@@ -35,10 +29,7 @@ double ResidualRmsDeg(const std::vector<std::optional<Mat3d>>& R_gt, const Traje
   for (size_t i = 0; i < est.size(); ++i) {
     if (keep[i]) sum += *R_gt[i] * est[i].T_world_cam.linear().transpose();
   }
-  const Eigen::JacobiSVD<Mat3d> svd(sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Mat3d d = Mat3d::Identity();
-  d(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
-  const Mat3d L = svd.matrixU() * d * svd.matrixV().transpose();
+  const Mat3d L = NearestRotation(sum);
   double sum2 = 0;
   size_t n = 0;
   for (size_t i = 0; i < est.size(); ++i) {

@@ -49,12 +49,6 @@ size_t ClosestIndex(const std::vector<int64_t>& sorted, int64_t t) {
   return (t - sorted[hi - 1] <= sorted[hi] - t) ? hi - 1 : hi;
 }
 
-Trajectory Sorted(Trajectory t) {
-  std::sort(t.begin(), t.end(),
-            [](const StampedPose& a, const StampedPose& b) { return a.t_ns < b.t_ns; });
-  return t;
-}
-
 // Index pairs (gt, est) of sorted trajectories whose stamps (est shifted by offset_ns) lie within
 // max_dt_ns, as the TUM associate.py pairs them.
 std::vector<std::pair<size_t, size_t>> Associate(const Trajectory& gt, const Trajectory& est,
@@ -66,9 +60,22 @@ std::vector<std::pair<size_t, size_t>> Associate(const Trajectory& gt, const Tra
 
 }  // namespace
 
+Trajectory SortedByTime(Trajectory t) {
+  std::sort(t.begin(), t.end(),
+            [](const StampedPose& a, const StampedPose& b) { return a.t_ns < b.t_ns; });
+  return t;
+}
+
+Mat3d NearestRotation(const Mat3d& m) {
+  const Eigen::JacobiSVD<Mat3d> svd(m, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Mat3d d = Mat3d::Identity();
+  d(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
+  return svd.matrixU() * d * svd.matrixV().transpose();
+}
+
 StatusOr<AteResult> ComputeAte(const Trajectory& gt_in, const Trajectory& est_in,
                                const AteOptions& opt) {
-  const Trajectory gt = Sorted(gt_in), est = Sorted(est_in);
+  const Trajectory gt = SortedByTime(gt_in), est = SortedByTime(est_in);
   const auto pairs = Associate(gt, est, opt);
   if (pairs.size() < 3) {
     return absl::InvalidArgumentError(absl::StrCat(
@@ -100,18 +107,14 @@ Mat3d ChordalMeanRotation(const Trajectory& gt, const Trajectory& est,
   for (const auto& [g, e] : pairs) {
     sum += gt[g].T_world_cam.linear() * est[e].T_world_cam.linear().transpose();
   }
-  // The rotation nearest the sum (Frobenius): U diag(1, 1, det(U V^T)) V^T.
-  const Eigen::JacobiSVD<Mat3d> svd(sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Mat3d d = Mat3d::Identity();
-  d(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
-  return svd.matrixU() * d * svd.matrixV().transpose();
+  return NearestRotation(sum);
 }
 
 }  // namespace
 
 StatusOr<Mat3d> OrientationAlignment(const Trajectory& gt_in, const Trajectory& est_in,
                                      const AteOptions& opt) {
-  const Trajectory gt = Sorted(gt_in), est = Sorted(est_in);
+  const Trajectory gt = SortedByTime(gt_in), est = SortedByTime(est_in);
   const auto pairs = Associate(gt, est, opt);
   if (pairs.empty()) return absl::InvalidArgumentError("no stamp pairs within the window");
   return ChordalMeanRotation(gt, est, pairs);
@@ -119,7 +122,7 @@ StatusOr<Mat3d> OrientationAlignment(const Trajectory& gt_in, const Trajectory& 
 
 StatusOr<SE3d> AlignByOrientations(const Trajectory& gt_in, const Trajectory& est_in,
                                    const AteOptions& opt) {
-  const Trajectory gt = Sorted(gt_in), est = Sorted(est_in);
+  const Trajectory gt = SortedByTime(gt_in), est = SortedByTime(est_in);
   const auto pairs = Associate(gt, est, opt);
   if (pairs.empty()) return absl::InvalidArgumentError("no stamp pairs within the window");
   Vec3d gt_sum = Vec3d::Zero(), est_sum = Vec3d::Zero();
@@ -136,7 +139,7 @@ StatusOr<SE3d> AlignByOrientations(const Trajectory& gt_in, const Trajectory& es
 
 StatusOr<RpeResult> ComputeRpe(const Trajectory& gt_in, const Trajectory& est_in,
                                const RpeOptions& opt) {
-  const Trajectory gt = Sorted(gt_in), est = Sorted(est_in);
+  const Trajectory gt = SortedByTime(gt_in), est = SortedByTime(est_in);
   if (gt.size() < 2 || est.size() < 2) {
     return absl::InvalidArgumentError("RPE: need at least two poses in each trajectory");
   }

@@ -32,6 +32,13 @@ struct AteOptions {
 StatusOr<AteResult> ComputeAte(const Trajectory& gt, const Trajectory& est,
                                const AteOptions& opt = {});
 
+// The rotation nearest m in the Frobenius norm: U diag(1, 1, det(U V^T)) V^T of m's SVD (the
+// chordal mean of rotations when m is their sum).
+Mat3d NearestRotation(const Mat3d& m);
+
+// The poses ordered by stamp.
+Trajectory SortedByTime(Trajectory t);
+
 // The rotation that best carries the estimate's camera orientations onto the ground truth's:
 // the chordal mean of R_gt_i * R_est_i^T over the stamps ComputeAte associates. A check on
 // ComputeAte's alignment, which uses positions only and so is ill-conditioned in rotation when
