@@ -12,6 +12,7 @@
 #include "common/task_pool.h"
 #include "detection/depth_mask.h"
 #include "server/map/grid_outlier_filter.h"
+#include "server/map/mask_cover.h"
 #include "server/map/visibility.h"
 #include "server/map/voxel_filter.h"
 
@@ -212,11 +213,26 @@ std::vector<pcl::PointCloud<pcl::PointXYZRGB>> Pieces(pcl::PointCloud<pcl::Point
   return pieces;
 }
 
-// Whether one piece of a detection is worth fusing (ObservationOptions).
+// 5-95 % span of the points along a unit direction, m.
+double RobustSpanAlongM(const pcl::PointCloud<pcl::PointXYZRGB>& cloud, const Vec3d& dir) {
+  if (cloud.size() < 2) return 0;
+  std::vector<double> s(cloud.size());
+  for (size_t i = 0; i < cloud.size(); ++i)
+    s[i] = dir.dot(cloud[i].getVector3fMap().cast<double>());
+  const size_t lo = s.size() / 20, hi = s.size() - 1 - s.size() / 20;
+  std::nth_element(s.begin(), s.begin() + lo, s.end());
+  const double a = s[lo];
+  std::nth_element(s.begin(), s.begin() + hi, s.end());
+  return s[hi] - a;
+}
+
+// Whether one piece of a detection is worth fusing (ObservationOptions, the class size priors).
 bool Fusable(const pcl::PointCloud<pcl::PointXYZRGB>& cloud, const std::string& class_name,
-             const MapOptions& options) {
+             const MapOptions& options, const std::optional<Vec3d>& gravity_cam) {
   return static_cast<int>(cloud.size()) >= options.observation.min_points &&
          RobustExtentM(cloud) <= options.MaxSizeM(class_name) &&
+         (!gravity_cam ||
+          RobustSpanAlongM(cloud, -gravity_cam->normalized()) <= options.MaxHeightM(class_name)) &&
          MedianDepthM(cloud) <= options.observation.max_object_depth_m;
 }
 
@@ -250,14 +266,19 @@ LabelToObservation AddObservations(const cv::Mat& bgr, const cv::Mat& depth_m,
         std::min(d.box_px.width, d.box_px.height) < options.observation.min_box_px) {
       continue;
     }
+    const cv::Rect rect = MaskRect(d.box_px, depth_m.cols, depth_m.rows);
+    if (!options.observation.mask.IsFlatTopClass(d.class_name) &&
+        IsHollow(CoverOf(labels, rect, static_cast<int16_t>(i + 1), kBackgroundLabel),
+                 options.observation.min_centre_cover)) {
+      continue;
+    }
     std::optional<SupportTops> tops;
     std::vector<pcl::PointCloud<pcl::PointXYZRGB>> pieces = Pieces(
-        ObjectCloud(bgr, depth_m, labels, static_cast<int16_t>(i + 1),
-                    MaskRect(d.box_px, depth_m.cols, depth_m.rows), camera, options),
+        ObjectCloud(bgr, depth_m, labels, static_cast<int16_t>(i + 1), rect, camera, options),
         d.class_name, options, gravity_cam, &tops);
     std::vector<uint32_t> observation_of_piece(pieces.size(), 0);
     for (size_t k = 0; k < pieces.size(); ++k) {
-      if (!Fusable(pieces[k], d.class_name, options)) continue;
+      if (!Fusable(pieces[k], d.class_name, options, gravity_cam)) continue;
       ObjectObservation obs;
       obs.detection_index = i;
       obs.class_name = d.class_name;

@@ -11,19 +11,48 @@ namespace loci::server {
 namespace {
 
 // The keys FromYaml reads, per section (a key added there belongs here too).
-constexpr const char* kFusionKeys[] = {
-    "max_centroid_distance_m", "centroid_from_box", "min_overlap",          "support_cell_m",
-    "min_support_fraction",    "overlap_voxel_m",   "weight_track",         "weight_centroid",
-    "weight_overlap",          "score_threshold",   "track_gate_m",         "confirm_observations",
-    "merge_centroid_m",        "merge_containment", "merge_across_classes", "assoc_containment",
-    "max_size_ratio",          "label_universe",    "min_likelihood",       "existence_p_real",
-    "existence_p_false",       "confirm_llr",       "remove_llr",           "visibility",
-    "centroid_min_part",       "class_size_slack",  "merge_box_containment",
-    "merge_sigmas",            "depth_sigma_at_1m", "view_sigma_rad",       "shape_min_label_views",
-    "existence_class_prior_views", "confirm_min_span_s", "straddle_share",
-    "straddle_apart_views", "straddle_pieces", "furniture_merge_containment",
-    "furniture_footprint_containment",
-    "top_load_reach_m", "top_load_max_gap_m", "part_containment", "never_part_of"};
+constexpr const char* kFusionKeys[] = {"max_centroid_distance_m",
+                                       "centroid_from_box",
+                                       "min_overlap",
+                                       "support_cell_m",
+                                       "min_support_fraction",
+                                       "overlap_voxel_m",
+                                       "weight_track",
+                                       "weight_centroid",
+                                       "weight_overlap",
+                                       "score_threshold",
+                                       "track_gate_m",
+                                       "confirm_observations",
+                                       "merge_centroid_m",
+                                       "merge_containment",
+                                       "merge_across_classes",
+                                       "assoc_containment",
+                                       "max_size_ratio",
+                                       "label_universe",
+                                       "min_likelihood",
+                                       "existence_p_real",
+                                       "existence_p_false",
+                                       "confirm_llr",
+                                       "remove_llr",
+                                       "visibility",
+                                       "centroid_min_part",
+                                       "class_size_slack",
+                                       "merge_box_containment",
+                                       "merge_sigmas",
+                                       "depth_sigma_at_1m",
+                                       "view_sigma_rad",
+                                       "shape_min_label_views",
+                                       "existence_class_prior_views",
+                                       "confirm_min_span_s",
+                                       "straddle_share",
+                                       "straddle_apart_views",
+                                       "straddle_pieces",
+                                       "furniture_merge_containment",
+                                       "furniture_footprint_containment",
+                                       "top_load_reach_m",
+                                       "top_load_max_gap_m",
+                                       "part_containment",
+                                       "never_part_of"};
 
 Status CheckMapKeys(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
@@ -36,12 +65,12 @@ Status CheckMapKeys(const YAML::Node& node) {
       CheckKnownKeys(node["observation"], "map.observation",
                      {"min_score", "mask", "voxel_m", "max_points", "sor_mean_k", "sor_stddev_mul",
                       "sor_min_voxels", "min_points", "min_box_px", "max_object_depth_m",
-                      "support_tops"}));
+                      "min_centre_cover", "support_tops"}));
   if (const YAML::Node observation = node["observation"]) {
-    LOCI_RETURN_IF_ERROR(CheckKnownKeys(observation["support_tops"], "map.observation.support_tops",
-                                        {"enabled", "cell_m", "max_tilt_deg", "min_top_area_m2",
-                                         "reach_m", "max_planes", "ransac_iterations",
-                                         "cell_band_share"}));
+    LOCI_RETURN_IF_ERROR(
+        CheckKnownKeys(observation["support_tops"], "map.observation.support_tops",
+                       {"enabled", "cell_m", "max_tilt_deg", "min_top_area_m2", "reach_m",
+                        "max_planes", "ransac_iterations", "cell_band_share"}));
   }
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["fusion"], "map.fusion", kFusionKeys));
   if (const YAML::Node fusion = node["fusion"]) {
@@ -113,6 +142,7 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_points", &observation.min_points));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_box_px", &observation.min_box_px));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_object_depth_m", &observation.max_object_depth_m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_centre_cover", &observation.min_centre_cover));
     if (const YAML::Node t = n["support_tops"]) {
       SupportTopsOptions& o = observation.support_tops;
       LOCI_RETURN_IF_ERROR(ReadOptional(t, "enabled", &o.enabled));
@@ -133,13 +163,10 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "support_cell_m", &fusion.support_cell_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_support_fraction", &fusion.min_support_fraction));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "centroid_min_part", &fusion.centroid_min_part));
-    LOCI_RETURN_IF_ERROR(
-        ReadOptional(n, "shape_min_label_views", &fusion.shape_min_label_views));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "shape_min_label_views", &fusion.shape_min_label_views));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "class_size_slack", &fusion.class_size_slack));
-    LOCI_RETURN_IF_ERROR(
-        ReadOptional(n, "merge_box_containment", &fusion.merge_box_containment));
-    LOCI_RETURN_IF_ERROR(
-        ReadOptional(n, "part_containment", &fusion.part_containment));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_box_containment", &fusion.merge_box_containment));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "part_containment", &fusion.part_containment));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "never_part_of", &fusion.never_part_of));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "overlap_voxel_m", &fusion.overlap_voxel_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "weight_track", &fusion.weight_track));
@@ -201,23 +228,36 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
   return Validate();
 }
 
+namespace {
+
+// `key` of the classes file: a map class name -> metres (> 0).
+Status ReadClassMetres(const YAML::Node& node, const char* key,
+                       std::map<std::string, double>* out) {
+  const YAML::Node sizes = node[key];
+  if (!sizes) return absl::OkStatus();
+  if (!sizes.IsMap())
+    return absl::InvalidArgumentError(absl::StrCat(key, " must be a map class: metres"));
+  for (const auto& kv : sizes) {
+    try {
+      const double m = kv.second.as<double>();
+      if (!(m > 0)) throw YAML::Exception(kv.second.Mark(), "must be > 0");
+      (*out)[kv.first.as<std::string>()] = m;
+    } catch (const YAML::Exception& e) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(key, ".", kv.first.as<std::string>(), ": ", e.what()));
+    }
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
 Status MapOptions::ClassesFromYaml(const YAML::Node& node) {
   products_yaml_ += YAML::Dump(node) + "\n";
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "dynamic_classes", &dynamic_classes));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "mapped", &mapped_classes));
-  if (const YAML::Node sizes = node["max_size_m"]) {
-    if (!sizes.IsMap()) return absl::InvalidArgumentError("max_size_m must be a map class: metres");
-    for (const auto& kv : sizes) {
-      try {
-        const double m = kv.second.as<double>();
-        if (!(m > 0)) throw YAML::Exception(kv.second.Mark(), "must be > 0");
-        max_size_m[kv.first.as<std::string>()] = m;
-      } catch (const YAML::Exception& e) {
-        return absl::InvalidArgumentError(
-            absl::StrCat("max_size_m.", kv.first.as<std::string>(), ": ", e.what()));
-      }
-    }
-  }
+  LOCI_RETURN_IF_ERROR(ReadClassMetres(node, "max_size_m", &max_size_m));
+  LOCI_RETURN_IF_ERROR(ReadClassMetres(node, "max_height_m", &max_height_m));
   if (!mapped_classes.empty()) {
     fusion.label_universe = std::max<int>(2, static_cast<int>(mapped_classes.size()));
   }
@@ -247,9 +287,10 @@ Status MapOptions::Validate() const {
   if (!(tops.cell_m > 0.001) || !(tops.max_tilt_deg >= 0 && tops.max_tilt_deg < 90) ||
       !(tops.min_top_area_m2 >= 0) || !(tops.reach_m >= 0) || tops.max_planes < 1 ||
       tops.ransac_iterations < 1 || !(tops.cell_band_share <= 1)) {
-    return bad("observation.support_tops: cell_m > 0.001, max_tilt_deg in [0, 90), "
-               "min_top_area_m2 >= 0, reach_m >= 0, max_planes >= 1, ransac_iterations >= 1, "
-               "cell_band_share <= 1");
+    return bad(
+        "observation.support_tops: cell_m > 0.001, max_tilt_deg in [0, 90), "
+        "min_top_area_m2 >= 0, reach_m >= 0, max_planes >= 1, ransac_iterations >= 1, "
+        "cell_band_share <= 1");
   }
   if (fusion.confirm_observations < 1) return bad("fusion.confirm_observations >= 1");
   if (!(fusion.confirm_min_span_s >= 0 && fusion.confirm_min_span_s <= 3600)) {
@@ -314,6 +355,11 @@ bool MapOptions::IsDynamic(const std::string& c) const {
 double MapOptions::MaxSizeM(const std::string& c) const {
   const auto it = max_size_m.find(c);
   return it == max_size_m.end() ? std::numeric_limits<double>::infinity() : it->second;
+}
+
+double MapOptions::MaxHeightM(const std::string& c) const {
+  const auto it = max_height_m.find(c);
+  return it == max_height_m.end() ? std::numeric_limits<double>::infinity() : it->second;
 }
 
 bool MapOptions::IsMapped(const std::string& c) const {

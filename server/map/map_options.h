@@ -50,6 +50,11 @@ struct ObservationOptions {
   // and a detector's precision falls on small, far boxes) are not fused.
   double min_box_px = 20;
   double max_object_depth_m = 3.5;
+  // Depth support (mask_cover.h): a mask that covers less than this share of its box's middle
+  // half, and less there than on the whole box, is a ring around something without depth (a dark
+  // screen at a slant, the wall around it): not fused. Flat-topped furniture is exempt (its box
+  // middle is often what stands on it). 0: off (0.3).
+  double min_centre_cover = 0.3;
   // Flat-topped furniture (mask.flat_top_classes) seen with gravity: one observation per top
   // surface, without what lies outside the tops' footprints (support_tops.h).
   SupportTopsOptions support_tops;
@@ -209,6 +214,10 @@ struct MapOptions {
   // Largest plausible extent of one view of a class, m (config/classes.yaml `max_size_m`);
   // larger observations are dropped. Absent = no limit.
   std::map<std::string, double> max_size_m;
+  // Largest plausible height of one view of a class seen with gravity, m (config/classes.yaml
+  // `max_height_m`: the 5-95 % extent of its points along up); taller observations are dropped.
+  // Absent = no limit.
+  std::map<std::string, double> max_height_m;
 
   // Reads the sections cloud / observation / fusion / octomap and the class lists.
   // Fingerprints of what the stored map was made with (stored beside it; another fingerprint
@@ -228,6 +237,8 @@ struct MapOptions {
   bool IsMapped(const std::string& class_name) const;
   // max_size_m of the class, or infinity.
   double MaxSizeM(const std::string& class_name) const;
+  // max_height_m of the class, or infinity.
+  double MaxHeightM(const std::string& class_name) const;
 
  private:
   std::string products_yaml_;  // the YAML text FromYaml / ClassesFromYaml read, per concern
@@ -236,6 +247,6 @@ struct MapOptions {
 
 // Version of the product and fusion code; bump it when a change alters products or the map
 // for the same options (stored products and checkpoints of another version are recomputed).
-inline constexpr int kMapCodeVersion = 10;
+inline constexpr int kMapCodeVersion = 11;
 
 }  // namespace loci::server

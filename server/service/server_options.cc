@@ -10,16 +10,15 @@ namespace loci::server {
 Status ServerOptions::FromYamlFile(const std::string& path) {
   LOCI_ASSIGN_OR_RETURN(YAML::Node root, LoadYamlFile(path));
   const ConfigFileScope scope(path);
-  LOCI_RETURN_IF_ERROR(
-      CheckKnownKeys(root, "", {"server", "detector", "map", "place", "align", "sessions", "graph"}));
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(
+      root, "", {"server", "detector", "map", "place", "align", "sessions", "graph"}));
   if (const YAML::Node s = root["server"]) {
-    LOCI_RETURN_IF_ERROR(CheckKnownKeys(s, "server",
-                                        {"listen", "db", "http", "max_message_mb", "queue_capacity",
-                                         "max_detections", "max_image_px", "map_extent_m", "max_future_s",
-                                         "stamp_backwards_ms", "decode_slots", "max_watchers",
-                                         "classes_file", "max_event_clients",
-                                         "checkpoint_keyframes", "checkpoint_interval_s",
-                                         "raw_keep_days", "raw_keep_last"}));
+    LOCI_RETURN_IF_ERROR(CheckKnownKeys(
+        s, "server",
+        {"listen", "db", "http", "max_message_mb", "queue_capacity", "max_detections",
+         "max_image_px", "map_extent_m", "max_future_s", "stamp_backwards_ms", "decode_slots",
+         "max_watchers", "classes_file", "max_event_clients", "checkpoint_keyframes",
+         "checkpoint_interval_s", "raw_keep_days", "raw_keep_last"}));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "listen", &listen));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "db", &db_path));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "http", &http));
@@ -119,8 +118,8 @@ Status ServerOptions::LoadClasses() {
   LOCI_ASSIGN_OR_RETURN(YAML::Node node, LoadYamlFile(file));
   const ConfigFileScope scope(file);
   // dynamic_weight is loci-track's (TrackerOptions::ClassWeightsFromYaml).
-  LOCI_RETURN_IF_ERROR(
-      CheckKnownKeys(node, "", {"mapped", "dynamic_classes", "dynamic_weight", "max_size_m"}));
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(
+      node, "", {"mapped", "dynamic_classes", "dynamic_weight", "max_size_m", "max_height_m"}));
   return map.ClassesFromYaml(node);
 }
 

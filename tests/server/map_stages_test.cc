@@ -106,6 +106,35 @@ TEST(LabelPixels, LeavesOutTheSupportUnderAnObjectWithGravity) {
   EXPECT_LT(iou(no_planes), iou(with));
 }
 
+// An upright panel w x h m, 2 m in front of a wall 3 m away, seen by a level camera (y down).
+cv::Mat PanelBeforeWall(const PinholeCamera& cam, double w_m, double h_m, cv::Rect* panel_px) {
+  const int w = static_cast<int>(w_m * cam.fx / 2.0), h = static_cast<int>(h_m * cam.fy / 2.0);
+  *panel_px = cv::Rect(320 - w / 2, 240 - h / 2, w, h);
+  cv::Mat depth(cam.height_px, cam.width_px, CV_32FC1, cv::Scalar(3.0f));
+  depth(*panel_px).setTo(2.0f);
+  return depth;
+}
+
+TEST(ClassSizePriors, AViewTallerThanItsClassIsNotFusedWhenGravityIsKnown) {
+  const PinholeCamera cam = PinholeCamera::TumFr1();
+  const cv::Mat bgr(cam.height_px, cam.width_px, CV_8UC3, cv::Scalar(90, 90, 90));
+  const Vec3d gravity_cam(0, 9.81, 0);  // level camera: down is +y
+  MapOptions options;
+  options.max_height_m = {{"laptop", 0.45}};
+  const auto observations = [&](double h_m, const std::string& class_name,
+                                const std::optional<Vec3d>& gravity) {
+    cv::Rect panel;
+    const cv::Mat depth = PanelBeforeWall(cam, 0.5, h_m, &panel);
+    const cv::Rect2f box(panel.x - 8, panel.y - 8, panel.width + 16, panel.height + 16);
+    return BuildKeyframeProducts(bgr, depth, cam, {Det(class_name, box)}, options, gravity)
+        .observations.size();
+  };
+  EXPECT_EQ(observations(0.6, "laptop", gravity_cam), 0u);  // a 0.6 m tall "laptop"
+  EXPECT_EQ(observations(0.6, "laptop", std::nullopt), 1u);  // no gravity: no height known
+  EXPECT_EQ(observations(0.6, "tv", gravity_cam), 1u);       // no limit for the class
+  EXPECT_EQ(observations(0.3, "laptop", gravity_cam), 1u);   // an open laptop's height
+}
+
 TEST(Filters, VoxelFilterKeepsMajorityLabelAndOutlierRemovalDropsStrayPoints) {
   pcl::PointCloud<pcl::PointXYZRGBL> cloud;
   std::mt19937 rng(1);

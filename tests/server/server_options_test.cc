@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <limits>
 
 #include "common/config.h"
 #include "detection/detection_config.h"
@@ -55,11 +56,24 @@ TEST_F(ServerOptionsKeys, MisspeltKeysWarnOrFailWithFileAndKey) {
       << r;
 }
 
+TEST_F(ServerOptionsKeys, ANonPositiveClassHeightFailsWithTheClassName) {
+  MapOptions map;
+  const Status s = map.ClassesFromYaml(YAML::Load("max_height_m:\n  cup: -0.1\n"));
+  ASSERT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("max_height_m.cup"), std::string::npos) << s;
+  EXPECT_FALSE(map.ClassesFromYaml(YAML::Load("max_height_m: [0.1]\n")).ok());
+}
+
 TEST_F(ServerOptionsKeys, ShippedConfigFilesHaveNoUnknownKeys) {
   SetStrictConfig(true);
   const std::string config = SourceDir() + "/config/";
   ServerOptions server;
   EXPECT_TRUE(server.FromYamlFile(config + "server.yaml").ok());
+  // config/classes.yaml's size priors are read: a laptop is no taller than 0.45 m; furniture has
+  // no height limit.
+  EXPECT_DOUBLE_EQ(server.map.MaxHeightM("laptop"), 0.45);
+  EXPECT_EQ(server.map.MaxHeightM("dining table"), std::numeric_limits<double>::infinity());
+  EXPECT_DOUBLE_EQ(server.map.MaxSizeM("laptop"), 0.6);
   EXPECT_TRUE(query::LoadQueryOptions(config + "query.yaml").ok());
   const auto detection = detection::LoadDetectionConfig(config + "detection.yaml");
   EXPECT_TRUE(detection.ok()) << detection.status();
