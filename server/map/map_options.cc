@@ -51,6 +51,7 @@ constexpr const char* kFusionKeys[] = {"max_centroid_distance_m",
                                        "furniture_footprint_containment",
                                        "top_load_reach_m",
                                        "top_load_max_gap_m",
+                                       "top_load_max_sink_m",
                                        "part_containment",
                                        "never_part_of"};
 
@@ -181,6 +182,7 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "straddle_pieces", &fusion.straddle_pieces));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_reach_m", &fusion.top_loads.reach_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_max_gap_m", &fusion.top_loads.max_gap_m));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_max_sink_m", &fusion.top_loads.max_sink_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_centroid_m", &fusion.merge_centroid_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_sigmas", &fusion.merge_sigmas));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "depth_sigma_at_1m", &fusion.depth_sigma_at_1m));
@@ -312,6 +314,9 @@ Status MapOptions::Validate() const {
   }
   if (!(fusion.top_loads.max_gap_m >= 0 && fusion.top_loads.max_gap_m <= 0.5)) {
     return bad("fusion.top_load_max_gap_m in [0, 0.5]");
+  }
+  if (!(fusion.top_loads.max_sink_m >= 0 && fusion.top_loads.max_sink_m <= 0.5)) {
+    return bad("fusion.top_load_max_sink_m in [0, 0.5]");
   }
   if (!(fusion.support_cell_m > 0.001) ||
       !(fusion.min_support_fraction >= 0 && fusion.min_support_fraction <= 1)) {

@@ -26,7 +26,8 @@ double IntervalOverlap(double a0, double a1, double b0, double b1) {
 std::vector<Eigen::Vector3d> FootprintCorners(const MapObject& load, double z_m) {
   const Eigen::Vector3d& lo = load.aabb_min_m;
   const Eigen::Vector3d& hi = load.aabb_max_m;
-  return {{lo.x(), lo.y(), z_m}, {hi.x(), lo.y(), z_m}, {lo.x(), hi.y(), z_m}, {hi.x(), hi.y(), z_m}};
+  return {
+      {lo.x(), lo.y(), z_m}, {hi.x(), lo.y(), z_m}, {lo.x(), hi.y(), z_m}, {hi.x(), hi.y(), z_m}};
 }
 
 // Grows the table's boxes to hold the loads' footprints; the centroid follows the box centre.
@@ -88,7 +89,8 @@ bool RestsOn(const MapObject& load, const MapObject& table, const TopLoadOptions
     *overlap = IntervalOverlap(a0.x(), a1.x(), b0.x(), b1.x()) *
                IntervalOverlap(a0.y(), a1.y(), b0.y(), b1.y()) / area;
   }
-  return std::abs(a0.z() - table.top_surface_z_m) <= options.max_gap_m &&
+  const double above_m = a0.z() - table.top_surface_z_m;
+  return above_m <= options.max_gap_m && -above_m <= options.max_sink_m &&
          distance <= options.reach_m && a1.z() > table.top_surface_z_m;
 }
 

@@ -2,11 +2,12 @@
 // sees between the monitors, keyboard and books standing on it, so its box and centroid cover
 // only that part, often a strip in front. ExtendTopsUnderLoads widens the footprint of each
 // confirmed piece of flat-topped furniture (a table) to take in the footprints of the confirmed
-// objects resting on its top: an object whose box bottom lies within max_gap_m of the top's
-// height and whose footprint comes within reach_m of the table's (axis-aligned boxes, map frame,
-// z up), or of the part of the table already grown under other loads. An object near two tables rests on the one its footprint overlaps most, then the one
-// nearest, then the one whose top is closest to its bottom. Only footprints change: the top's
-// height, the table's label and evidence stay; the centroid moves with its box's centre.
+// objects resting on its top: an object whose box bottom lies at most max_gap_m above the top's
+// height and at most max_sink_m below it, and whose footprint comes within reach_m of the
+// table's (axis-aligned boxes, map frame, z up), or of the part of the table already grown under
+// other loads. An object near two tables rests on the one its footprint overlaps most, then the
+// one nearest, then the one whose top is closest to its bottom. Only footprints change: the
+// top's height, the table's label and evidence stay; the centroid moves with its box's centre.
 #pragma once
 
 #include <string>
@@ -20,9 +21,13 @@ struct TopLoadOptions {
   // Horizontal distance from a table's footprint within which an object at its top's height
   // rests on it, m. 0: off (tables keep the footprint of their own points).
   double reach_m = 0.15;
-  // |box bottom - top height| at most this, m: a thing resting on the top (a few cm of the top
-  // caught in its box, or a foot's height).
+  // Box bottom at most this above the top's height, m: a thing resting on the top (a foot's
+  // height).
   double max_gap_m = 0.05;
+  // ... and at most this below it, m: a box reaches under the top it rests on when it caught some
+  // of the top's own points, and two desks' tops a few cm apart must not decide by that alone
+  // which desk a book lies on (its footprint does).
+  double max_sink_m = 0.1;
 };
 
 // Widens the tables among `objects` (flat_top_classes, confirmed, with a top height) in place,

@@ -2,9 +2,9 @@
 // fr1_rpy's main desk from objects_gt.json (world frame, z up, top at z 0.77): the camera sees a
 // strip of the top in front of the keyboard; the book, keyboard, mug, mouse and second monitor
 // stand on the rest of it.
-#include <gtest/gtest.h>
-
 #include "server/map/top_loads.h"
+
+#include <gtest/gtest.h>
 
 namespace loci::server {
 namespace {
@@ -34,11 +34,11 @@ MapObject Table(int64_t id, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi
 // desk_main's visible strip (top z 0.77) and what rests on it (objects_gt.json boxes).
 std::vector<MapObject> MainDesk() {
   return {Table(1, {0.75, 0.30, 0.75}, {1.04, 1.00, 0.77}),
-          Box(2, "book", {0.265, 0.035, 0.782}, {0.515, 0.225, 0.828}),      // book_mvg
-          Box(3, "keyboard", {0.606, 0.69, 0.77}, {0.87, 1.15, 0.83}),       // keyboard
-          Box(4, "cup", {0.498, 0.63, 0.78}, {0.606, 0.73, 0.894}),          // cup_mug
-          Box(5, "mouse", {0.562, 1.18, 0.789}, {0.678, 1.29, 0.841}),       // mouse
-          Box(6, "tv", {0.405, 1.22, 0.81}, {0.695, 1.64, 1.27})};           // monitor_second
+          Box(2, "book", {0.265, 0.035, 0.782}, {0.515, 0.225, 0.828}),  // book_mvg
+          Box(3, "keyboard", {0.606, 0.69, 0.77}, {0.87, 1.15, 0.83}),   // keyboard
+          Box(4, "cup", {0.498, 0.63, 0.78}, {0.606, 0.73, 0.894}),      // cup_mug
+          Box(5, "mouse", {0.562, 1.18, 0.789}, {0.678, 1.29, 0.841}),   // mouse
+          Box(6, "tv", {0.405, 1.22, 0.81}, {0.695, 1.64, 1.27})};       // monitor_second
 }
 
 const MapObject& Find(const std::vector<MapObject>& objects, int64_t id) {
@@ -49,7 +49,8 @@ const MapObject& Find(const std::vector<MapObject>& objects, int64_t id) {
 }
 
 TEST(TopLoads, TheDeskRunsOnUnderWhatStandsOnIt) {
-  const Eigen::Vector3d top_centre_gt(0.625, 0.74, 0.77);  // desk_main's top: x 0.21..1.04, y -0.04..1.52
+  const Eigen::Vector3d top_centre_gt(0.625, 0.74,
+                                      0.77);  // desk_main's top: x 0.21..1.04, y -0.04..1.52
   std::vector<MapObject> objects = MainDesk();
   const double error_before = (Find(objects, 1).centroid_m - top_centre_gt).norm();
   ExtendTopsUnderLoads(kFlatTops, TopLoadOptions{}, &objects);
@@ -118,6 +119,33 @@ TEST(TopLoads, AThingBetweenTwoDesksRestsOnTheOneUnderMostOfIt) {
   EXPECT_NEAR(Find(objects, 2).aabb_min_m.y(), 0.0, 1e-9);
 }
 
+TEST(TopLoads, ABookWhoseBoxReachesUnderBothTopsRestsOnTheDeskUnderMostOfIt) {
+  // fr1_rpy in a two-robot map: desk_main's top at z 0.775 and desk_person's at 0.795 (the map's
+  // heights, 2 cm apart); book_blue_thick, 56 % over desk_person, has a box bottom at 0.74 that
+  // caught some of the tops' points: 5.5 cm under desk_person's top, 3.5 cm under desk_main's.
+  const auto scene = [] {
+    return std::vector<MapObject>{Table(1, {0.20, 0.0, 0.70}, {1.0, 1.0, 0.775}),
+                                  Table(2, {-0.70, 0.0, 0.70}, {0.18, 1.0, 0.795}),
+                                  Box(3, "book", {-0.10, 0.3, 0.74}, {0.40, 0.6, 0.80})};
+  };
+  std::vector<MapObject> objects = scene();
+  ExtendTopsUnderLoads(kFlatTops, TopLoadOptions{}, &objects);
+  EXPECT_NEAR(Find(objects, 2).aabb_max_m.x(), 0.40, 1e-9);  // the desk under most of it
+  EXPECT_NEAR(Find(objects, 1).aabb_min_m.x(), 0.20, 1e-9);  // the other one does not grow
+  // With a bottom that may sink no more than it may rise (the rule before), the other desk took
+  // it and grew over its neighbour.
+  objects = scene();
+  TopLoadOptions symmetric;
+  symmetric.max_sink_m = symmetric.max_gap_m;
+  ExtendTopsUnderLoads(kFlatTops, symmetric, &objects);
+  EXPECT_NEAR(Find(objects, 1).aabb_min_m.x(), -0.10, 1e-9);
+  // A box whose bottom hangs 0.15 m under the top is no load (a chair's back by the desk's edge).
+  objects = {Table(1, {0.20, 0.0, 0.70}, {1.0, 1.0, 0.795}),
+             Box(4, "chair", {1.05, 0.3, 0.645}, {1.4, 0.6, 1.0})};
+  ExtendTopsUnderLoads(kFlatTops, TopLoadOptions{}, &objects);
+  EXPECT_NEAR(Find(objects, 1).aabb_max_m.x(), 1.0, 1e-9);
+}
+
 TEST(TopLoads, ATableIsAnnouncedAgainWhenOnlyItsLoadsChanged) {
   // The desk's snapshot holds the keyboard's footprint: a new keyboard, a mouse gone (its last
   // state) or a book that became a candidate change the desk too; a chair on the floor beside
@@ -127,11 +155,10 @@ TEST(TopLoads, ATableIsAnnouncedAgainWhenOnlyItsLoadsChanged) {
   MapObject book = Find(MainDesk(), 2);
   book.confirmed = false;
   const std::vector<MapObject> loads = {Find(objects, 3), Find(MainDesk(), 5), book};
-  EXPECT_EQ(TablesUnderLoads(kFlatTops, TopLoadOptions{}, loads, objects),
-            std::vector<int64_t>{1});
-  const std::vector<MapObject> elsewhere = {
-      Box(7, "chair", {1.1, 0.4, 0.0}, {1.6, 0.9, 1.0}),
-      Box(8, "cup", {0.8, 0.4, 1.20}, {0.9, 0.5, 1.30}), Find(objects, 1)};
+  EXPECT_EQ(TablesUnderLoads(kFlatTops, TopLoadOptions{}, loads, objects), std::vector<int64_t>{1});
+  const std::vector<MapObject> elsewhere = {Box(7, "chair", {1.1, 0.4, 0.0}, {1.6, 0.9, 1.0}),
+                                            Box(8, "cup", {0.8, 0.4, 1.20}, {0.9, 0.5, 1.30}),
+                                            Find(objects, 1)};
   EXPECT_TRUE(TablesUnderLoads(kFlatTops, TopLoadOptions{}, elsewhere, objects).empty());
   // Off: tables keep their own points, no load changes them.
   EXPECT_TRUE(TablesUnderLoads(kFlatTops, TopLoadOptions{0.0, 0.05}, loads, objects).empty());
