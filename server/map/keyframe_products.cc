@@ -166,20 +166,25 @@ double MedianDepthM(const pcl::PointCloud<pcl::PointXYZRGB>& cloud) {
   return z[z.size() / 2];
 }
 
-// Longest side of the points' 5-95 % box (a few stray points do not count).
-double RobustExtentM(const pcl::PointCloud<pcl::PointXYZRGB>& cloud) {
+// 5-95 % span of the points along a unit direction, m (a few stray points do not count).
+double RobustSpanAlongM(const pcl::PointCloud<pcl::PointXYZRGB>& cloud, const Vec3d& dir) {
   if (cloud.size() < 2) return 0;
-  double longest = 0;
-  std::vector<float> v(cloud.size());
-  for (int axis = 0; axis < 3; ++axis) {
-    for (size_t i = 0; i < cloud.size(); ++i) v[i] = cloud[i].data[axis];
-    const size_t lo = v.size() / 20, hi = v.size() - 1 - v.size() / 20;
-    std::nth_element(v.begin(), v.begin() + lo, v.end());
-    const float a = v[lo];
-    std::nth_element(v.begin(), v.begin() + hi, v.end());
-    longest = std::max<double>(longest, v[hi] - a);
+  std::vector<double> s(cloud.size());
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    s[i] = dir.dot(cloud[i].getVector3fMap().cast<double>());
   }
-  return longest;
+  const size_t lo = s.size() / 20, hi = s.size() - 1 - s.size() / 20;
+  std::nth_element(s.begin(), s.begin() + lo, s.end());
+  const double a = s[lo];
+  std::nth_element(s.begin(), s.begin() + hi, s.end());
+  return s[hi] - a;
+}
+
+// Longest side of the points' 5-95 % box (camera axes).
+double RobustExtentM(const pcl::PointCloud<pcl::PointXYZRGB>& cloud) {
+  return std::max({RobustSpanAlongM(cloud, Vec3d::UnitX()),
+                   RobustSpanAlongM(cloud, Vec3d::UnitY()),
+                   RobustSpanAlongM(cloud, Vec3d::UnitZ())});
 }
 
 // The pieces of one detection's cloud: one per top surface of flat-topped furniture seen with
@@ -211,19 +216,6 @@ std::vector<pcl::PointCloud<pcl::PointXYZRGB>> Pieces(pcl::PointCloud<pcl::Point
     if (t >= 0) pieces[t].push_back(cloud[i]);
   }
   return pieces;
-}
-
-// 5-95 % span of the points along a unit direction, m.
-double RobustSpanAlongM(const pcl::PointCloud<pcl::PointXYZRGB>& cloud, const Vec3d& dir) {
-  if (cloud.size() < 2) return 0;
-  std::vector<double> s(cloud.size());
-  for (size_t i = 0; i < cloud.size(); ++i)
-    s[i] = dir.dot(cloud[i].getVector3fMap().cast<double>());
-  const size_t lo = s.size() / 20, hi = s.size() - 1 - s.size() / 20;
-  std::nth_element(s.begin(), s.begin() + lo, s.end());
-  const double a = s[lo];
-  std::nth_element(s.begin(), s.begin() + hi, s.end());
-  return s[hi] - a;
 }
 
 // Whether one piece of a detection is worth fusing (ObservationOptions, the class size priors).

@@ -11,49 +11,22 @@ namespace loci::server {
 namespace {
 
 // The keys FromYaml reads, per section (a key added there belongs here too).
-constexpr const char* kFusionKeys[] = {"max_centroid_distance_m",
-                                       "centroid_from_box",
-                                       "min_overlap",
-                                       "support_cell_m",
-                                       "min_support_fraction",
-                                       "overlap_voxel_m",
-                                       "weight_track",
-                                       "weight_centroid",
-                                       "weight_overlap",
-                                       "score_threshold",
-                                       "track_gate_m",
-                                       "confirm_observations",
-                                       "merge_centroid_m",
-                                       "merge_containment",
-                                       "merge_across_classes",
-                                       "assoc_containment",
-                                       "max_size_ratio",
-                                       "label_universe",
-                                       "min_likelihood",
-                                       "existence_p_real",
-                                       "existence_p_false",
-                                       "confirm_llr",
-                                       "remove_llr",
-                                       "visibility",
-                                       "centroid_min_part",
-                                       "class_size_slack",
-                                       "merge_box_containment",
-                                       "merge_sigmas",
-                                       "depth_sigma_at_1m",
-                                       "view_sigma_rad",
-                                       "shape_min_label_views",
-                                       "existence_class_prior_views",
-                                       "confirm_min_span_s",
-                                       "straddle_share",
-                                       "straddle_apart_views",
-                                       "straddle_pieces",
-                                       "furniture_merge_containment",
-                                       "furniture_footprint_containment",
-                                       "top_load_reach_m",
-                                       "top_load_max_gap_m",
-                                       "top_load_max_sink_m",
-                                       "part_containment",
-                                       "never_part_of"};
+// clang-format off
+constexpr const char* kFusionKeys[] = {
+    "max_centroid_distance_m", "centroid_from_box", "min_overlap",          "support_cell_m",
+    "min_support_fraction",    "overlap_voxel_m",   "weight_track",         "weight_centroid",
+    "weight_overlap",          "score_threshold",   "track_gate_m",         "confirm_observations",
+    "merge_centroid_m",        "merge_containment", "merge_across_classes", "assoc_containment",
+    "max_size_ratio",          "label_universe",    "min_likelihood",       "existence_p_real",
+    "existence_p_false",       "confirm_llr",       "remove_llr",           "visibility",
+    "centroid_min_part",       "class_size_slack",  "merge_box_containment",
+    "merge_sigmas",            "depth_sigma_at_1m", "view_sigma_rad",       "shape_min_label_views",
+    "existence_class_prior_views", "confirm_min_span_s", "straddle_share",
+    "straddle_apart_views", "straddle_pieces", "furniture_merge_containment",
+    "furniture_footprint_containment",
+    "top_load_reach_m", "top_load_max_gap_m", "top_load_max_sink_m", "part_containment",
+    "never_part_of"};
+// clang-format on
 
 Status CheckMapKeys(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
@@ -293,6 +266,9 @@ Status MapOptions::Validate() const {
         "observation.support_tops: cell_m > 0.001, max_tilt_deg in [0, 90), "
         "min_top_area_m2 >= 0, reach_m >= 0, max_planes >= 1, ransac_iterations >= 1, "
         "cell_band_share <= 1");
+  }
+  if (!(observation.min_centre_cover >= 0 && observation.min_centre_cover <= 1)) {
+    return bad("observation.min_centre_cover in [0, 1]");
   }
   if (fusion.confirm_observations < 1) return bad("fusion.confirm_observations >= 1");
   if (!(fusion.confirm_min_span_s >= 0 && fusion.confirm_min_span_s <= 3600)) {

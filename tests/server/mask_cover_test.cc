@@ -33,6 +33,12 @@ TEST(MaskCover, ARingCoversTheMiddleLessThanTheWholeAndOtherLabelsCountNeitherWa
   const MaskCover partial = CoverOf(labels, box, 1, kBackgroundLabel);
   EXPECT_DOUBLE_EQ(partial.centre, 1.0);
   EXPECT_FALSE(IsHollow(partial, 0.3));
+
+  MapOptions options;  // the option is a share
+  options.observation.min_centre_cover = 1.5;
+  EXPECT_FALSE(options.Validate().ok());
+  options.observation.min_centre_cover = 0;
+  EXPECT_TRUE(options.Validate().ok());
 }
 
 // A wall 3.2 m away with Kinect-like noise (sigma 0.0015 z^2) and a 0.45 x 0.40 m monitor 2.5 m
