@@ -125,6 +125,7 @@ nlohmann::json ToJson(const report::GroundTruthEval& e) {
   for (const auto& m : r.matches) {
     matches.push_back({{"gt_id", m.gt_name}, {"object_id", m.object_id},
                        {"class_name", m.class_name}, {"centroid_error_m", m.centroid_error_m},
+                       {"offset_m", {m.offset_m.x(), m.offset_m.y(), m.offset_m.z()}},
                        {"neutral", m.neutral}});
   }
   for (const auto& p : e.on_pairs) {

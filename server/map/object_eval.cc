@@ -11,10 +11,18 @@ namespace {
 
 constexpr double kForbidden = 1e9;
 
+// The ground-truth point a map centroid p is compared with: the nearer of the centroid and the
+// centre of the visible part.
+const Eigen::Vector3d& NearestReference(const GroundTruthObject& g, const Eigen::Vector3d& p) {
+  if (g.visible_part_centroid_m &&
+      (*g.visible_part_centroid_m - p).norm() < (g.centroid_m - p).norm()) {
+    return *g.visible_part_centroid_m;
+  }
+  return g.centroid_m;
+}
+
 double DistanceTo(const GroundTruthObject& g, const Eigen::Vector3d& p) {
-  double d = (g.centroid_m - p).norm();
-  if (g.visible_part_centroid_m) d = std::min(d, (*g.visible_part_centroid_m - p).norm());
-  return d;
+  return (NearestReference(g, p) - p).norm();
 }
 
 // Matches one class: rows = map objects, columns = GT objects (every confidence).
@@ -40,6 +48,7 @@ void EvaluateClass(const std::vector<const MapObject*>& d,
     }
     g_used[j] = true;
     ObjectMatch m{g[j]->id, g[j]->name, d[i]->id, row->class_name, cost[i][j],
+                  d[i]->centroid_m - NearestReference(*g[j], d[i]->centroid_m),
                   g[j]->confidence == "low"};
     if (m.neutral) {
       ++row->neutral;

@@ -29,6 +29,8 @@ struct ObjectMatch {
   int64_t object_id = 0;
   std::string class_name;
   double centroid_error_m = 0;
+  // Map centroid minus the ground-truth point it was compared with, world frame, m.
+  Eigen::Vector3d offset_m = Eigen::Vector3d::Zero();
   bool neutral = false;  // matched to a `low` ground-truth object: not counted
 };
 

@@ -1,0 +1,83 @@
+#!/usr/bin/env bash
+# Object-map figures over several runs of the demo's pipeline (issue 11 / 15 measurements):
+# a fresh loci-server per run, loci-track with YOLOX-Nano (synchronous detection, so a run is
+# repeatable), then `loci eval objects --json` against objects_gt.json. One JSON per run in OUT,
+# then the mean figures (scripts/eval-summary.py).
+#
+# usage: scripts/eval-runs.sh BIN_DIR TUM_DIR OUT_DIR starts S1 [S2 ...]
+#          one robot per run, starting at frame S (the whole rest of the sequence)
+#        scripts/eval-runs.sh BIN_DIR TUM_DIR OUT_DIR two-robots N
+#          N runs of two robots streaming at once: A frames 0-450, B frames 300-end
+# Environment: LOCI_EVAL_CONFIG (server YAML, default config/server.yaml).
+set -euo pipefail
+
+if [ $# -lt 5 ]; then sed -n 2,11p "$0" >&2; exit 2; fi
+BIN="$(cd "$1" && pwd)"
+DATA="$(cd "$2" && pwd)"
+OUT="$3"
+MODE="$4"
+shift 4
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+CONFIG="${LOCI_EVAL_CONFIG:-$ROOT/config/server.yaml}"
+MODEL="$ROOT/models/yolox_nano/yolox_nano.onnx"
+mkdir -p "$OUT"
+
+# Starts a server on a free loopback port with a fresh database in $1; sets SERVER_PID, ADDR.
+start_server() {
+  local dir="$1"
+  rm -f "$dir"/loci.db*
+  "$BIN/loci-server" --config "$CONFIG" --listen 127.0.0.1:0 --db "$dir/loci.db" \
+    >"$dir/server.out" 2>"$dir/server.log" &
+  SERVER_PID=$!
+  ADDR=""
+  for _ in $(seq 1 300); do
+    ADDR="$(sed -n 's/^listening on //p' "$dir/server.out" | head -1)"
+    [ -n "$ADDR" ] && return 0
+    kill -0 "$SERVER_PID" 2>/dev/null || { cat "$dir/server.log" >&2; exit 1; }
+    sleep 0.1
+  done
+  echo "loci-server did not start" >&2
+  exit 1
+}
+
+track() {  # track ROBOT LOGFILE [loci-track options...]
+  local robot="$1" log="$2"
+  shift 2
+  "$BIN/loci-track" --config "$ROOT/config/client.yaml" --tum "$DATA" --server "$ADDR" \
+    --robot "$robot" --model "$MODEL" --log-level warn --no-progress "$@" >"$log" 2>&1
+}
+
+evaluate() {  # evaluate RUN_DIR NAME
+  "$BIN/loci" eval objects --gt "$DATA/objects_gt.json" --groundtruth "$DATA/groundtruth.txt" \
+    --config "$CONFIG" --server "$ADDR" --json >"$OUT/$2.json"
+  kill -TERM "$SERVER_PID" 2>/dev/null || true
+  wait "$SERVER_PID" || true
+}
+
+case "$MODE" in
+  starts)
+    for s in "$@"; do
+      dir="$OUT/start$s"
+      mkdir -p "$dir"
+      start_server "$dir"
+      track robot "$dir/track.log" --start-frame "$s"
+      evaluate "$dir" "start$s"
+      echo "start $s done" >&2
+    done
+    ;;
+  two-robots)
+    for n in $(seq 1 "$1"); do
+      dir="$OUT/two$n"
+      mkdir -p "$dir"
+      start_server "$dir"
+      track robot-a "$dir/track_a.log" --max-frames 451 &
+      pid_a=$!
+      track robot-b "$dir/track_b.log" --start-frame 300
+      wait "$pid_a"
+      evaluate "$dir" "two$n"
+      echo "two-robot run $n done" >&2
+    done
+    ;;
+  *) echo "unknown mode $MODE" >&2; exit 2 ;;
+esac
+/usr/bin/python3 "$ROOT/scripts/eval-summary.py" "$OUT"/*.json
