@@ -536,8 +536,12 @@ TEST(ObjectEval, HungarianLowConfidenceAndVisiblePart) {
   EXPECT_NEAR(r.median_centroid_error_m, 0.13, 1e-9);
   // Each match's offset is taken from the point it was compared with (the desk: its top).
   for (const ObjectMatch& m : r.matches) {
-    if (m.object_id == 13) EXPECT_TRUE(m.offset_m.isApprox(Eigen::Vector3d(0, 0, -0.03)));
-    if (m.object_id == 10) EXPECT_TRUE(m.offset_m.isApprox(Eigen::Vector3d(-0.13, 0, 0)));
+    if (m.object_id == 13) {
+      EXPECT_TRUE(m.offset_m.isApprox(Eigen::Vector3d(0, 0, -0.03)));
+    }
+    if (m.object_id == 10) {
+      EXPECT_TRUE(m.offset_m.isApprox(Eigen::Vector3d(-0.13, 0, 0)));
+    }
   }
 }
 
