@@ -116,7 +116,14 @@ StatusOr<MapUnderTest> FromServer(const std::string& address, const ChannelSecur
 nlohmann::json ToJson(const report::GroundTruthEval& e) {
   const server::ObjectEvalResult& r = e.objects;
   nlohmann::json classes = nlohmann::json::array(), matches = nlohmann::json::array(),
-                 pairs = nlohmann::json::array();
+                 pairs = nlohmann::json::array(), objects = nlohmann::json::array();
+  for (const MapObject& o : e.objects_world) {
+    const Eigen::Vector3d extent = o.aabb_max_m - o.aabb_min_m;
+    objects.push_back({{"id", o.id},
+                       {"class_name", o.class_name},
+                       {"centroid_m", {o.centroid_m.x(), o.centroid_m.y(), o.centroid_m.z()}},
+                       {"aabb_size_m", {extent.x(), extent.y(), extent.z()}}});
+  }
   for (const auto& c : r.classes) {
     classes.push_back({{"class_name", c.class_name}, {"gt", c.gt}, {"gt_low", c.gt_low},
                        {"mapped", c.mapped}, {"tp", c.tp}, {"fp", c.fp}, {"fn", c.fn},
@@ -155,6 +162,7 @@ nlohmann::json ToJson(const report::GroundTruthEval& e) {
           {"classes", classes},
           {"matches", matches},
           {"on_pairs", pairs},
+          {"objects_world", objects},
           {"on_right", e.on_right},
           {"on_share", e.on_share}};
 }

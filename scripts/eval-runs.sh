@@ -2,7 +2,8 @@
 # Object-map figures over several runs of the demo's pipeline (issue 11 / 15 measurements):
 # a fresh loci-server per run, loci-track with YOLOX-Nano (synchronous detection, so a run is
 # repeatable), then `loci eval objects --json` against objects_gt.json. One JSON per run in OUT,
-# then the mean figures (scripts/eval-summary.py).
+# then the mean figures (scripts/eval-summary.py), also with the map aligned by the camera
+# orientations (OUT/RUN/orientations.json).
 #
 # usage: scripts/eval-runs.sh BIN_DIR TUM_DIR OUT_DIR starts S1 [S2 ...]
 #          one robot per run, starting at frame S (the whole rest of the sequence)
@@ -11,7 +12,7 @@
 # Environment: LOCI_EVAL_CONFIG (server YAML, default config/server.yaml).
 set -euo pipefail
 
-if [ $# -lt 5 ]; then sed -n 2,11p "$0" >&2; exit 2; fi
+if [ $# -lt 5 ]; then sed -n 2,12p "$0" >&2; exit 2; fi
 BIN="$(cd "$1" && pwd)"
 DATA="$(cd "$2" && pwd)"
 OUT="$3"
@@ -48,8 +49,12 @@ track() {  # track ROBOT LOGFILE [loci-track options...]
 }
 
 evaluate() {  # evaluate RUN_DIR NAME
-  "$BIN/loci" eval objects --gt "$DATA/objects_gt.json" --groundtruth "$DATA/groundtruth.txt" \
-    --config "$CONFIG" --server "$ADDR" --json >"$OUT/$2.json"
+  local args=(--gt "$DATA/objects_gt.json" --groundtruth "$DATA/groundtruth.txt" --config "$CONFIG"
+              --server "$ADDR" --json)
+  "$BIN/loci" eval objects "${args[@]}" >"$OUT/$2.json"
+  # The same map aligned by the camera orientations (fr1_rpy barely translates, so the position
+  # alignment can tilt the map by several degrees): RUN_DIR/orientations.json.
+  "$BIN/loci" eval objects "${args[@]}" --align orientations --no-ask >"$1/orientations.json"
   kill -TERM "$SERVER_PID" 2>/dev/null || true
   wait "$SERVER_PID" || true
 }
@@ -81,3 +86,5 @@ case "$MODE" in
   *) echo "unknown mode $MODE" >&2; exit 2 ;;
 esac
 /usr/bin/python3 "$ROOT/scripts/eval-summary.py" "$OUT"/*.json
+echo "aligned by the camera orientations (X-on-Y not asked):"
+/usr/bin/python3 "$ROOT/scripts/eval-summary.py" "$OUT"/*/orientations.json

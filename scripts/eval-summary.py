@@ -15,7 +15,10 @@ def main(paths):
     for path in paths:
         with open(path) as f:
             e = json.load(f)
-        rows.append((os.path.basename(path)[:-5], e))
+        name = os.path.basename(path)[:-5]
+        if name == "orientations":  # OUT/RUN/orientations.json: name it by its run
+            name = os.path.basename(os.path.dirname(path))
+        rows.append((name, e))
     keys = ["precision", "recall", "count_error", "mean_centroid_error_m", "on_right"]
     print("%-10s %9s %7s %6s %9s %6s  false positives / missed" %
           ("run", "precision", "recall", "count", "centroid", "X-on-Y"))
