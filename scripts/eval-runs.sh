@@ -23,6 +23,9 @@ CONFIG="${LOCI_EVAL_CONFIG:-$ROOT/config/server.yaml}"
 MODEL="$ROOT/models/yolox_nano/yolox_nano.onnx"
 mkdir -p "$OUT"
 
+SERVER_PID=""
+trap '[ -n "$SERVER_PID" ] && kill -TERM "$SERVER_PID" 2>/dev/null || true' EXIT
+
 # Starts a server on a free loopback port with a fresh database in $1; sets SERVER_PID, ADDR.
 start_server() {
   local dir="$1"
@@ -57,6 +60,7 @@ evaluate() {  # evaluate RUN_DIR NAME
   "$BIN/loci" eval objects "${args[@]}" --align orientations --no-ask >"$1/orientations.json"
   kill -TERM "$SERVER_PID" 2>/dev/null || true
   wait "$SERVER_PID" || true
+  SERVER_PID=""
 }
 
 case "$MODE" in

@@ -535,14 +535,18 @@ TEST(ObjectEval, HungarianLowConfidenceAndVisiblePart) {
   EXPECT_NEAR(r.mean_centroid_error_m, (0.2 + 0.13 + 0.03) / 3, 1e-9);
   EXPECT_NEAR(r.median_centroid_error_m, 0.13, 1e-9);
   // Each match's offset is taken from the point it was compared with (the desk: its top).
+  int checked = 0;
   for (const ObjectMatch& m : r.matches) {
     if (m.object_id == 13) {
       EXPECT_TRUE(m.offset_m.isApprox(Eigen::Vector3d(0, 0, -0.03)));
+      ++checked;
     }
     if (m.object_id == 10) {
       EXPECT_TRUE(m.offset_m.isApprox(Eigen::Vector3d(-0.13, 0, 0)));
+      ++checked;
     }
   }
+  EXPECT_EQ(checked, 2);
 }
 
 }  // namespace
