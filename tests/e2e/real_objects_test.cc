@@ -49,16 +49,19 @@ TEST(RealObjects, Fr1RpyAgainstHandMadeGroundTruth) {
   // Floors at the figures measured in docs/results.md (session 5: precision 0.467, recall
   // 0.467, count error 0 %, centroid 0.112 m), with room for a single object (1/15 = 0.067).
   // Precision since session 33 (views without depth support or taller than their class left
-  // out): 0.769, 10 of 13.
-  EXPECT_GE(m.precision, 0.7);
+  // out): 0.769, 10 of 13; since session 35 (the main desk's two ends one table): 0.833, 10 of 12.
+  // The count error is the missed objects less the false positives: YOLOX-Nano never boxes 5 of
+  // the 15, so every false positive less raises it (13.3 % -> 20 % in session 35).
+  EXPECT_GE(m.precision, 0.75);
   EXPECT_GE(m.recall, 0.4);
-  EXPECT_LE(m.count_error, 0.2);
+  EXPECT_LE(m.count_error, 0.27);
   EXPECT_LE(m.mean_centroid_error_m, 0.15);
   // The two desks back to back are two tables, so answers can name the right one (5 of 10 by
   // the orientations' alignment in session 25, 0 while they fused into one table between them),
   // and the main desk's top runs on under what stands on it (6 of 10 by either alignment,
-  // session 26; 0 by the positions' before: the desk's visible strip lay 0.31 m from its centre).
-  EXPECT_GE(e.on_right, 4);
+  // session 26; 0 by the positions' before: the desk's visible strip lay 0.31 m from its centre;
+  // 7 since session 35, the most this detector allows: it never boxes three of the ten things).
+  EXPECT_GE(e.on_right, 6);
   ASSERT_TRUE(r->gt_eval_orientations.has_value());
   EXPECT_GE(r->gt_eval_orientations->on_right, 4);
 }

@@ -249,20 +249,20 @@ TEST(ObjectRules, APieceAcrossTwoDesksStaysACandidate) {
             "3 objects, 3 confirmed; the piece confirmed alone, then confirmed");
 }
 
-// One desk (x 0.21-1.04, y 0-1.5) seen first from near (tracker 1, keyframes 1-3) and then, under
-// another tracker id, from afar where its top comes out 4 cm higher (keyframes 21-23, 6 s later),
-// covering the desk's back two thirds; a second desk stands back to back with it (x -0.75-0.19,
+// One desk (x 0.21-1.04, y 0-1.5) seen first from near (tracker 1, keyframes 1-3, y 0-near_y1_m)
+// and then, under another tracker id, from afar where its top comes out 4 cm higher (keyframes
+// 21-23, 6 s later, y far_y0_m-1.5); a second desk stands back to back with it (x -0.75-0.19,
 // tops 3 cm apart) in keyframes 31-33. Returns the number of pieces of furniture.
-size_t DeskPieces(double footprint_containment) {
+size_t DeskPieces(double footprint_containment, double near_y1_m = 1.5, double far_y0_m = 0.3) {
   FusionOptions opt = TableOptions();
   opt.furniture_footprint_containment = footprint_containment;
   ObjectMap map(opt, 0.01);
   std::vector<ObjectChange> changes;
   for (int64_t kf = 1; kf <= 3; ++kf) {
-    map.Integrate({Rect("dining table", 0.4, 1, kf, 0.21, 1.04, 0.0, 1.5, 0.77)}, &changes);
+    map.Integrate({Rect("dining table", 0.4, 1, kf, 0.21, 1.04, 0.0, near_y1_m, 0.77)}, &changes);
   }
   for (int64_t kf = 21; kf <= 23; ++kf) {
-    map.Integrate({Rect("dining table", 0.4, 2, kf, 0.21, 0.80, 0.3, 1.5, 0.81)}, &changes);
+    map.Integrate({Rect("dining table", 0.4, 2, kf, 0.21, 0.80, far_y0_m, 1.5, 0.81)}, &changes);
   }
   for (int64_t kf = 31; kf <= 33; ++kf) {
     map.Integrate({Rect("dining table", 0.4, 3, kf, -0.75, 0.19, 0.0, 1.5, 0.74)}, &changes);
@@ -274,6 +274,17 @@ TEST(ObjectRules, ADeskSeenAtTwoHeightsIsOnePieceByItsFootprint) {
   EXPECT_EQ(DeskPieces(0.0), 3u);  // the voxels 4 cm apart never meet
   EXPECT_EQ(DeskPieces(0.6), 2u);  // the far view lies within the near one's footprint
   EXPECT_EQ(DeskPieces(1.0), 3u);  // no footprint holds more than all of another
+}
+
+// The near end (y 0-1.0) and the far end (x 0.21-0.8, y 0.4-1.5) of one desk, 4 cm apart in
+// height: 55 % of the smaller piece's footprint lies under the other. On fr1_rpy the main desk came out as two
+// such pieces (55 %) in the demo's run, and the book on its near end stood on the wrong one
+// (docs/results.md, session 35). Physically two tops cannot share floor at one height, so the
+// majority (config/server.yaml: 0.5) joins them; the back-to-back desk shares none.
+TEST(ObjectRules, TheTwoEndsOfOneDeskJoinWhenMostOfOneLiesUnderTheOther) {
+  EXPECT_EQ(DeskPieces(0.6, 1.0, 0.4), 3u);
+  EXPECT_EQ(DeskPieces(0.5, 1.0, 0.4), 2u);
+  EXPECT_EQ(DeskPieces(0.5, 1.0, 0.75), 3u);  // 33 %: pieces that only overlap a little stay apart
 }
 
 // A "mouse" 0.41 m long: fr1_rpy's bench map fused mouse boxes at the main monitor's foot into one
