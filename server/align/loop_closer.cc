@@ -96,7 +96,8 @@ void LoopCloser::NoteApplied(double apply_ms, uint64_t chunks, double longest_ho
 }
 
 StatusOr<GraphResult> LoopCloser::Optimize(const std::vector<MappedKeyframe>& mapped,
-                                           bool gravity_aligned, int64_t graph_key) {
+                                           bool gravity_aligned, int64_t graph_key,
+                                           const std::vector<CentroidObservation>& centroids) {
   const auto t0 = std::chrono::steady_clock::now();
   std::lock_guard<std::mutex> solving(solve_mu_);
   PoseGraph graph(graph_);
@@ -105,7 +106,7 @@ StatusOr<GraphResult> LoopCloser::Optimize(const std::vector<MappedKeyframe>& ma
     std::lock_guard<std::mutex> lock(mu_);
     pending_[graph_key] = Pending();
   }
-  LOCI_RETURN_IF_ERROR(BuildGraph(mapped, gravity_aligned, &graph));
+  LOCI_RETURN_IF_ERROR(BuildGraph(mapped, gravity_aligned, centroids, &graph));
   // Without mu_: the mapping worker records keyframes and matches while the graph solves.
   LOCI_ASSIGN_OR_RETURN(GraphResult result, graph.Optimize());
   std::lock_guard<std::mutex> lock(mu_);
@@ -119,6 +120,7 @@ StatusOr<GraphResult> LoopCloser::Optimize(const std::vector<MappedKeyframe>& ma
 }
 
 Status LoopCloser::BuildGraph(const std::vector<MappedKeyframe>& mapped, bool gravity_aligned,
+                              const std::vector<CentroidObservation>& centroids,
                               PoseGraph* graph) {
   std::lock_guard<std::mutex> lock(mu_);
   // Nodes in id order: the first is the map's first keyframe (the gauge's reference chain).
@@ -148,6 +150,11 @@ Status LoopCloser::BuildGraph(const std::vector<MappedKeyframe>& mapped, bool gr
     } else {
       LOCI_RETURN_IF_ERROR(graph->AddMergeEdge(ids.first, ids.second, T_a_b, info));
     }
+  }
+  if (!graph_.landmarks.enabled) return absl::OkStatus();
+  for (const CentroidObservation& c : centroids) {
+    if (session_of.count(c.keyframe_id) == 0) continue;  // not in this graph
+    LOCI_RETURN_IF_ERROR(graph->AddCentroidObservation(c));
   }
   return absl::OkStatus();
 }

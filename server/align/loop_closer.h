@@ -104,11 +104,13 @@ class LoopCloser {
   void MoveDue(int64_t from, int64_t to);
 
   // Builds `graph`'s graph over `mapped` (map frame, or the island's frame; all z up from
-  // gravity when `gravity_aligned`) and solves it. The updates are the keyframes that moved
-  // (T_map_kf). Resets Due(graph). One solve at a time; recording goes on while it solves
-  // (only the build holds the records).
+  // gravity when `gravity_aligned`) and solves it, with the objects' centroids as the mapped
+  // keyframes saw them as landmarks when graph.landmarks.enabled (those of other keyframes are
+  // left out). The updates are the keyframes that moved (T_map_kf). Resets Due(graph). One
+  // solve at a time; recording goes on while it solves (only the build holds the records).
   StatusOr<GraphResult> Optimize(const std::vector<MappedKeyframe>& mapped, bool gravity_aligned,
-                                 int64_t graph = kSharedGraph);
+                                 int64_t graph = kSharedGraph,
+                                 const std::vector<CentroidObservation>& centroids = {});
 
   LoopStats Stats() const;
   // Records that a solve of island graph `island` was applied to its map (LoopStats::islands).
@@ -122,7 +124,7 @@ class LoopCloser {
   LoopOptions options_;
   // The graph over the records (mu_ held by the caller's lock inside).
   Status BuildGraph(const std::vector<MappedKeyframe>& mapped, bool gravity_aligned,
-                    PoseGraph* graph);
+                    const std::vector<CentroidObservation>& centroids, PoseGraph* graph);
   // What counts towards a graph's next solve.
   struct Pending {
     int new_matches = 0;

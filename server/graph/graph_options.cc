@@ -21,7 +21,8 @@ Status CheckGraphKeys(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(
       CheckKnownKeys(node["gravity"], "graph.gravity", {"sigma_rad", "loss_scale"}));
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["landmarks"], "graph.landmarks",
-                                      {"enabled", "sigma_m", "huber_m", "min_observations"}));
+                                      {"enabled", "sigma_m", "huber_m", "min_observations",
+                                       "max_object_size_m"}));
   return CheckKnownKeys(node["solver"], "graph.solver",
                         {"max_iterations", "threads", "function_tolerance"});
 }
@@ -51,6 +52,7 @@ Status ReadSections(const YAML::Node& node, GraphOptions* g) {
   LOCI_RETURN_IF_ERROR(ReadOptional(lm, "sigma_m", &g->landmarks.sigma_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(lm, "huber_m", &g->landmarks.huber_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(lm, "min_observations", &g->landmarks.min_observations));
+  LOCI_RETURN_IF_ERROR(ReadOptional(lm, "max_object_size_m", &g->landmarks.max_object_size_m));
   const YAML::Node solver = node["solver"];
   LOCI_RETURN_IF_ERROR(ReadOptional(solver, "max_iterations", &g->solver.max_iterations));
   LOCI_RETURN_IF_ERROR(ReadOptional(solver, "threads", &g->solver.threads));
@@ -104,6 +106,7 @@ Status GraphOptions::Validate() const {
     return Bad("landmarks.sigma_m and landmarks.huber_m must be > 0");
   }
   if (landmarks.min_observations < 1) return Bad("landmarks.min_observations >= 1");
+  if (!(landmarks.max_object_size_m > 0)) return Bad("landmarks.max_object_size_m must be > 0");
   if (solver.max_iterations < 1 || solver.threads < 1) {
     return Bad("solver.max_iterations and solver.threads must be >= 1");
   }

@@ -63,6 +63,9 @@ struct LandmarkOptions {
   double sigma_m = 0.05;     // standard deviation of an observed centroid, each axis, m (0.05)
   double huber_m = 0.10;     // Huber threshold on the centroid error, m (0.10)
   int min_observations = 2;  // landmarks seen by fewer keyframes are left out (2)
+  // Only objects up to this long are landmarks on the server (MapServer): one view of a larger
+  // one (a desk, a chair) shows a part of it, centred elsewhere than the next view's, m (0.6)
+  double max_object_size_m = 0.6;
 };
 
 // Per-keyframe gravity priors: a keyframe that carries its own gravity measurement (the client's

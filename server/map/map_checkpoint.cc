@@ -207,6 +207,9 @@ std::string Mapper::SaveCheckpoint() const {
       ks->set_t_ns(k.t_ns);
       ToState(k.T_base_kf, ks->mutable_t_base_kf());
       for (int64_t id : k.observation_object_ids) ks->add_observation_object_id(id);
+      for (const Eigen::Vector3f& c : k.observation_centroids_kf_m) {
+        for (int axis = 0; axis < 3; ++axis) ks->add_observation_centroid_kf_m(c[axis]);
+      }
     }
     for (const auto& [robot, pose] : latest_poses_) {
       auto& rp = (*out.mutable_latest_poses())[robot];
@@ -247,7 +250,12 @@ Status Mapper::LoadCheckpoint(const std::string& bytes) {
   keyframe_poses_.reserve(in.keyframes_size());
   for (const auto& k : in.keyframes()) {
     keyframe_poses_.push_back({k.keyframe_id(), k.robot(), k.t_ns(), FromState(k.t_base_kf()),
-                               {k.observation_object_id().begin(), k.observation_object_id().end()}});
+                               {k.observation_object_id().begin(), k.observation_object_id().end()},
+                               {}});
+    const auto& c = k.observation_centroid_kf_m();
+    for (int i = 0; i + 2 < c.size(); i += 3) {
+      keyframe_poses_.back().observation_centroids_kf_m.emplace_back(c[i], c[i + 1], c[i + 2]);
+    }
   }
   latest_poses_.clear();
   for (const auto& [robot, rp] : in.latest_poses()) {

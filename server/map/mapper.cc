@@ -191,13 +191,13 @@ StageTimes Mapper::Integrate(const MapperKeyframe& kf, const KeyframeProducts& p
     if (!have_frame_) FixFirstFrame(kf, gravity_cam);  // the origin and a first up
     // In id order; a keyframe held back (an unaligned robot's) may arrive after newer ones.
     keyframe_poses_.insert(KeyframePoseAfter(kf.keyframe_id),
-                           {kf.keyframe_id, kf.robot, kf.t_ns, kf.T_base_kf, {}});
+                           {kf.keyframe_id, kf.robot, kf.t_ns, kf.T_base_kf, {}, {}});
   }
   if (!frame_settled_) CollectFrameEvidence(kf, gravity_cam, products);
-  std::vector<int64_t> ids = IntegrateProducts(kf, products, &times, &events);
+  Observed observed = IntegrateProducts(kf, products, &times, &events);
   {
     std::lock_guard<std::mutex> lock(mu_);
-    FindKeyframePose(kf.keyframe_id)->observation_object_ids = std::move(ids);
+    KeepObserved(kf.keyframe_id, std::move(observed));
   }
   if (!frame_settled_) {
     MapperKeyframe kept = kf;  // the products carry what mapping needs; drop the images
@@ -259,14 +259,20 @@ void Mapper::SettleFrame(std::vector<ObjectEventOut>* events) {
   evidence_.points_base.shrink_to_fit();
   for (size_t i = 0; i < settling.size(); ++i) {
     StageTimes ignored;
-    std::vector<int64_t> ids =
+    Observed observed =
         IntegrateProducts(settling[i].keyframe, settling[i].products, &ignored, events);
     std::lock_guard<std::mutex> lock(mu_);
-    FindKeyframePose(settling[i].keyframe.keyframe_id)->observation_object_ids = std::move(ids);
+    KeepObserved(settling[i].keyframe.keyframe_id, std::move(observed));
   }
 }
 
-std::vector<int64_t> Mapper::IntegrateProducts(const MapperKeyframe& kf,
+void Mapper::KeepObserved(int64_t keyframe_id, Observed observed) {
+  KeyframePose* pose = &*FindKeyframePose(keyframe_id);
+  pose->observation_object_ids = std::move(observed.object_ids);
+  pose->observation_centroids_kf_m = std::move(observed.centroids_kf_m);
+}
+
+Mapper::Observed Mapper::IntegrateProducts(const MapperKeyframe& kf,
                                                const KeyframeProducts& products,
                                                StageTimes* times,
                                                std::vector<ObjectEventOut>* events) {
@@ -281,7 +287,12 @@ std::vector<int64_t> Mapper::IntegrateProducts(const MapperKeyframe& kf,
   for (const ObjectObservation& o : products.observations) {
     observations.push_back(ToMap(o, kf, T_map_kf_f, options_.fusion.centroid_from_box));
   }
-  std::vector<int64_t> ids;
+  Observed observed;
+  const SE3d T_kf_map = T_map_kf.inverse();
+  for (const MapObservation& o : observations) {
+    observed.centroids_kf_m.push_back((T_kf_map * o.centroid_m).cast<float>());
+  }
+  std::vector<int64_t>& ids = observed.object_ids;
   std::vector<SemanticPoint> points;
   {
     std::lock_guard<std::mutex> lock(mu_);
@@ -315,7 +326,7 @@ std::vector<int64_t> Mapper::IntegrateProducts(const MapperKeyframe& kf,
     PushOctomap(std::move(scan));
   }
   AddTimes(*times);
-  return ids;
+  return observed;
 }
 
 Mapper::OctomapScan Mapper::ThinScan(const std::vector<SemanticPoint>& static_points_m,

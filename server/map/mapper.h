@@ -162,6 +162,16 @@ class Mapper {
   std::vector<KeyframePoseUpdate> KeyframePoses() const;
   // How many keyframes are integrated (KeyframePoses().size() without the copy).
   size_t KeyframeCount() const;
+  // An object's centroid as one keyframe saw it (the centre of that view's points, keyframe
+  // frame, m): the pose graph's object landmarks (paper 000 eq. 19).
+  struct SeenCentroid {
+    int64_t keyframe_id = 0;
+    int64_t object_id = 0;  // the object it is part of now (merges followed)
+    Vec3d c_kf_m = Vec3d::Zero();
+  };
+  // Every view of a confirmed object no longer than max_size_m that is no flat-topped furniture
+  // (a desk's views are parts of it, each centred elsewhere), in keyframe id order.
+  std::vector<SeenCentroid> SeenCentroids(double max_size_m) const;
   // Whether the keyframe is in the map.
   bool HasKeyframe(int64_t keyframe_id) const;
   std::map<std::string, RobotPose> LatestPoses() const;
@@ -211,11 +221,19 @@ class Mapper {
     int64_t t_ns = 0;
     SE3d T_base_kf = SE3d::Identity();
     std::vector<int64_t> observation_object_ids;  // the object each observation went into
+    std::vector<Eigen::Vector3f> observation_centroids_kf_m;  // each one's centroid, kf frame
   };
+  // What a keyframe's observations went into: one entry per observation.
+  struct Observed {
+    std::vector<int64_t> object_ids;
+    std::vector<Eigen::Vector3f> centroids_kf_m;
+  };
+  // mu_ held: keeps `observed` with the keyframe's pose.
+  void KeepObserved(int64_t keyframe_id, Observed observed);
   // World products of one keyframe (objects, cloud, gravity, poses) in the current map frame;
   // appends object events. Caller holds no lock.
-  // Returns the object id of each observation.
-  std::vector<int64_t> IntegrateProducts(const MapperKeyframe& kf,
+  // Returns the object id and the kf-frame centroid of each observation.
+  Observed IntegrateProducts(const MapperKeyframe& kf,
                                          const KeyframeProducts& products, StageTimes* times,
                                          std::vector<ObjectEventOut>* events);
   void FixFirstFrame(const MapperKeyframe& kf, const std::optional<Vec3d>& gravity_cam);

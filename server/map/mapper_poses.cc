@@ -1,7 +1,8 @@
 // Mapper::UpdateKeyframePoses: keyframes whose poses changed (loop closure, robot alignment)
 // move their contribution to the objects and the cloud: what they added at the old pose comes
 // out, the same products go back in at the new pose, and moved objects that now coincide with
-// others merge. Only the moved keyframes' products are read.
+// others merge. Only the moved keyframes' products are read. Mapper::SeenCentroids: what the
+// pose graph's object landmarks need of the map.
 #include <algorithm>
 #include <future>
 
@@ -105,6 +106,24 @@ void Mapper::MoveKeyframe(size_t index, const SE3d& T_base_kf, const KeyframePro
   k.T_base_kf = T_base_kf;
   RobotPose& latest = latest_poses_[k.robot];
   if (latest.t_ns == k.t_ns) latest.T_map_cam = T_map_kf_new;
+}
+
+std::vector<Mapper::SeenCentroid> Mapper::SeenCentroids(double max_size_m) const {
+  std::lock_guard<std::mutex> lock(mu_);
+  std::vector<SeenCentroid> seen;
+  for (const KeyframePose& k : keyframe_poses_) {
+    const size_t n = std::min(k.observation_object_ids.size(), k.observation_centroids_kf_m.size());
+    for (size_t i = 0; i < n; ++i) {
+      const int64_t id = objects_.Resolve(k.observation_object_ids[i]);
+      const FusedObject* object = objects_.Find(id);
+      if (object == nullptr || !object->confirmed() || 2.0 * object->half_size_m() > max_size_m ||
+          IsFlatTopClass(options_.observation.mask.flat_top_classes, object->labels().Argmax())) {
+        continue;
+      }
+      seen.push_back({k.keyframe_id, id, k.observation_centroids_kf_m[i].cast<double>()});
+    }
+  }
+  return seen;
 }
 
 }  // namespace loci::server

@@ -24,6 +24,18 @@
 #include "server/service/map_server.h"
 
 namespace loci::server {
+namespace {
+
+// The map's objects as each keyframe saw them: the pose graph's landmarks (graph.landmarks).
+std::vector<CentroidObservation> SeenCentroids(const Mapper& map, const GraphOptions& graph) {
+  std::vector<CentroidObservation> out;
+  for (const Mapper::SeenCentroid& c : map.SeenCentroids(graph.landmarks.max_object_size_m)) {
+    out.push_back({c.keyframe_id, c.object_id, c.c_kf_m});
+  }
+  return out;
+}
+
+}  // namespace
 
 void MapServer::RecordForLoops(const MapperKeyframe& kf) {
   if (!closer_) return;
@@ -165,6 +177,7 @@ void MapServer::CloseLoops(const SolveTarget& target) {
   std::shared_ptr<const Mapper> map;
   SE3d T_map_base;
   std::vector<Mapper::KeyframePoseUpdate> solved;
+  std::vector<CentroidObservation> centroids;
   bool gravity = false;
   {
     std::lock_guard<HandoffMutex> mapping(mapping_mu_);
@@ -175,6 +188,7 @@ void MapServer::CloseLoops(const SolveTarget& target) {
     if (!closer_->Due(target.graph, size)) return;
     T_map_base = map->MapFromBaseFrame();
     solved = map->KeyframePoses();
+    if (options_.graph.landmarks.enabled) centroids = SeenCentroids(*map, options_.graph);
     gravity = map->FrameSource().find("gravity") != std::string::npos;
   }
   std::vector<MappedKeyframe> mapped;
@@ -182,7 +196,7 @@ void MapServer::CloseLoops(const SolveTarget& target) {
   for (const Mapper::KeyframePoseUpdate& p : solved) {
     mapped.push_back({p.keyframe_id, T_map_base * p.T_base_kf});
   }
-  auto result = closer_->Optimize(mapped, gravity, target.graph);
+  auto result = closer_->Optimize(mapped, gravity, target.graph, centroids);
   if (!result.ok()) {
     spdlog::warn("pose graph not solved: {}", result.status().ToString());
     return;
@@ -233,11 +247,12 @@ void MapServer::ApplySolution(const SolveTarget& target, const std::shared_ptr<c
   }
   spdlog::info(
       "{}: {} keyframes, loops {} kept / {} rejected, merges {} kept / {} rejected, "
-      "{} unconnected parts, {}{} gravity priors, guard {:.0f} ms + solve {:.0f} ms; {} keyframes "
-      "moved ({} of them mapped during the solve) in {:.0f} ms, {} chunks, mapping paused at most "
-      "{:.0f} ms",
+      "{} unconnected parts, {}{} gravity priors, {} object landmarks ({} views), guard {:.0f} ms "
+      "+ solve {:.0f} ms; {} keyframes moved ({} of them mapped during the solve) in {:.0f} ms, "
+      "{} chunks, mapping paused at most {:.0f} ms",
       graph, g.nodes, g.loops_accepted, g.loops_rejected, g.merges_accepted, g.merges_rejected,
-      g.islands, g.four_dof ? "4-DoF, " : "", g.gravity_priors, g.pcm_ms, g.solve_ms,
+      g.islands, g.four_dof ? "4-DoF, " : "", g.gravity_priors, g.landmarks,
+      g.centroid_observations, g.pcm_ms, g.solve_ms,
       moved.moved, late, moved.total_ms, moved.chunks, moved.longest_hold_ms);
   if (!moved.status.ok()) {
     spdlog::warn("{}: solution partly applied ({} keyframes moved): {}", graph, moved.moved,

@@ -244,5 +244,38 @@ TEST(LoopCloser, AnIslandsGraphIsDueOnItsOwnMatchesAndMovesToTheShared) {
   EXPECT_TRUE(closer.Stats().islands.empty());
 }
 
+// The objects' centroids as the map's keyframes saw them (MapServer passes Mapper::SeenCentroids)
+// go into the graph as landmarks when graph.landmarks.enabled: without a single loop match they
+// cut the drift; off, they are ignored. Views from keyframes the graph does not hold are left out.
+TEST(LoopCloser, ObjectCentroidsTheMapRecordsCutTheDriftWhenEnabled) {
+  const Scene s = MakeScene();
+  std::mt19937 rng(5);
+  const auto objects = ObjectsAroundSquare(SquarePathOptions{}, 30, &rng);
+  std::vector<CentroidObservation> seen = ObserveCentroids(s.robot, objects, 3.0, 0.03, &rng);
+  ASSERT_GT(seen.size(), 100u);
+  seen.push_back({999999, 1, Vec3d(0, 0, 1)});  // a keyframe that is not mapped
+  const std::vector<MappedKeyframe> mapped = Mapped(s.robot);
+  std::map<int64_t, SE3d> before;
+  for (const MappedKeyframe& m : mapped) before[m.keyframe_id] = m.T_map_kf;
+  GraphOptions with;
+  with.landmarks.enabled = true;
+  LoopCloser on(with, Options()), off(GraphOptions{}, Options());
+  Record(s.robot, 1, &on);
+  Record(s.robot, 1, &off);
+  auto r_on = on.Optimize(mapped, /*gravity_aligned=*/true, kSharedGraph, seen);
+  auto r_off = off.Optimize(mapped, /*gravity_aligned=*/true, kSharedGraph, seen);
+  ASSERT_TRUE(r_on.ok()) << r_on.status();
+  ASSERT_TRUE(r_off.ok()) << r_off.status();
+  const double ate_before = Ate(s.robot, before);
+  const double ate_on = Ate(s.robot, Apply(mapped, *r_on));
+  std::printf("landmarks %zu (%zu views): ATE %.4f m -> %.4f m\n", r_on->stats.landmarks,
+              r_on->stats.centroid_observations, ate_before, ate_on);
+  EXPECT_GE(r_on->stats.landmarks, 20u);
+  EXPECT_EQ(r_on->stats.centroid_observations, seen.size() - 1);
+  EXPECT_LE(ate_on, ate_before / 3);
+  EXPECT_EQ(r_off->stats.landmarks, 0u);
+  EXPECT_NEAR(Ate(s.robot, Apply(mapped, *r_off)), ate_before, 1e-6);
+}
+
 }  // namespace
 }  // namespace loci::server

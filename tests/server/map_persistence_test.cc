@@ -1,5 +1,6 @@
 // What the database keeps of the map: per-keyframe products (product_codec.h) map exactly as
-// fresh ones, and a map resumed from a checkpoint equals the map of an uninterrupted run.
+// fresh ones, a map resumed from a checkpoint equals the map of an uninterrupted run, and the
+// views' object centroids (the pose graph's landmarks) survive a checkpoint.
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
@@ -122,6 +123,45 @@ TEST(MapCheckpoint, ResumingFromACheckpointGivesTheUninterruptedMap) {
   ExpectSameMap(uninterrupted, resumed, 1e-3);
   EXPECT_FALSE(events_c.empty());
   EXPECT_LT(events_c.size(), events_before_resume);
+}
+
+// The pose graph's object landmarks (Mapper::SeenCentroids): each view of a small confirmed
+// object gives its centre in the keyframe frame, which the keyframe's pose puts near the fused
+// centroid; a size limit leaves the laptop (0.35 m) out; a checkpoint keeps them.
+TEST(MapCheckpoint, EachViewsObjectCentroidIsKeptForTheLandmarks) {
+  const auto views = Views(DefaultBoxes(/*with_person=*/false), 16, /*masks=*/true);
+  Mapper mapper(BoxWorldOptions());
+  for (const auto& kf : views) mapper.Integrate(kf);
+  std::map<int64_t, MapObject> objects;
+  for (const MapObject& o : mapper.Snapshot(true)) objects[o.id] = o;
+  std::map<int64_t, SE3d> T_map_kf;
+  for (const auto& k : mapper.KeyframePoses()) {
+    T_map_kf[k.keyframe_id] = mapper.MapFromBaseFrame() * k.T_base_kf;
+  }
+  const auto seen = mapper.SeenCentroids(0.6);
+  std::map<std::string, int> views_of;
+  for (const Mapper::SeenCentroid& c : seen) {
+    ASSERT_TRUE(objects.count(c.object_id)) << "not a confirmed object: " << c.object_id;
+    const MapObject& o = objects.at(c.object_id);
+    ++views_of[o.class_name];
+    EXPECT_LT((T_map_kf.at(c.keyframe_id) * c.c_kf_m - o.centroid_m).norm(), 0.05)
+        << o.class_name << " from keyframe " << c.keyframe_id;
+  }
+  EXPECT_GE(views_of["book"], 8);
+  EXPECT_GE(views_of["cup"], 8);
+  EXPECT_GE(views_of["laptop"], 8);
+  for (const Mapper::SeenCentroid& c : mapper.SeenCentroids(0.3)) {
+    EXPECT_NE(objects.at(c.object_id).class_name, "laptop");
+  }
+  Mapper resumed(BoxWorldOptions());
+  ASSERT_TRUE(resumed.LoadCheckpoint(mapper.SaveCheckpoint()).ok());
+  const auto again = resumed.SeenCentroids(0.6);
+  ASSERT_EQ(again.size(), seen.size());
+  for (size_t i = 0; i < seen.size(); ++i) {
+    EXPECT_EQ(again[i].keyframe_id, seen[i].keyframe_id);
+    EXPECT_EQ(again[i].object_id, seen[i].object_id);
+    EXPECT_LT((again[i].c_kf_m - seen[i].c_kf_m).norm(), 1e-6);
+  }
 }
 
 TEST(MapCheckpoint, RefusesACheckpointOfOtherOptionsOrBrokenBytes) {
