@@ -267,7 +267,8 @@ void Mapper::SettleFrame(std::vector<ObjectEventOut>* events) {
 }
 
 void Mapper::KeepObserved(int64_t keyframe_id, Observed observed) {
-  KeyframePose* pose = &*FindKeyframePose(keyframe_id);
+  auto pose = FindKeyframePose(keyframe_id);
+  if (pose == keyframe_poses_.end()) return;  // inserted before its products were integrated
   pose->observation_object_ids = std::move(observed.object_ids);
   pose->observation_centroids_kf_m = std::move(observed.centroids_kf_m);
 }
