@@ -9,10 +9,13 @@
 #          one robot per run, starting at frame S (the whole rest of the sequence)
 #        scripts/eval-runs.sh BIN_DIR TUM_DIR OUT_DIR two-robots N
 #          N runs of two robots streaming at once: A frames 0-450, B frames 300-end
+#        scripts/eval-runs.sh BIN_DIR TUM_DIR OUT_DIR live N
+#          N runs of the whole sequence with loci-track --live (the detector on its own thread,
+#          as on a robot: the map depends on timing, so the runs spread)
 # Environment: LOCI_EVAL_CONFIG (server YAML, default config/server.yaml).
 set -euo pipefail
 
-if [ $# -lt 5 ]; then sed -n 2,12p "$0" >&2; exit 2; fi
+if [ $# -lt 5 ]; then sed -n 2,15p "$0" >&2; exit 2; fi
 BIN="$(cd "$1" && pwd)"
 DATA="$(cd "$2" && pwd)"
 OUT="$3"
@@ -85,6 +88,16 @@ case "$MODE" in
       wait "$pid_a"
       evaluate "$dir" "two$n"
       echo "two-robot run $n done" >&2
+    done
+    ;;
+  live)
+    for n in $(seq 1 "$1"); do
+      dir="$OUT/live$n"
+      mkdir -p "$dir"
+      start_server "$dir"
+      track robot "$dir/track.log" --live
+      evaluate "$dir" "live$n"
+      echo "live run $n done" >&2
     done
     ;;
   *) echo "unknown mode $MODE" >&2; exit 2 ;;
