@@ -268,15 +268,14 @@ void Mapper::SettleFrame(std::vector<ObjectEventOut>* events) {
 
 void Mapper::KeepObserved(int64_t keyframe_id, Observed observed) {
   auto pose = FindKeyframePose(keyframe_id);
-  if (pose == keyframe_poses_.end()) return;  // inserted before its products were integrated
+  if (pose == keyframe_poses_.end()) return;  // no such keyframe: nothing to keep
   pose->observation_object_ids = std::move(observed.object_ids);
   pose->observation_centroids_kf_m = std::move(observed.centroids_kf_m);
 }
 
 Mapper::Observed Mapper::IntegrateProducts(const MapperKeyframe& kf,
-                                               const KeyframeProducts& products,
-                                               StageTimes* times,
-                                               std::vector<ObjectEventOut>* events) {
+                                           const KeyframeProducts& products, StageTimes* times,
+                                           std::vector<ObjectEventOut>* events) {
   SE3d T_map_kf;
   {
     std::lock_guard<std::mutex> lock(mu_);
