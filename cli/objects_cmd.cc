@@ -133,6 +133,11 @@ void PrintAlignment(const loci::v1::GetStatsResponse& resp) {
                   static_cast<unsigned long long>(g.merges_rejected()),
                   static_cast<unsigned long long>(g.islands()), g.four_dof() ? ", 4-DoF" : "",
                   static_cast<unsigned long long>(g.gravity_priors()), g.last_solve_ms());
+      if (g.landmarks() > 0) {
+        std::printf("object landmarks   %llu objects seen in %llu keyframe views\n",
+                    static_cast<unsigned long long>(g.landmarks()),
+                    static_cast<unsigned long long>(g.landmark_views()));
+      }
       std::printf("map moved          in %.0f ms, %llu chunks; mapping paused at most %.0f ms "
                   "(%.0f ms since start)\n",
                   g.last_apply_ms(), static_cast<unsigned long long>(g.last_apply_chunks()),

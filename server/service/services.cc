@@ -411,6 +411,8 @@ void QueryService::FillPoseGraph(loci::v1::PoseGraphStats* out) {
   out->set_islands(g.islands);
   out->set_four_dof(g.four_dof);
   out->set_gravity_priors(g.gravity_priors);
+  out->set_landmarks(g.landmarks);
+  out->set_landmark_views(g.centroid_observations);
   out->set_last_solve_ms(g.pcm_ms + g.solve_ms);
   out->set_last_apply_ms(st->last_apply_ms);
   out->set_last_apply_chunks(st->last_apply_chunks);

@@ -136,6 +136,47 @@ TEST(LoopClosure, SyntheticDriftIsCutToAThirdByTheServersPoseGraph) {
   if (!::testing::Test::HasFailure()) fs::remove_all(dir);
 }
 
+// The same drifted synthetic room with graph.landmarks.enabled: the fused objects' centroids as
+// each keyframe saw them (Mapper::SeenCentroids) enter the server's solves, GetStats counts
+// them, and the drift is still cut to a third.
+TEST(LoopClosure, TheLiveMapsObjectLandmarksEnterTheServersSolve) {
+  const std::string dir = FreshDir("loci_loop_landmarks_");
+  const std::string scene = dir + "/scene";
+  const std::string synth = std::string(LOCI_BIN) + " synth --out " + scene +
+                            " --seed 7 --frames 450 --objects 8 --noise > /dev/null";
+  ASSERT_EQ(std::system(synth.c_str()), 0) << synth;
+  auto truth = ReadTumTrajectory(scene + "/groundtruth.txt");
+  ASSERT_TRUE(truth.ok()) << truth.status();
+  const std::string drifted = dir + "/drifted.txt";
+  ASSERT_TRUE(WriteTumTrajectory(drifted, Drifted(*truth, 1.0, Vec3d(0.01, -0.008, 0))).ok());
+  std::ifstream in(std::string(LOCI_SOURCE_DIR) + "/config/server.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string yaml = text.str();
+  const std::string key = "  landmarks:";
+  const size_t section = yaml.find(key);
+  ASSERT_NE(section, std::string::npos) << "config/server.yaml has no graph.landmarks section";
+  const size_t at = yaml.find("enabled: false", section);
+  ASSERT_NE(at, std::string::npos) << "graph.landmarks.enabled is not false in config/server.yaml";
+  yaml.replace(at, std::string("enabled: false").size(), "enabled: true");
+  const std::string config = dir + "/landmarks.yaml";
+  std::ofstream(config) << yaml;
+
+  testing::RobotRun robot{"A", 0, 0, dir + "/A_keyframes.txt", "",
+                          "--detections " + scene + "/detections.jsonl --poses " + drifted};
+  const testing::RobotsResult r = testing::RunRobots(scene, {robot}, dir, config);
+  const std::optional<KeyframeAtes> ate = SentAndServerAte("synthetic, landmarks", *truth, r);
+  ASSERT_TRUE(ate.has_value()) << "robot A's keyframes were not written or not mapped";
+  const v1::PoseGraphStats& g = r.stats.pose_graph();
+  std::printf("last solve: %llu object landmarks, %llu views\n",
+              static_cast<unsigned long long>(g.landmarks()),
+              static_cast<unsigned long long>(g.landmark_views()));
+  EXPECT_GE(g.landmarks(), 4u);  // the room's small objects, seen from many keyframes
+  EXPECT_GE(g.landmark_views(), 2 * g.landmarks());
+  EXPECT_LE(ate->server_m, ate->sent_m / 3);
+  if (!::testing::Test::HasFailure()) fs::remove_all(dir);
+}
+
 // Verified loop matches (the store's place matches) whose older keyframe was captured in the
 // session's first `first_s` seconds; -1 when the database cannot be read.
 int LoopsIntoTheFirstSeconds(const std::string& db_path, double first_s) {
