@@ -81,21 +81,38 @@ std::optional<KeyframeAtes> SentAndServerAte(const char* what, const Trajectory&
   return a;
 }
 
-TEST(LoopClosure, SyntheticDriftIsCutToAThirdByTheServersPoseGraph) {
-  const std::string dir = FreshDir("loci_loop_closure_");
+// A `loci synth` room (seed 7, 450 frames, 8 objects) in dir/scene whose robot A sends poses
+// that drift by 1 deg/s of yaw and 1.3 cm/s; `truth` is the room's ground truth.
+void DriftedRoom(const std::string& dir, Trajectory* truth, testing::RobotRun* robot) {
   const std::string scene = dir + "/scene";
   const std::string synth = std::string(LOCI_BIN) + " synth --out " + scene +
                             " --seed 7 --frames 450 --objects 8 --noise > /dev/null";
   ASSERT_EQ(std::system(synth.c_str()), 0) << synth;
-  auto truth = ReadTumTrajectory(scene + "/groundtruth.txt");
-  ASSERT_TRUE(truth.ok()) << truth.status();
+  auto gt = ReadTumTrajectory(scene + "/groundtruth.txt");
+  ASSERT_TRUE(gt.ok()) << gt.status();
+  *truth = *gt;
   const std::string drifted = dir + "/drifted.txt";
   ASSERT_TRUE(WriteTumTrajectory(drifted, Drifted(*truth, 1.0, Vec3d(0.01, -0.008, 0))).ok());
+  *robot = {"A", 0, 0, dir + "/A_keyframes.txt", "",
+            "--detections " + scene + "/detections.jsonl --poses " + drifted};
+}
 
-  testing::RobotRun robot{"A", 0, 0, dir + "/A_keyframes.txt", "",
-                          "--detections " + scene + "/detections.jsonl --poses " + drifted};
-  const testing::RobotsResult r = testing::RunRobots(scene, {robot}, dir);
-  const std::optional<KeyframeAtes> ate = SentAndServerAte("synthetic", *truth, r);
+// config/server.yaml as shipped.
+std::string ShippedServerYaml() {
+  std::ifstream in(std::string(LOCI_SOURCE_DIR) + "/config/server.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+TEST(LoopClosure, SyntheticDriftIsCutToAThirdByTheServersPoseGraph) {
+  const std::string dir = FreshDir("loci_loop_closure_");
+  Trajectory truth;
+  testing::RobotRun robot;
+  ASSERT_NO_FATAL_FAILURE(DriftedRoom(dir, &truth, &robot));
+
+  const testing::RobotsResult r = testing::RunRobots(dir + "/scene", {robot}, dir);
+  const std::optional<KeyframeAtes> ate = SentAndServerAte("synthetic", truth, r);
   ASSERT_TRUE(ate.has_value()) << "robot A's keyframes were not written or not mapped";
   const double before = ate->sent_m, after = ate->server_m;
   const v1::PoseGraphStats& g = r.stats.pose_graph();
@@ -110,10 +127,7 @@ TEST(LoopClosure, SyntheticDriftIsCutToAThirdByTheServersPoseGraph) {
   // The same map options written differently: the checkpoint's fingerprint does not match, so
   // `loci export` replays every keyframe from its stored pose. Keyframes a solution left in place
   // (its anchor) must keep their pose, though their session's placement moved since.
-  std::ifstream in(std::string(LOCI_SOURCE_DIR) + "/config/server.yaml");
-  std::stringstream text;
-  text << in.rdbuf();
-  std::string yaml = text.str();
+  std::string yaml = ShippedServerYaml();
   const std::string key = "confirm_llr: 2.0\n";
   const size_t at = yaml.find(key);
   ASSERT_NE(at, std::string::npos) << "config/server.yaml changed: pick another key to respell";
@@ -141,18 +155,10 @@ TEST(LoopClosure, SyntheticDriftIsCutToAThirdByTheServersPoseGraph) {
 // them, and the drift is still cut to a third.
 TEST(LoopClosure, TheLiveMapsObjectLandmarksEnterTheServersSolve) {
   const std::string dir = FreshDir("loci_loop_landmarks_");
-  const std::string scene = dir + "/scene";
-  const std::string synth = std::string(LOCI_BIN) + " synth --out " + scene +
-                            " --seed 7 --frames 450 --objects 8 --noise > /dev/null";
-  ASSERT_EQ(std::system(synth.c_str()), 0) << synth;
-  auto truth = ReadTumTrajectory(scene + "/groundtruth.txt");
-  ASSERT_TRUE(truth.ok()) << truth.status();
-  const std::string drifted = dir + "/drifted.txt";
-  ASSERT_TRUE(WriteTumTrajectory(drifted, Drifted(*truth, 1.0, Vec3d(0.01, -0.008, 0))).ok());
-  std::ifstream in(std::string(LOCI_SOURCE_DIR) + "/config/server.yaml");
-  std::stringstream text;
-  text << in.rdbuf();
-  std::string yaml = text.str();
+  Trajectory truth;
+  testing::RobotRun robot;
+  ASSERT_NO_FATAL_FAILURE(DriftedRoom(dir, &truth, &robot));
+  std::string yaml = ShippedServerYaml();
   const std::string key = "  landmarks:";
   const size_t section = yaml.find(key);
   ASSERT_NE(section, std::string::npos) << "config/server.yaml has no graph.landmarks section";
@@ -162,10 +168,8 @@ TEST(LoopClosure, TheLiveMapsObjectLandmarksEnterTheServersSolve) {
   const std::string config = dir + "/landmarks.yaml";
   std::ofstream(config) << yaml;
 
-  testing::RobotRun robot{"A", 0, 0, dir + "/A_keyframes.txt", "",
-                          "--detections " + scene + "/detections.jsonl --poses " + drifted};
-  const testing::RobotsResult r = testing::RunRobots(scene, {robot}, dir, config);
-  const std::optional<KeyframeAtes> ate = SentAndServerAte("synthetic, landmarks", *truth, r);
+  const testing::RobotsResult r = testing::RunRobots(dir + "/scene", {robot}, dir, config);
+  const std::optional<KeyframeAtes> ate = SentAndServerAte("synthetic, landmarks", truth, r);
   ASSERT_TRUE(ate.has_value()) << "robot A's keyframes were not written or not mapped";
   const v1::PoseGraphStats& g = r.stats.pose_graph();
   std::printf("last solve: %llu object landmarks, %llu views\n",
