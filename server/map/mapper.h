@@ -233,9 +233,8 @@ class Mapper {
   // World products of one keyframe (objects, cloud, gravity, poses) in the current map frame;
   // appends object events. Caller holds no lock.
   // Returns the object id and the kf-frame centroid of each observation.
-  Observed IntegrateProducts(const MapperKeyframe& kf,
-                                         const KeyframeProducts& products, StageTimes* times,
-                                         std::vector<ObjectEventOut>* events);
+  Observed IntegrateProducts(const MapperKeyframe& kf, const KeyframeProducts& products,
+                             StageTimes* times, std::vector<ObjectEventOut>* events);
   void FixFirstFrame(const MapperKeyframe& kf, const std::optional<Vec3d>& gravity_cam);
   void CollectFrameEvidence(const MapperKeyframe& kf, const std::optional<Vec3d>& gravity_cam,
                             const KeyframeProducts& products);
