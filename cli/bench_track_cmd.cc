@@ -12,6 +12,7 @@
 
 #include "cli/commands.h"
 #include "client/app/track_pipeline.h"
+#include "client/tracking/depth_time_warp.h"
 #include "client/tracking/frame_undistorter.h"
 #include "client/tracking/tracker.h"
 #include "common/clock_offset.h"
@@ -75,6 +76,7 @@ int RunBenchTrack(const BenchTrackArgs& a) {
       std::cerr << "error: frame " << i << ": " << s.message() << "\n";
       return 1;
     }
+    AlignDepthToColourTime(**tracker, f.depth_t_ns, f.rgb_t_ns, &depth);
     auto r = (*tracker)->Track(bgr, depth, f.rgb_t_ns);
     if (!r.ok()) {
       std::cerr << "error: frame " << i << ": " << r.status().message() << "\n";

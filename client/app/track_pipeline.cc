@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "absl/strings/match.h"
+#include "client/tracking/depth_time_warp.h"
 #include "client/tracking/frame_undistorter.h"
 #include "common/config.h"
 #include "common/progress.h"
@@ -148,6 +149,7 @@ StatusOr<TrackPipelineResult> RunTrackPipeline(const TumSequence& seq, Tracker* 
     ++r.frames;
     bool from_file = false;
     std::vector<Detection2D> dets = PriorFor(f, file_dets, stage, o.max_box_age_ns, &from_file);
+    if (tracker) AlignDepthToColourTime(*tracker, f.depth_t_ns, f.rgb_t_ns, &depth);
     StatusOr<FrameResult> fr = tracker ? tracker->Track(bgr, depth, f.rgb_t_ns, &dets)
                                        : poses->At(f.rgb_t_ns);
     if (!fr.ok()) {

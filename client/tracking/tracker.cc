@@ -131,6 +131,7 @@ StatusOr<FrameResult> Tracker::Track(const cv::Mat& image, const cv::Mat& depth_
     // First frame of a segment: the map starts here, at the last known pose.
     CreateKeyframe(std::move(frame), T_cw_last_, {});
     have_velocity_ = false;
+    last_t_ns_ = t_ns;
     lost_count_ = 0;
     last_kf_frame_ = frame_index_;
     r.state = segment_ == 0 ? TrackState::kInitialised : TrackState::kNewSegment;
@@ -166,6 +167,7 @@ StatusOr<FrameResult> Tracker::Track(const cv::Mat& image, const cv::Mat& depth_
       last_kf_frame_ = frame_index_;
       lost_count_ = 0;
       have_velocity_ = false;
+      last_t_ns_ = t_ns;
       r.state = TrackState::kNewSegment;
       r.segment = segment_;
       r.tracked = true;
@@ -194,8 +196,10 @@ StatusOr<FrameResult> Tracker::Track(const cv::Mat& image, const cv::Mat& depth_
     if (m.dynamic) ++m.point->dynamic_votes;
   }
   velocity_ = T_cw * T_cw_last_.inverse();
+  velocity_dt_ns_ = t_ns - last_t_ns_;
   have_velocity_ = true;
   T_cw_last_ = T_cw;
+  last_t_ns_ = t_ns;
   r.T_odom_cam = T_cw.inverse();
   if (NeedKeyframe(frame, T_cw, matches, inliers)) {
     CreateKeyframe(std::move(frame), T_cw, matches);
@@ -218,6 +222,16 @@ StatusOr<FrameResult> Tracker::Track(const cv::Mat& image, const cv::Mat& depth_
     }
   }
   return finish();
+}
+
+std::optional<SE3d> Tracker::PredictedMotion(int64_t from_t_ns, int64_t to_t_ns) const {
+  if (!have_velocity_ || velocity_dt_ns_ <= 0) return std::nullopt;
+  const double s = static_cast<double>(to_t_ns - from_t_ns) / static_cast<double>(velocity_dt_ns_);
+  const Eigen::AngleAxisd rotation(velocity_.linear());
+  SE3d T = SE3d::Identity();
+  T.linear() = Eigen::AngleAxisd(rotation.angle() * s, rotation.axis()).toRotationMatrix();
+  T.translation() = velocity_.translation() * s;
+  return T;
 }
 
 int Tracker::TrackLocalMap(const OrbFrame& frame, const SE3d& T_cw_init, SE3d* T_cw,

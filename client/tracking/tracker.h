@@ -15,6 +15,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -57,6 +58,11 @@ class Tracker {
   StatusOr<FrameResult> Track(const cv::Mat& image, const cv::Mat& depth_u16, int64_t t_ns,
                               const std::vector<Detection2D>* detections = nullptr);
 
+  // The camera's motion from from_t_ns to to_t_ns under the constant-velocity model of the last
+  // two tracked frames, T_cam(to)_cam(from) (rotation angle and translation scaled with time);
+  // nullopt before two frames are tracked in a row, or when the model spans no time.
+  std::optional<SE3d> PredictedMotion(int64_t from_t_ns, int64_t to_t_ns) const;
+
   const TrackerOptions& options() const { return opt_; }
   int segment() const { return segment_; }
 
@@ -83,6 +89,8 @@ class Tracker {
   bool have_velocity_ = false;
   SE3d T_cw_last_ = SE3d::Identity();  // last tracked pose, T_cam_world
   SE3d velocity_ = SE3d::Identity();   // T_cam_prevcam of the last two tracked frames
+  int64_t velocity_dt_ns_ = 0;         // ... and the time between them
+  int64_t last_t_ns_ = 0;              // stamp of the frame T_cw_last_ belongs to
 };
 
 }  // namespace loci

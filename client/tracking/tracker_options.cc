@@ -9,6 +9,7 @@ constexpr const char* kTrackerKeys[] = {"depth_scale",
                                         "min_depth_m",
                                         "max_depth_m",
                                         "depth_edge_ratio",
+                                        "align_depth_time",
                                         "local_map_keyframes",
                                         "search_radius_px",
                                         "refine_radius_px",
@@ -68,6 +69,7 @@ Status TrackerOptions::FromYaml(const YAML::Node& n) {
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_depth_m", &min_depth_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_depth_m", &max_depth_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "depth_edge_ratio", &depth_edge_ratio));
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "align_depth_time", &align_depth_time));
   const YAML::Node o = n["orb"];
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(o, "tracker.orb", kOrbKeys));
   LOCI_RETURN_IF_ERROR(ReadOptional(o, "num_features", &orb.num_features));

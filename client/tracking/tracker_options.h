@@ -55,6 +55,11 @@ struct TrackerOptions {
   double max_depth_m = 4.0;
   // Depth at a keypoint is used only when its 3x3 neighbours differ by less than this fraction.
   double depth_edge_ratio = 0.03;
+  // The pipeline moves each depth image from its own stamp to the colour image's with the
+  // constant-velocity motion between them (depth_time_warp.h) when the two stamps differ. Off:
+  // on fr1_rpy it left the odometry as it was (ATE 0.0272 -> 0.0270 m) and two desks fused
+  // into one table in 4 of 8 object-map runs (docs/results.md, session 36).
+  bool align_depth_time = false;
   OrbOptions orb;
   KeyframeRuleOptions keyframes;
   DynamicOptions dynamic;
