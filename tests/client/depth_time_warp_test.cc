@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <iostream>
+#include <memory>
 
 #include "client/tracking/tracker.h"
 #include "synth/renderer.h"
@@ -48,6 +49,20 @@ class DepthTimeWarpTest : public ::testing::Test {
     ASSERT_TRUE(scene.ok()) << scene.status();
     scene_ = std::move(*scene);
   }
+  // A tracker (depth alignment on or off) that has tracked frames 0 .. n-1.
+  std::unique_ptr<Tracker> TrackerAfter(int n, bool align_depth_time) const {
+    TrackerOptions opt;
+    opt.camera = scene_.camera;
+    opt.align_depth_time = align_depth_time;
+    auto tracker = Tracker::Create(opt);
+    EXPECT_TRUE(tracker.ok()) << tracker.status();
+    if (!tracker.ok()) return nullptr;
+    for (int i = 0; i < n; ++i) {
+      const synth::RenderedFrame f = RenderAt(i);
+      EXPECT_TRUE((*tracker)->Track(f.bgr, f.depth_u16, f.t_ns).ok());
+    }
+    return std::move(*tracker);
+  }
   synth::RenderedFrame RenderAt(int frame, const SE3d& T_cam_moved = SE3d::Identity()) const {
     const int64_t t_ns = synth::FrameStampNs(scene_.options, frame);
     return synth::Render(scene_, synth::CameraPoseAt(scene_, t_ns) * T_cam_moved, scene_.camera,
@@ -86,36 +101,30 @@ TEST_F(DepthTimeWarpTest, IdentityKeepsEveryDepth) {
 // The tracker's motion model over part of a frame interval is that part of the last motion: it
 // turns the depth rendered 10 ms after a colour frame back to the colour frame's pose.
 TEST_F(DepthTimeWarpTest, TrackerMotionMovesLateDepthToTheColourStamp) {
-  TrackerOptions opt;
-  opt.camera = scene_.camera;
-  opt.align_depth_time = true;
-  auto tracker = Tracker::Create(opt);
-  ASSERT_TRUE(tracker.ok()) << tracker.status();
+  const std::unique_ptr<Tracker> first = TrackerAfter(1, true);
+  ASSERT_NE(first, nullptr);
+  const int64_t t0 = synth::FrameStampNs(scene_.options, 0);
+  EXPECT_FALSE(first->PredictedMotion(t0, t0 + 1000).has_value());  // no motion model yet
   const int last = 12;
-  for (int i = 0; i <= last; ++i) {
-    const synth::RenderedFrame f = RenderAt(i);
-    if (i == 1) {
-      EXPECT_FALSE((*tracker)->PredictedMotion(f.t_ns, f.t_ns + 1000).has_value());
-    }
-    ASSERT_TRUE((*tracker)->Track(f.bgr, f.depth_u16, f.t_ns).ok());
-  }
+  const std::unique_ptr<Tracker> tracker = TrackerAfter(last + 1, true);
+  ASSERT_NE(tracker, nullptr);
   const int64_t t_rgb = synth::FrameStampNs(scene_.options, last + 1);
   const int64_t t_depth = t_rgb + 10'000'000;
   const SE3d T_world_rgb = synth::CameraPoseAt(scene_, t_rgb);
   const SE3d T_world_depth = synth::CameraPoseAt(scene_, t_depth);
   const SE3d T_rgb_depth_true = T_world_rgb.inverse() * T_world_depth;
-  const std::optional<SE3d> T_rgb_depth = (*tracker)->PredictedMotion(t_depth, t_rgb);
+  const std::optional<SE3d> T_rgb_depth = tracker->PredictedMotion(t_depth, t_rgb);
   ASSERT_TRUE(T_rgb_depth.has_value());
   const double true_deg = RotationAngleRad(T_rgb_depth_true) * 180 / M_PI;
   const double err_deg = RotationAngleRad(T_rgb_depth->inverse() * T_rgb_depth_true) * 180 / M_PI;
   std::cout << "10 ms of motion: " << true_deg << " deg, predicted within " << err_deg << " deg\n";
   EXPECT_LT(err_deg, 0.25 * true_deg);
-  EXPECT_TRUE((*tracker)->PredictedMotion(t_rgb, t_rgb)->isApprox(SE3d::Identity()));
+  EXPECT_TRUE(tracker->PredictedMotion(t_rgb, t_rgb)->isApprox(SE3d::Identity()));
 
   const synth::RenderedFrame at_rgb = synth::Render(scene_, T_world_rgb, scene_.camera, t_rgb);
   cv::Mat depth = synth::Render(scene_, T_world_depth, scene_.camera, t_depth).depth_u16;
   const double before = AgreeingShare(depth, at_rgb.depth_u16);
-  AlignDepthToColourTime(**tracker, t_depth, t_rgb, &depth);
+  AlignDepthToColourTime(*tracker, t_depth, t_rgb, &depth);
   const double after = AgreeingShare(depth, at_rgb.depth_u16);
   std::cout << "late depth within 1 % of the colour stamp's: " << before << " -> " << after << "\n";
   EXPECT_GT(after, before);
@@ -123,19 +132,15 @@ TEST_F(DepthTimeWarpTest, TrackerMotionMovesLateDepthToTheColourStamp) {
 }
 
 TEST_F(DepthTimeWarpTest, AlignmentOffOrEqualStampsLeaveTheDepthAlone) {
-  TrackerOptions opt;
-  opt.camera = scene_.camera;
-  opt.align_depth_time = false;
-  auto tracker = Tracker::Create(opt);
-  ASSERT_TRUE(tracker.ok()) << tracker.status();
-  for (int i = 0; i < 4; ++i) {
-    const synth::RenderedFrame f = RenderAt(i);
-    ASSERT_TRUE((*tracker)->Track(f.bgr, f.depth_u16, f.t_ns).ok());
-  }
   const synth::RenderedFrame f = RenderAt(4);
-  cv::Mat depth = f.depth_u16.clone();
-  AlignDepthToColourTime(**tracker, f.t_ns + 15'000'000, f.t_ns, &depth);
-  EXPECT_EQ(cv::countNonZero(depth != f.depth_u16), 0);
+  for (const bool on : {false, true}) {
+    const std::unique_ptr<Tracker> tracker = TrackerAfter(4, on);
+    ASSERT_NE(tracker, nullptr);
+    cv::Mat depth = f.depth_u16.clone();
+    // Off: a depth stamp 15 ms late changes nothing; on: equal stamps change nothing.
+    AlignDepthToColourTime(*tracker, on ? f.t_ns : f.t_ns + 15'000'000, f.t_ns, &depth);
+    EXPECT_EQ(cv::countNonZero(depth != f.depth_u16), 0) << (on ? "on" : "off");
+  }
 }
 
 }  // namespace
