@@ -3,8 +3,10 @@
 // from the colour stamps, 10.7 ms on average in fr1_rpy) captures its depth from where the
 // camera was at the depth stamp; at fr1_rpy's 50-140 deg/s that is 0.5-3 deg away from where it
 // was at the colour stamp. The tracker's constant-velocity motion between the two stamps
-// (Tracker::PredictedMotion) moves the depth to the colour image's instant before anything
-// uses the two together (odometry, object masks, the streamed keyframe).
+// (Tracker::PredictedMotion) can move the depth to the colour image's instant before anything
+// uses the two together (odometry, object masks, the streamed keyframe). The pipeline does so
+// only with tracker.align_depth_time, off by default: on fr1_rpy it did not help (client
+// README, docs/results.md session 36).
 //
 //   AlignDepthToColourTime(tracker, f.depth_t_ns, f.rgb_t_ns, &depth);  // before tracker.Track
 #pragma once
