@@ -13,8 +13,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "common/camera.h"
 #include "client/tracking/tracker.h"
+#include "common/camera.h"
 #include "common/se3.h"
 
 namespace loci {
@@ -28,7 +28,8 @@ cv::Mat WarpDepth(const cv::Mat& depth_u16, double depth_scale, const PinholeCam
 
 // Moves *depth_u16, captured at depth_t_ns, to rgb_t_ns with the tracker's predicted motion
 // (Tracker::PredictedMotion) when options().align_depth_time is set and the stamps differ.
-// Unchanged before the tracker has a motion model (the first frames, after a relocalisation).
+// Unchanged before the tracker has a motion model (the first frames, after a relocalisation),
+// and for stamps further apart than one frame interval.
 void AlignDepthToColourTime(const Tracker& tracker, int64_t depth_t_ns, int64_t rgb_t_ns,
                             cv::Mat* depth_u16);
 

@@ -226,6 +226,7 @@ StatusOr<FrameResult> Tracker::Track(const cv::Mat& image, const cv::Mat& depth_
 
 std::optional<SE3d> Tracker::PredictedMotion(int64_t from_t_ns, int64_t to_t_ns) const {
   if (!have_velocity_ || velocity_dt_ns_ <= 0) return std::nullopt;
+  if (std::abs(to_t_ns - from_t_ns) > velocity_dt_ns_) return std::nullopt;  // not extrapolated
   const double s = static_cast<double>(to_t_ns - from_t_ns) / static_cast<double>(velocity_dt_ns_);
   const Eigen::AngleAxisd rotation(velocity_.linear());
   SE3d T = SE3d::Identity();

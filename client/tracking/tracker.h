@@ -60,7 +60,8 @@ class Tracker {
 
   // The camera's motion from from_t_ns to to_t_ns under the constant-velocity model of the last
   // two tracked frames, T_cam(to)_cam(from) (rotation angle and translation scaled with time);
-  // nullopt before two frames are tracked in a row, or when the model spans no time.
+  // nullopt before two frames are tracked in a row, when the model spans no time, or for a span
+  // longer than the model's own (one frame interval: a velocity is not extrapolated further).
   std::optional<SE3d> PredictedMotion(int64_t from_t_ns, int64_t to_t_ns) const;
 
   const TrackerOptions& options() const { return opt_; }

@@ -120,6 +120,8 @@ TEST_F(DepthTimeWarpTest, TrackerMotionMovesLateDepthToTheColourStamp) {
   std::cout << "10 ms of motion: " << true_deg << " deg, predicted within " << err_deg << " deg\n";
   EXPECT_LT(err_deg, 0.25 * true_deg);
   EXPECT_TRUE(tracker->PredictedMotion(t_rgb, t_rgb)->isApprox(SE3d::Identity()));
+  // Not extrapolated beyond the model's own frame interval (a depth stamp 0.5 s off).
+  EXPECT_FALSE(tracker->PredictedMotion(t_rgb + 500'000'000, t_rgb).has_value());
 
   const synth::RenderedFrame at_rgb = synth::Render(scene_, T_world_rgb, scene_.camera, t_rgb);
   cv::Mat depth = synth::Render(scene_, T_world_depth, scene_.camera, t_depth).depth_u16;
