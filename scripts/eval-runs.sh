@@ -12,10 +12,12 @@
 #        scripts/eval-runs.sh BIN_DIR TUM_DIR OUT_DIR live N
 #          N runs of the whole sequence with loci-track --live (the detector on its own thread,
 #          as on a robot: the map depends on timing, so the runs spread)
-# Environment: LOCI_EVAL_CONFIG (server YAML, default config/server.yaml).
+# Environment: LOCI_EVAL_CONFIG (server YAML, default config/server.yaml), LOCI_EVAL_CLIENT_CONFIG
+# (loci-track YAML, default config/client.yaml), LOCI_EVAL_LOG_LEVEL (loci-server --log-level,
+# default info; RUN/server.log).
 set -euo pipefail
 
-if [ $# -lt 5 ]; then sed -n 2,15p "$0" >&2; exit 2; fi
+if [ $# -lt 5 ]; then sed -n 2,18p "$0" >&2; exit 2; fi
 BIN="$(cd "$1" && pwd)"
 DATA="$(cd "$2" && pwd)"
 OUT="$3"
@@ -23,6 +25,8 @@ MODE="$4"
 shift 4
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 CONFIG="${LOCI_EVAL_CONFIG:-$ROOT/config/server.yaml}"
+CLIENT_CONFIG="${LOCI_EVAL_CLIENT_CONFIG:-$ROOT/config/client.yaml}"
+LOG_LEVEL="${LOCI_EVAL_LOG_LEVEL:-info}"
 MODEL="$ROOT/models/yolox_nano/yolox_nano.onnx"
 mkdir -p "$OUT"
 
@@ -34,6 +38,7 @@ start_server() {
   local dir="$1"
   rm -f "$dir"/loci.db*
   "$BIN/loci-server" --config "$CONFIG" --listen 127.0.0.1:0 --db "$dir/loci.db" \
+    --log-level "$LOG_LEVEL" \
     >"$dir/server.out" 2>"$dir/server.log" &
   SERVER_PID=$!
   ADDR=""
@@ -50,7 +55,7 @@ start_server() {
 track() {  # track ROBOT LOGFILE [loci-track options...]
   local robot="$1" log="$2"
   shift 2
-  "$BIN/loci-track" --config "$ROOT/config/client.yaml" --tum "$DATA" --server "$ADDR" \
+  "$BIN/loci-track" --config "$CLIENT_CONFIG" --tum "$DATA" --server "$ADDR" \
     --robot "$robot" --model "$MODEL" --log-level warn --no-progress "$@" >"$log" 2>&1
 }
 

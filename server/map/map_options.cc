@@ -24,8 +24,8 @@ constexpr const char* kFusionKeys[] = {
     "existence_class_prior_views", "confirm_min_span_s", "straddle_share",
     "straddle_apart_views", "straddle_pieces", "furniture_merge_containment",
     "furniture_footprint_containment",
-    "top_load_reach_m", "top_load_max_gap_m", "top_load_max_sink_m", "part_containment",
-    "never_part_of"};
+    "top_load_reach_m", "top_load_max_gap_m", "top_load_max_sink_m", "top_load_rival_min_views",
+    "part_containment", "never_part_of"};
 // clang-format on
 
 Status CheckMapKeys(const YAML::Node& node) {
@@ -156,6 +156,8 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_reach_m", &fusion.top_loads.reach_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_max_gap_m", &fusion.top_loads.max_gap_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_max_sink_m", &fusion.top_loads.max_sink_m));
+    LOCI_RETURN_IF_ERROR(
+        ReadOptional(n, "top_load_rival_min_views", &fusion.top_loads.rival_min_views));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_centroid_m", &fusion.merge_centroid_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_sigmas", &fusion.merge_sigmas));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "depth_sigma_at_1m", &fusion.depth_sigma_at_1m));
@@ -294,6 +296,7 @@ Status MapOptions::Validate() const {
   if (!(fusion.top_loads.max_sink_m >= 0 && fusion.top_loads.max_sink_m <= 0.5)) {
     return bad("fusion.top_load_max_sink_m in [0, 0.5]");
   }
+  if (fusion.top_loads.rival_min_views < 0) return bad("fusion.top_load_rival_min_views >= 0");
   if (!(fusion.support_cell_m > 0.001) ||
       !(fusion.min_support_fraction >= 0 && fusion.min_support_fraction <= 1)) {
     return bad("fusion.support_cell_m > 0.001 and fusion.min_support_fraction in [0, 1]");

@@ -366,10 +366,18 @@ const FusedObject* ObjectMap::Find(int64_t id) const {
 std::vector<MapObject> ObjectMap::Snapshot(bool confirmed_only) const {
   std::vector<MapObject> out;
   for (const auto& [id, object] : objects_) {
-    if (confirmed_only && !object.confirmed()) continue;
+    // Unconfirmed furniture takes part in the widening of tables (TopLoadOptions).
+    if (confirmed_only && !object.confirmed() &&
+        !IsFlatTopClass(options_.flat_top_classes, object.labels().Argmax())) {
+      continue;
+    }
     out.push_back(object.Snapshot());
   }
   ExtendTopsUnderLoads(options_.flat_top_classes, options_.top_loads, &out);
+  if (confirmed_only) {
+    const auto unconfirmed = [](const MapObject& o) { return !o.confirmed; };
+    out.erase(std::remove_if(out.begin(), out.end(), unconfirmed), out.end());
+  }
   return out;
 }
 

@@ -14,6 +14,14 @@ bool IsTable(const MapObject& o, const std::vector<std::string>& flat_top_classe
          IsFlatTopClass(flat_top_classes, o.class_name);
 }
 
+// An unconfirmed piece of furniture with enough views to hold loads (TopLoadOptions).
+bool IsRival(const MapObject& o, const std::vector<std::string>& flat_top_classes,
+             const TopLoadOptions& options) {
+  return !o.confirmed && options.rival_min_views > 0 && std::isfinite(o.top_surface_z_m) &&
+         o.observation_count >= static_cast<uint32_t>(options.rival_min_views) &&
+         IsFlatTopClass(flat_top_classes, o.class_name);
+}
+
 // Gap between two intervals (0 when they overlap) and the overlap's length.
 double IntervalGap(double a0, double a1, double b0, double b1) {
   return std::max({0.0, b0 - a1, a0 - b1});
@@ -98,10 +106,14 @@ void ExtendTopsUnderLoads(const std::vector<std::string>& flat_top_classes,
                           const TopLoadOptions& options, std::vector<MapObject>* objects) {
   if (options.reach_m <= 0) return;
   std::vector<size_t> tables, loads;
+  std::vector<char> rival(objects->size(), 0);
   for (size_t i = 0; i < objects->size(); ++i) {
     const MapObject& o = (*objects)[i];
     if (IsTable(o, flat_top_classes)) {
       tables.push_back(i);
+    } else if (IsRival(o, flat_top_classes, options)) {
+      tables.push_back(i);
+      rival[i] = 1;
     } else if (o.confirmed && !IsFlatTopClass(flat_top_classes, o.class_name)) {
       loads.push_back(i);
     }
@@ -116,7 +128,7 @@ void ExtendTopsUnderLoads(const std::vector<std::string>& flat_top_classes,
       const size_t t = BestTable((*objects)[l], *objects, tables, options);
       if (t == objects->size()) {
         left.push_back(l);
-      } else {
+      } else if (!rival[t]) {
         on_table[t].push_back(&(*objects)[l]);
       }
     }

@@ -28,11 +28,16 @@ struct TopLoadOptions {
   // of the top's own points, and two desks' tops a few cm apart must not decide by that alone
   // which desk a book lies on (its footprint does).
   double max_sink_m = 0.1;
+  // An unconfirmed piece of such furniture seen at least this often (a desk the detector
+  // rarely boxes under its monitors and keyboard) still takes the loads it holds best: they
+  // widen no confirmed table, whose top would otherwise run on across it (0: off).
+  int rival_min_views = 3;
 };
 
 // Widens the tables among `objects` (flat_top_classes, confirmed, with a top height) in place,
 // in rounds: a top grown under one load reaches the next (the mouse beside the keyboard). Each
-// load joins one table; tables are never loads.
+// load joins one table; tables are never loads. Unconfirmed pieces with rival_min_views views
+// compete for the loads and are not widened.
 void ExtendTopsUnderLoads(const std::vector<std::string>& flat_top_classes,
                           const TopLoadOptions& options, std::vector<MapObject>* objects);
 
