@@ -13,6 +13,7 @@
 #include "cli/commands.h"
 #include "client/app/track_pipeline.h"
 #include "client/tracking/depth_time_warp.h"
+#include "client/tracking/rolling_shutter.h"
 #include "client/tracking/frame_undistorter.h"
 #include "client/tracking/tracker.h"
 #include "common/clock_offset.h"
@@ -62,12 +63,13 @@ int RunBenchTrack(const BenchTrackArgs& a) {
     return 1;
   }
   const FrameUndistorter undistort(opt.camera, opt.distortion);
-  std::vector<double> ms;
+  std::vector<double> ms, rectify_ms;
   Trajectory est;
   size_t keyframes = 0, kf_bytes = 0, lost = 0, segments = 0;
   double total_track_s = 0;
   const size_t n =
       a.max_frames > 0 ? std::min<size_t>(a.max_frames, seq->frames.size()) : seq->frames.size();
+  SeedTurnRateFromSequence(*seq, 0, undistort, tracker->get());
   for (size_t i = 0; i < n; ++i) {
     const TumFrame& f = seq->frames[i];
     cv::Mat bgr = cv::imread(f.rgb_path, cv::IMREAD_COLOR);
@@ -77,6 +79,9 @@ int RunBenchTrack(const BenchTrackArgs& a) {
       return 1;
     }
     AlignDepthToColourTime(**tracker, f.depth_t_ns, f.rgb_t_ns, &depth);
+    const auto t_rectify = std::chrono::steady_clock::now();
+    RectifyRollingShutter(**tracker, &bgr, &depth);
+    rectify_ms.push_back(MsSince(t_rectify));
     auto r = (*tracker)->Track(bgr, depth, f.rgb_t_ns);
     if (!r.ok()) {
       std::cerr << "error: frame " << i << ": " << r.status().message() << "\n";
@@ -103,6 +108,8 @@ int RunBenchTrack(const BenchTrackArgs& a) {
   std::printf("tracking ms/frame median %.2f  p95 %.2f  mean %.2f  (threads %d)\n",
               Percentile(ms, 0.5), Percentile(ms, 0.95),
               total_track_s * 1e3 / std::max<size_t>(1, n), a.threads);
+  std::printf("rolling shutter   %.0f us per row; rectifying ms/frame median %.2f  p95 %.2f\n",
+              opt.line_time_us, Percentile(rectify_ms, 0.5), Percentile(rectify_ms, 0.95));
   std::printf(
       "keyframes         %zu  (%.2f keyframes/s of sequence time, %.1f per 100 frames)\n",
       keyframes,

@@ -1,6 +1,8 @@
-// Pinhole camera model, and the lens distortion a sensor's raw images carry. Everything past the
-// tracking client's frame input (odometry, detection, the streamed keyframes, the server) sees
-// pinhole images: the client removes the distortion first (client/tracking/frame_undistorter.h).
+// Pinhole camera model, the lens distortion a sensor's raw images carry and its rolling shutter.
+// Everything past the tracking client's frame input (odometry, detection, the streamed
+// keyframes, the server) sees pinhole, global-shutter images: the client removes the distortion
+// first (client/tracking/frame_undistorter.h), then the rolling shutter's shear
+// (client/tracking/rolling_shutter.h).
 // Pixel (u, v): u right, v down, (0,0) the top-left pixel centre. Depth in metres along +z_cam.
 #pragma once
 
@@ -60,10 +62,18 @@ struct LensDistortion {
   Status Validate(const PinholeCamera& camera) const;
 };
 
-// What a sensor's configuration gives: the pinhole intrinsics and its lens distortion.
+// A rolling-shutter colour camera exposes its rows one after another, top to bottom: the time
+// between two rows, microseconds (0: a global shutter). Measured for the Kinect v1 of TUM
+// freiburg1 against fr1_rpy's motion capture (docs/results.md, session 38): 50 us (a 24 ms
+// readout of 480 rows). freiburg2 is the same Kinect model and readout mode; not measured.
+constexpr double kKinectV1LineTimeUs = 50.0;
+
+// What a sensor's configuration gives: the pinhole intrinsics, its lens distortion and the
+// rolling shutter's line time.
 struct CameraCalibration {
   PinholeCamera intrinsics;
   LensDistortion distortion;
+  double line_time_us = 0.0;  // rolling shutter: time between rows, us (0 = global shutter)
 };
 
 }  // namespace loci

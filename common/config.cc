@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <regex>
@@ -62,8 +63,12 @@ StatusOr<YAML::Node> LoadYamlFile(const std::string& path) {
 
 StatusOr<CameraCalibration> CameraPreset(const std::string& name) {
   using Cal = CameraCalibration;
-  if (name == "tum_fr1") return Cal{PinholeCamera::TumFr1(), LensDistortion::TumFr1()};
-  if (name == "tum_fr2") return Cal{PinholeCamera::TumFr2(), LensDistortion::TumFr2()};
+  if (name == "tum_fr1") {
+    return Cal{PinholeCamera::TumFr1(), LensDistortion::TumFr1(), kKinectV1LineTimeUs};
+  }
+  if (name == "tum_fr2") {
+    return Cal{PinholeCamera::TumFr2(), LensDistortion::TumFr2(), kKinectV1LineTimeUs};
+  }
   if (name == "tum_fr3") return Cal{PinholeCamera::TumFr3(), LensDistortion{}};
   return absl::InvalidArgumentError(
       absl::StrCat("unknown camera preset '", name, "' (known: tum_fr1, tum_fr2, tum_fr3)"));
@@ -98,7 +103,8 @@ StatusOr<CameraCalibration> CameraFromYaml(const YAML::Node& node) {
   if (!node) return absl::InvalidArgumentError("camera: missing");
   if (node.IsScalar()) return CameraPreset(node.as<std::string>());
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
-      node, "camera", {"preset", "fx", "fy", "cx", "cy", "width", "height", "distortion"}));
+      node, "camera",
+      {"preset", "fx", "fy", "cx", "cy", "width", "height", "distortion", "line_time_us"}));
   CameraCalibration cal;
   if (node["preset"]) {
     LOCI_ASSIGN_OR_RETURN(cal, CameraPreset(node["preset"].as<std::string>()));
@@ -111,6 +117,11 @@ StatusOr<CameraCalibration> CameraFromYaml(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "width", &cam.width_px));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "height", &cam.height_px));
   LOCI_RETURN_IF_ERROR(ReadDistortion(node, &cal.distortion));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "line_time_us", &cal.line_time_us));
+  if (!std::isfinite(cal.line_time_us) || std::abs(cal.line_time_us) > 1000) {
+    return absl::InvalidArgumentError(absl::StrCat("camera.line_time_us ", cal.line_time_us,
+                                                   " is not within [-1000, 1000] us"));
+  }
   LOCI_RETURN_IF_ERROR(cam.Validate());
   LOCI_RETURN_IF_ERROR(cal.distortion.Validate(cam));
   return cal;

@@ -8,6 +8,7 @@
 #include "absl/strings/match.h"
 #include "client/tracking/depth_time_warp.h"
 #include "client/tracking/frame_undistorter.h"
+#include "client/tracking/rolling_shutter.h"
 #include "common/config.h"
 #include "common/progress.h"
 
@@ -72,8 +73,7 @@ Status ReadSequenceCamera(const std::string& path, const YAML::Node& root, Track
     intrinsics.remove("depth_scale");
     LOCI_ASSIGN_OR_RETURN(cal, CameraFromYaml(intrinsics));
   }
-  out->camera = cal.intrinsics;
-  out->distortion = cal.distortion;
+  out->SetCamera(cal);
   return ReadOptional(root, "depth_scale", &out->depth_scale);
 }
 
@@ -87,8 +87,7 @@ Status UseFolderCamera(const std::string& tum_dir, TrackerOptions* out) {
     return absl::OkStatus();
   }
   LOCI_ASSIGN_OR_RETURN(const CameraCalibration cal, CameraPreset(preset));
-  out->camera = cal.intrinsics;
-  out->distortion = cal.distortion;
+  out->SetCamera(cal);
   spdlog::info("{}: no camera.yaml; camera {} from the folder's name", tum_dir, preset);
   return absl::OkStatus();
 }
@@ -134,6 +133,7 @@ StatusOr<TrackPipelineResult> RunTrackPipeline(const TumSequence& seq, Tracker* 
   const size_t left = seq.frames.size() - first;
   const size_t n = first + (o.max_frames > 0 ? std::min(o.max_frames, left) : left);
   const FrameUndistorter undistort(o.camera, o.distortion);
+  if (tracker) SeedTurnRateFromSequence(seq, first, undistort, tracker);
   for (size_t i = first; i < n; ++i) {
     const TumFrame& f = seq.frames[i];
     cv::Mat bgr = cv::imread(f.rgb_path, cv::IMREAD_COLOR);
@@ -150,6 +150,7 @@ StatusOr<TrackPipelineResult> RunTrackPipeline(const TumSequence& seq, Tracker* 
     bool from_file = false;
     std::vector<Detection2D> dets = PriorFor(f, file_dets, stage, o.max_box_age_ns, &from_file);
     if (tracker) AlignDepthToColourTime(*tracker, f.depth_t_ns, f.rgb_t_ns, &depth);
+    if (tracker) RectifyRollingShutter(*tracker, &bgr, &depth);
     StatusOr<FrameResult> fr = tracker ? tracker->Track(bgr, depth, f.rgb_t_ns, &dets)
                                        : poses->At(f.rgb_t_ns);
     if (!fr.ok()) {

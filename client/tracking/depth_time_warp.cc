@@ -5,15 +5,15 @@
 #include <cstdint>
 #include <limits>
 #include <optional>
+#include <vector>
 
 namespace loci {
+
 namespace {
-
 constexpr double kCrackAgreement = 0.02;  // neighbours filling a crack agree within 2 %
+}  // namespace
 
-// Fills pixels without depth whose two neighbours along one axis both have depths within
-// kCrackAgreement of each other (the cracks a forward warp leaves where it stretches).
-void FillCracks(cv::Mat* depth_u16) {
+void FillDepthCracks(cv::Mat* depth_u16) {
   const cv::Mat src = depth_u16->clone();
   auto agree = [](uint16_t a, uint16_t b) {
     return a > 0 && b > 0 && std::abs(a - b) <= kCrackAgreement * std::min(a, b);
@@ -34,14 +34,14 @@ void FillCracks(cv::Mat* depth_u16) {
   }
 }
 
-}  // namespace
-
-cv::Mat WarpDepth(const cv::Mat& depth_u16, double depth_scale, const PinholeCamera& camera,
-                  const SE3d& T_new_old) {
+cv::Mat WarpDepthRows(const cv::Mat& depth_u16, double depth_scale, const PinholeCamera& camera,
+                      const std::vector<SE3d>& T_new_old_per_row) {
   cv::Mat out(depth_u16.size(), CV_16UC1, cv::Scalar(0));
+  if (T_new_old_per_row.size() != static_cast<size_t>(depth_u16.rows)) return out;
   const double max_units = std::numeric_limits<uint16_t>::max();
   for (int v = 0; v < depth_u16.rows; ++v) {
     const uint16_t* row = depth_u16.ptr<uint16_t>(v);
+    const SE3d& T_new_old = T_new_old_per_row[v];
     for (int u = 0; u < depth_u16.cols; ++u) {
       if (row[u] == 0) continue;
       const Vec3d p_new = T_new_old * camera.BackProject(u, v, row[u] / depth_scale);
@@ -56,8 +56,14 @@ cv::Mat WarpDepth(const cv::Mat& depth_u16, double depth_scale, const PinholeCam
       if (d == 0 || units < d) d = static_cast<uint16_t>(units);
     }
   }
-  FillCracks(&out);
+  FillDepthCracks(&out);
   return out;
+}
+
+cv::Mat WarpDepth(const cv::Mat& depth_u16, double depth_scale, const PinholeCamera& camera,
+                  const SE3d& T_new_old) {
+  return WarpDepthRows(depth_u16, depth_scale, camera,
+                       std::vector<SE3d>(static_cast<size_t>(depth_u16.rows), T_new_old));
 }
 
 void AlignDepthToColourTime(const Tracker& tracker, int64_t depth_t_ns, int64_t rgb_t_ns,

@@ -12,6 +12,7 @@
 #pragma once
 
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "client/tracking/tracker.h"
 #include "common/camera.h"
@@ -25,6 +26,15 @@ namespace loci {
 // neighbours that agree within 2 % gets their mean; pixels nothing lands on have no depth (0).
 cv::Mat WarpDepth(const cv::Mat& depth_u16, double depth_scale, const PinholeCamera& camera,
                   const SE3d& T_new_old);
+// The same with one pose per image row (T_new_old_per_row[v] moves row v's points; a rolling
+// shutter's rows are seen from different poses); an empty image when the count is not the
+// image's rows.
+cv::Mat WarpDepthRows(const cv::Mat& depth_u16, double depth_scale, const PinholeCamera& camera,
+                      const std::vector<SE3d>& T_new_old_per_row);
+
+// Fills pixels without depth whose two neighbours along one axis have depths within 2 % of each
+// other: the one-pixel cracks a forward warp leaves where it stretches the image.
+void FillDepthCracks(cv::Mat* depth_u16);
 
 // Moves *depth_u16, captured at depth_t_ns, to rgb_t_ns with the tracker's predicted motion
 // (Tracker::PredictedMotion) when options().align_depth_time is set and the stamps differ.

@@ -34,6 +34,12 @@ void PoseToRvecTvec(const SE3d& T, cv::Mat* rvec, cv::Mat* tvec) {
   *tvec = (cv::Mat_<double>(3, 1) << T.translation().x(), T.translation().y(), T.translation().z());
 }
 
+// Rate of a rotation over dt_ns, rad/s (axis times angle over time).
+Vec3d TurnRate(const SE3d& T_step, int64_t dt_ns) {
+  const Eigen::AngleAxisd turn(T_step.linear());
+  return turn.axis() * (turn.angle() / (static_cast<double>(dt_ns) * 1e-9));
+}
+
 // PnP-RANSAC over 3-D world points and pixels; returns the inlier count (0 on failure).
 int PnpRansac(const std::vector<cv::Point3f>& obj, const std::vector<cv::Point2f>& img,
               const PinholeCamera& cam, int iterations, double reproj_px, SE3d* T_cw) {
@@ -195,9 +201,7 @@ StatusOr<FrameResult> Tracker::Track(const cv::Mat& image, const cv::Mat& depth_
     }
     if (m.dynamic) ++m.point->dynamic_votes;
   }
-  velocity_ = T_cw * T_cw_last_.inverse();
-  velocity_dt_ns_ = t_ns - last_t_ns_;
-  have_velocity_ = true;
+  UpdateVelocity(T_cw, t_ns);
   T_cw_last_ = T_cw;
   last_t_ns_ = t_ns;
   r.T_odom_cam = T_cw.inverse();
@@ -222,6 +226,23 @@ StatusOr<FrameResult> Tracker::Track(const cv::Mat& image, const cv::Mat& depth_
     }
   }
   return finish();
+}
+
+void Tracker::UpdateVelocity(const SE3d& T_cw, int64_t t_ns) {
+  seed_w_cam_rad_s_.reset();
+  prev_w_cam_rad_s_.reset();
+  if (have_velocity_ && velocity_dt_ns_ > 0) {
+    prev_w_cam_rad_s_ = TurnRate(velocity_, velocity_dt_ns_);
+  }
+  velocity_ = T_cw * T_cw_last_.inverse();
+  velocity_dt_ns_ = t_ns - last_t_ns_;
+  have_velocity_ = true;
+}
+
+std::optional<Vec3d> Tracker::RecentTurnRate() const {
+  if (!have_velocity_ || velocity_dt_ns_ <= 0) return seed_w_cam_rad_s_;
+  const Vec3d w = TurnRate(velocity_, velocity_dt_ns_);
+  return prev_w_cam_rad_s_ ? Vec3d(0.5 * (w + *prev_w_cam_rad_s_)) : w;
 }
 
 std::optional<SE3d> Tracker::PredictedMotion(int64_t from_t_ns, int64_t to_t_ns) const {

@@ -63,6 +63,14 @@ class Tracker {
   // nullopt before two frames are tracked in a row, when the model spans no time, or for a span
   // longer than the model's own (one frame interval: a velocity is not extrapolated further).
   std::optional<SE3d> PredictedMotion(int64_t from_t_ns, int64_t to_t_ns) const;
+  // The camera's turn rate (cam frame, rad/s) over the last two tracked frame steps (their mean:
+  // one step's rate carries that frame's pose error back into the next frame's correction);
+  // the last step's alone after a single one; before two frames are tracked in a row, the
+  // seeded rate (SeedTurnRate) if any, else nullopt.
+  std::optional<Vec3d> RecentTurnRate() const;
+  // The turn rate RecentTurnRate gives before the tracker has measured one of its own (a
+  // sequence's first two frames; SeedTurnRateFromSequence in rolling_shutter.h measures it).
+  void SeedTurnRate(const Vec3d& w_cam_rad_s) { seed_w_cam_rad_s_ = w_cam_rad_s; }
 
   const TrackerOptions& options() const { return opt_; }
   int segment() const { return segment_; }
@@ -77,6 +85,8 @@ class Tracker {
   bool NeedKeyframe(const OrbFrame& frame, const SE3d& T_cw, const std::vector<PointMatch>& matches,
                     int num_inliers) const;
   void CreateKeyframe(OrbFrame frame, const SE3d& T_cw, const std::vector<PointMatch>& matches);
+  // Starts the constant-velocity model from the step last -> T_cw at t_ns.
+  void UpdateVelocity(const SE3d& T_cw, int64_t t_ns);
 
   TrackerOptions opt_;
   OrbExtractor extractor_;
@@ -91,6 +101,9 @@ class Tracker {
   SE3d T_cw_last_ = SE3d::Identity();  // last tracked pose, T_cam_world
   SE3d velocity_ = SE3d::Identity();   // T_cam_prevcam of the last two tracked frames
   int64_t velocity_dt_ns_ = 0;         // ... and the time between them
+  // The turn rate (cam frame, rad/s) of the step before velocity_'s, when it was tracked too.
+  std::optional<Vec3d> prev_w_cam_rad_s_;
+  std::optional<Vec3d> seed_w_cam_rad_s_;  // SeedTurnRate's, until the first measured step
   int64_t last_t_ns_ = 0;              // stamp of the frame T_cw_last_ belongs to
 };
 

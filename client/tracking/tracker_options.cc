@@ -57,13 +57,18 @@ Status TrackerOptions::Validate() const {
   return absl::OkStatus();
 }
 
+void TrackerOptions::SetCamera(const CameraCalibration& cal) {
+  camera = cal.intrinsics;
+  distortion = cal.distortion;
+  line_time_us = cal.line_time_us;
+}
+
 Status TrackerOptions::FromYaml(const YAML::Node& n) {
   if (!n) return absl::OkStatus();
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(n, "tracker", kTrackerKeys));
   if (n["camera"]) {
     LOCI_ASSIGN_OR_RETURN(const CameraCalibration cal, CameraFromYaml(n["camera"]));
-    camera = cal.intrinsics;
-    distortion = cal.distortion;
+    SetCamera(cal);
   }
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "depth_scale", &depth_scale));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_depth_m", &min_depth_m));

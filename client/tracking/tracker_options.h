@@ -50,6 +50,10 @@ struct TrackerOptions {
   // The raw images' lens distortion: the pipeline (RunTrackPipeline, `loci bench track`)
   // removes it with a FrameUndistorter before Track(), detection and streaming.
   LensDistortion distortion = LensDistortion::TumFr1();
+  // The colour camera's rolling shutter, us between rows (CameraCalibration::line_time_us; 0:
+  // global shutter). The pipeline rectifies each frame with the tracked turn rate before
+  // Track() (rolling_shutter.h).
+  double line_time_us = kKinectV1LineTimeUs;
   double depth_scale = 5000.0;  // depth PNG units per metre
   double min_depth_m = 0.1;     // valid depth range for 3-D points
   double max_depth_m = 4.0;
@@ -82,6 +86,8 @@ struct TrackerOptions {
   Status Validate() const;
   // Reads the `tracker` node (see config/client.yaml) over the current values.
   Status FromYaml(const YAML::Node& node);
+  // The camera, its lens distortion and its line time from one calibration.
+  void SetCamera(const CameraCalibration& cal);
   // Reads `dynamic_weight` of config/classes.yaml into dynamic.class_weights.
   Status ClassWeightsFromYaml(const YAML::Node& classes);
 };

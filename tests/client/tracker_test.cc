@@ -11,6 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "client/tracking/frame_undistorter.h"
+#include "client/tracking/rolling_shutter.h"
 #include "common/clock_offset.h"
 #include "common/config.h"
 #include "common/trajectory_eval.h"
@@ -37,12 +38,14 @@ RunStats TrackTum(const std::string& dir, const TrackerOptions& opt) {
   auto tracker = Tracker::Create(opt);
   EXPECT_TRUE(tracker.ok()) << tracker.status();
   const FrameUndistorter undistort(opt.camera, opt.distortion);  // as the client pipeline
+  SeedTurnRateFromSequence(*seq, 0, undistort, tracker->get());
   RunStats s;
   Trajectory est;
   for (const TumFrame& f : seq->frames) {
     cv::Mat bgr = cv::imread(f.rgb_path, cv::IMREAD_COLOR);
     cv::Mat depth = cv::imread(f.depth_path, cv::IMREAD_UNCHANGED);
     EXPECT_TRUE(undistort.Apply(&bgr, &depth).ok());
+    RectifyRollingShutter(**tracker, &bgr, &depth);  // as the client pipeline
     auto r = (*tracker)->Track(bgr, depth, f.rgb_t_ns);
     EXPECT_TRUE(r.ok()) << r.status();
     if (!r.ok()) continue;
@@ -89,16 +92,24 @@ TEST(TrackerTest, FullFr1RpyAteWithinTarget) {
   std::cout << "fr1_rpy: ATE RMSE " << s.ate_m << " m, RPE " << s.rpe_rot_deg
             << " deg/s, keyframes " << s.keyframes << "\n";
   EXPECT_EQ(s.lost, 0);
-  EXPECT_LE(s.ate_m, 0.030);
+  EXPECT_LE(s.ate_m, 0.018);
   // fr1_rpy's images are stamped on arrival, after the pose they were taken at: the odometry's
-  // orientations agree best with the ground truth some 10-15 ms before each stamp
-  // (docs/results.md, session 32), and the sequence turns at up to 125 deg/s.
+  // orientations agree best with the ground truth some milliseconds before each stamp
+  // (docs/results.md, sessions 32 and 38), and the sequence turns at up to 125 deg/s.
   std::cout << "fr1_rpy: images' clock offset to the ground truth " << s.clock.offset_ns * 1e-6
             << " ms; orientation residual " << s.clock.rms_deg_at_zero << " deg at the stamps, "
             << s.clock.rms_deg << " deg at the offset\n";
-  EXPECT_LT(s.clock.offset_ns, -5'000'000);
+  EXPECT_LT(s.clock.offset_ns, -2'000'000);
   EXPECT_GT(s.clock.offset_ns, -25'000'000);
-  EXPECT_LT(s.clock.rms_deg, 0.9 * s.clock.rms_deg_at_zero);
+  // The Kinect's colour camera has a rolling shutter: tracked as a global-shutter camera, the
+  // odometry errs most where the camera turns fastest (session 38: ATE 0.027 against 0.013 m).
+  TrackerOptions global;
+  global.line_time_us = 0;
+  const RunStats g = TrackTum(dir, global);
+  std::cout << "fr1_rpy as a global shutter: ATE RMSE " << g.ate_m << " m, RPE " << g.rpe_rot_deg
+            << " deg/s\n";
+  EXPECT_GE(g.ate_m, 1.5 * s.ate_m);
+  EXPECT_GT(g.rpe_rot_deg, s.rpe_rot_deg + 0.3);
   // The same images used as read, without removing fr1's lens distortion: the odometry turns
   // less accurately (docs/results.md, session 17: 2.83 against 2.56 deg/s).
   TrackerOptions raw;

@@ -27,6 +27,29 @@ TEST(Config, ShippedCameraFilesLoad) {
     EXPECT_DOUBLE_EQ(cam->distortion.k1, preset->distortion.k1) << name;
     EXPECT_DOUBLE_EQ(cam->distortion.k3, preset->distortion.k3) << name;
     EXPECT_EQ(cam->distortion.IsZero(), std::string(name) == "tum_fr3") << name;
+    // ... and the same rolling shutter (the Kinect v1's for fr1 and fr2; fr3: none measured).
+    EXPECT_DOUBLE_EQ(cam->line_time_us, preset->line_time_us) << name;
+    EXPECT_EQ(cam->line_time_us == 0, std::string(name) == "tum_fr3") << name;
+  }
+}
+
+TEST(Config, CameraLineTimeIsReadAndChecked) {
+  auto plain =
+      CameraFromYaml(YAML::Load("{fx: 500, fy: 500, cx: 320, cy: 240, width: 640, height: 480}"));
+  ASSERT_TRUE(plain.ok()) << plain.status();
+  EXPECT_EQ(plain->line_time_us, 0.0);  // a camera described by its intrinsics: global shutter
+  auto fr1 = CameraFromYaml(YAML::Load("{preset: tum_fr1, fx: 520}"));
+  ASSERT_TRUE(fr1.ok()) << fr1.status();
+  EXPECT_DOUBLE_EQ(fr1->line_time_us, kKinectV1LineTimeUs);
+  auto global = CameraFromYaml(YAML::Load("{preset: tum_fr1, line_time_us: 0}"));
+  ASSERT_TRUE(global.ok()) << global.status();
+  EXPECT_EQ(global->line_time_us, 0.0);
+  for (const char* bad : {"{preset: tum_fr1, line_time_us: 5000}",
+                          "{preset: tum_fr1, line_time_us: .nan}",
+                          "{preset: tum_fr1, line_time_us: fast}"}) {
+    auto r = CameraFromYaml(YAML::Load(bad));
+    ASSERT_FALSE(r.ok()) << bad;
+    EXPECT_NE(r.status().message().find("line_time_us"), std::string::npos) << r.status();
   }
 }
 
