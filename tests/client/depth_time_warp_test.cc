@@ -11,24 +11,11 @@
 
 #include "client/tracking/tracker.h"
 #include "synth/renderer.h"
+#include "tests/support/depth_compare.h"
 #include "synth/scene.h"
 
 namespace loci {
 namespace {
-
-// Share of the pixels with depth in both images whose depths agree within 1 %.
-double AgreeingShare(const cv::Mat& a_u16, const cv::Mat& b_u16) {
-  int both = 0, agree = 0;
-  for (int v = 0; v < a_u16.rows; ++v) {
-    for (int u = 0; u < a_u16.cols; ++u) {
-      const int a = a_u16.at<uint16_t>(v, u), b = b_u16.at<uint16_t>(v, u);
-      if (a == 0 || b == 0) continue;
-      ++both;
-      agree += std::abs(a - b) <= 0.01 * b;
-    }
-  }
-  return both > 0 ? static_cast<double>(agree) / both : 0.0;
-}
 
 int ValidPixels(const cv::Mat& depth_u16) { return cv::countNonZero(depth_u16); }
 
@@ -80,8 +67,8 @@ TEST_F(DepthTimeWarpTest, MovedDepthMatchesTheDepthRenderedAtTheNewPose) {
   const synth::RenderedFrame new_f = RenderAt(20, T_old_new);
   const cv::Mat moved =
       WarpDepth(old_f.depth_u16, scene_.options.depth_scale, scene_.camera, T_old_new.inverse());
-  const double before = AgreeingShare(old_f.depth_u16, new_f.depth_u16);
-  const double after = AgreeingShare(moved, new_f.depth_u16);
+  const double before = testing::AgreeingDepthShare(old_f.depth_u16, new_f.depth_u16);
+  const double after = testing::AgreeingDepthShare(moved, new_f.depth_u16);
   const double coverage = static_cast<double>(ValidPixels(moved)) / ValidPixels(new_f.depth_u16);
   std::cout << "depth within 1 %: unmoved " << before << ", moved " << after << "; moved covers "
             << coverage << " of the rendered pixels\n";
@@ -125,9 +112,9 @@ TEST_F(DepthTimeWarpTest, TrackerMotionMovesLateDepthToTheColourStamp) {
 
   const synth::RenderedFrame at_rgb = synth::Render(scene_, T_world_rgb, scene_.camera, t_rgb);
   cv::Mat depth = synth::Render(scene_, T_world_depth, scene_.camera, t_depth).depth_u16;
-  const double before = AgreeingShare(depth, at_rgb.depth_u16);
+  const double before = testing::AgreeingDepthShare(depth, at_rgb.depth_u16);
   AlignDepthToColourTime(*tracker, t_depth, t_rgb, &depth);
-  const double after = AgreeingShare(depth, at_rgb.depth_u16);
+  const double after = testing::AgreeingDepthShare(depth, at_rgb.depth_u16);
   std::cout << "late depth within 1 % of the colour stamp's: " << before << " -> " << after << "\n";
   EXPECT_GT(after, before);
   EXPECT_GT(after, 0.97);

@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "synth/renderer.h"
+#include "tests/support/depth_compare.h"
 #include "synth/scene.h"
 
 namespace loci {
@@ -21,13 +22,18 @@ const Vec3d kTurn(0.6, 2.0, 0.5);  // rad/s in the camera frame, |w| = 2.2 rad/s
 constexpr double kLineS = 50e-6;    // the Kinect v1's 50 us between rows
 constexpr int kBandRows = 8;
 
+// A loci_synth room with its camera path (60 frames); the frame looked at is the 30th.
+synth::SceneOptions Room() {
+  synth::SceneOptions so;
+  so.seed = 5;
+  so.num_frames = 60;
+  return so;
+}
+
 class RollingShutterTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    synth::SceneOptions so;
-    so.seed = 7;
-    so.num_frames = 60;
-    auto scene = synth::MakeScene(so);
+    StatusOr<synth::Scene> scene = synth::MakeScene(Room());
     ASSERT_TRUE(scene.ok()) << scene.status();
     scene_ = std::move(*scene);
     T_world_centre_ = synth::CameraPoseAt(scene_, synth::FrameStampNs(scene_.options, 30));
@@ -58,20 +64,6 @@ class RollingShutterTest : public ::testing::Test {
   synth::RenderedFrame global_, rolling_;
 };
 
-// Share of the pixels with depth in both images whose depths agree within 1 %.
-double AgreeingDepthShare(const cv::Mat& a_u16, const cv::Mat& b_u16) {
-  int both = 0, agree = 0;
-  for (int v = 0; v < a_u16.rows; ++v) {
-    for (int u = 0; u < a_u16.cols; ++u) {
-      const int a = a_u16.at<uint16_t>(v, u), b = b_u16.at<uint16_t>(v, u);
-      if (a == 0 || b == 0) continue;
-      ++both;
-      agree += std::abs(a - b) <= 0.01 * b;
-    }
-  }
-  return both > 0 ? static_cast<double>(agree) / both : 0.0;
-}
-
 // Mean absolute grey-level difference over the image's inner part (20 px border left out).
 double MeanGreyDifference(const cv::Mat& a_bgr, const cv::Mat& b_bgr) {
   cv::Mat a, b, d;
@@ -89,8 +81,8 @@ TEST_F(RollingShutterTest, ImagesReturnToTheCentreRowsView) {
   const cv::Mat depth = RectifyDepth(rolling_.depth_u16, depth_scale, cam, kTurn, kLineS);
   const double grey_before = MeanGreyDifference(rolling_.bgr, global_.bgr);
   const double grey_after = MeanGreyDifference(bgr, global_.bgr);
-  const double depth_before = AgreeingDepthShare(rolling_.depth_u16, global_.depth_u16);
-  const double depth_after = AgreeingDepthShare(depth, global_.depth_u16);
+  const double depth_before = testing::AgreeingDepthShare(rolling_.depth_u16, global_.depth_u16);
+  const double depth_after = testing::AgreeingDepthShare(depth, global_.depth_u16);
   std::cout << "grey difference " << grey_before << " -> " << grey_after
             << "; depth agreeing within 1 % " << depth_before << " -> " << depth_after << "\n";
   EXPECT_LT(grey_after, 0.25 * grey_before);
