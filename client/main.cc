@@ -186,9 +186,10 @@ int main(int argc, char** argv) {
   std::string log_level = "info";
   app.add_option("--tum", a.tum_dir,
                  "TUM RGB-D folder (rgb.txt, depth.txt; its camera.yaml, when present, gives the "
-                 "intrinsics and lens distortion, else tracker.camera of --config, else the "
-                 "Kinect its TUM name gives (rgbd_dataset_freiburg3_*, tum_fr2_*), else TUM "
-                 "fr1's; frames are undistorted first)")
+                 "intrinsics, lens distortion and rolling-shutter line_time_us, else "
+                 "tracker.camera of --config, else the Kinect its TUM name gives "
+                 "(rgbd_dataset_freiburg3_*, tum_fr2_*), else TUM fr1's; frames are undistorted "
+                 "and rectified of the rolling shutter first)")
       ->required();
   app.add_option("--server", a.server, "loci-server HOST:PORT")->capture_default_str();
   app.add_option("--robot", a.robot, "robot name")->capture_default_str();
