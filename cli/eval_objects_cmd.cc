@@ -30,6 +30,7 @@ struct EvalObjectsArgs {
   std::vector<std::string> classes;
   std::string align = "positions";
   double max_match_m = 0.3;
+  double low_tolerance_m = 0.2;
   bool json = false, no_ask = false, all = false;
   ChannelSecurity security;
 };
@@ -148,6 +149,8 @@ nlohmann::json ToJson(const report::GroundTruthEval& e) {
           {"up_error_orientation_deg", e.up_error_orientation_deg},
           {"alignment_disagreement_deg", e.alignment_disagreement_deg},
           {"aligned_by_orientations", e.aligned_by_orientations},
+          {"radius_m", e.radius_m},
+          {"low_tolerance_m", e.low_tolerance_m},
           {"precision", r.precision},
           {"recall", r.recall},
           {"f1", r.f1},
@@ -191,6 +194,7 @@ int RunEvalObjects(const EvalObjectsArgs& a) {
   in.groundtruth = *groundtruth;
   in.gt = *gt;
   in.options.max_match_m = a.max_match_m;
+  in.options.low_tolerance_m = a.low_tolerance_m;
   // Only classes the map keeps can be found: by default the mapped, non-dynamic classes.
   in.options.classes = a.classes;
   if (in.options.classes.empty()) {
@@ -242,6 +246,10 @@ void RegisterEvalObjectsCommand(CLI::App& app) {
   c->add_option("--classes", args->classes,
                 "classes to evaluate (default: mapped, non-dynamic classes)");
   c->add_option("--radius", args->max_match_m, "matching radius, m")->capture_default_str();
+  c->add_option("--low-tolerance", args->low_tolerance_m,
+                "extra radius for `low` ground-truth objects (placed to +-0.2 m), m")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   c->add_option("--align", args->align,
                 "how the map is aligned to the world: positions (the TUM ATE way) or orientations "
                 "(rotation from the camera orientations; for sequences that turn in place)")

@@ -75,6 +75,7 @@ StatusOr<GroundTruthEval> EvaluateAgainstGroundTruth(const GroundTruthEvalInput&
   e.objects = server::EvaluateObjects(in_world, in.gt, in.options);
   e.objects_world = in_world;
   e.radius_m = in.options.max_match_m;
+  e.low_tolerance_m = in.options.low_tolerance_m;
   e.up_error_deg = UpErrorDeg(e.alignment.T_gt_est.linear(), in.gt.up);
   LOCI_ASSIGN_OR_RETURN(const Mat3d R_gt_map, OrientationAlignment(in.groundtruth, stacked));
   e.up_error_orientation_deg = UpErrorDeg(R_gt_map, in.gt.up);
@@ -100,6 +101,8 @@ std::string FormatGroundTruthEval(const GroundTruthEval& e) {
       e.aligned_by_orientations ? "the camera orientations (--align orientations)"
                                 : "positions (TUM)",
       e.up_error_deg, e.up_error_orientation_deg, e.alignment_disagreement_deg);
+  absl::StrAppendFormat(&s, "matching radius %.2f m (%.2f m for low objects)\n", e.radius_m,
+                        e.radius_m + e.low_tolerance_m);
   absl::StrAppendFormat(&s, "%-14s %4s %4s %5s %4s %4s %4s %7s\n", "class", "gt", "low", "map",
                         "tp", "fp", "fn", "neutral");
   for (const server::ClassEval& c : r.classes) {

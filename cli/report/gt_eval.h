@@ -36,6 +36,7 @@ struct GroundTruthEval {
   int on_right = 0;
   double on_share = 0;  // on_right / on_pairs.size() (0 when none)
   double radius_m = 0;  // the matching radius used
+  double low_tolerance_m = 0;  // its extra for `low` ground-truth objects
   // Angle between the map's +z, carried into the world by the alignment, and the ground
   // truth's up (deg): how level the map frame is.
   double up_error_deg = 0;

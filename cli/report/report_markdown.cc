@@ -35,9 +35,10 @@ void HandMadeSection(std::string* md, const GroundTruthEval& e,
   *md += "\n### Objects against hand-made ground truth (`loci eval objects` method)\n\n";
   absl::StrAppendFormat(md,
                         "Map aligned to the ground-truth world with %zu keyframe poses (ATE rmse "
-                        "%.4f m); per-class Hungarian matching within %s; `low` objects neither "
-                        "count nor hurt.\n\n",
-                        e.alignment.pairs, e.alignment.trans_m.rmse, absl::StrFormat("%.2f m", e.radius_m));
+                        "%.4f m); per-class Hungarian matching within %.2f m (%.2f m for `low` "
+                        "objects, placed to +-0.2 m); `low` objects neither count nor hurt.\n\n",
+                        e.alignment.pairs, e.alignment.trans_m.rmse, e.radius_m,
+                        e.radius_m + e.low_tolerance_m);
   *md += "| class | GT (high+medium) | GT low | map | TP | FP | FN | matched to low |\n";
   *md += "|---|---|---|---|---|---|---|---|\n";
   for (const server::ClassEval& c : r.classes) {

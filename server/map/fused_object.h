@@ -127,6 +127,10 @@ class FusedObject {
   // Up to 48 of the object's supported points (map frame), and its largest half extent, m.
   const std::vector<Eigen::Vector3d>& sample_m() const { return sample_m_; }
   double half_size_m() const { return obb_half_m_.maxCoeff(); }
+  // Oriented box (map frame): centre, half extents along its axes, and the axes (columns).
+  const Eigen::Vector3d& obb_center_m() const { return obb_center_m_; }
+  const Eigen::Vector3d& obb_half_m() const { return obb_half_m_; }
+  const Eigen::Matrix3d& R_map_box() const { return R_map_box_; }
   // Keeps the camera distance of the nearest view (range_m <= 0: unknown, ignored).
   void ObserveRange(double range_m);
   double nearest_range_m() const { return nearest_range_m_; }  // 0: unknown

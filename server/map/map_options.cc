@@ -25,7 +25,7 @@ constexpr const char* kFusionKeys[] = {
     "straddle_apart_views", "straddle_pieces", "furniture_merge_containment",
     "furniture_footprint_containment",
     "top_load_reach_m", "top_load_max_gap_m", "top_load_max_sink_m", "top_load_rival_min_views",
-    "part_containment", "never_part_of"};
+    "part_containment", "never_part_of", "stand_classes", "stand_height_m"};
 // clang-format on
 
 Status CheckMapKeys(const YAML::Node& node) {
@@ -142,6 +142,8 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_box_containment", &fusion.merge_box_containment));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "part_containment", &fusion.part_containment));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "never_part_of", &fusion.never_part_of));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "stand_classes", &fusion.stand_classes));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "stand_height_m", &fusion.stand_height_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "overlap_voxel_m", &fusion.overlap_voxel_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "weight_track", &fusion.weight_track));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "weight_centroid", &fusion.weight_centroid));
@@ -304,6 +306,9 @@ Status MapOptions::Validate() const {
   if (fusion.label_universe < 2) return bad("fusion.label_universe >= 2");
   if (!(fusion.merge_box_containment > 0)) return bad("fusion.merge_box_containment > 0");
   if (!(fusion.part_containment > 0)) return bad("fusion.part_containment > 0");
+  if (!(fusion.stand_height_m >= 0 && fusion.stand_height_m <= 1)) {
+    return bad("fusion.stand_height_m in [0, 1]");
+  }
   if (!(fusion.merge_sigmas >= 0 && fusion.merge_sigmas <= 5 && fusion.depth_sigma_at_1m >= 0 &&
         fusion.view_sigma_rad >= 0 && fusion.view_sigma_rad < 0.5)) {
     return bad(

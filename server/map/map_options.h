@@ -177,6 +177,14 @@ struct FusionOptions {
   // > 1 = off (0.9).
   double part_containment = 0.9;
   std::vector<std::string> never_part_of = {"chair", "couch", "bed", "bench", "person"};
+  // A stand is a part too (object_parts.cc): an object of another class whose centroid lies under
+  // the middle of a stand_classes object (0.75 of its box's half depth and 0.35 of its half width
+  // from its centre, below its centre and at most stand_height_m below its box). On fr1_rpy the
+  // monitors' stands are called "mouse" on some views; their centroids sit within 0.10 of the
+  // screen's half width from its middle, the cup beside the main monitor at 0.83-0.94 (15 runs,
+  // session 39). Empty = off ([tv], 0.15).
+  std::vector<std::string> stand_classes = {"tv"};
+  double stand_height_m = 0.15;
   // Objects of the same class also merge when their centroids are closer than merge_sigmas
   // times the pair's position uncertainty, sqrt(2) s(r), where r is the distance of the nearer
   // object's nearest view (both must be far; a near object does not take in a far view's blob

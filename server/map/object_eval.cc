@@ -27,13 +27,15 @@ double DistanceTo(const GroundTruthObject& g, const Eigen::Vector3d& p) {
 
 // Matches one class: rows = map objects, columns = GT objects (every confidence).
 void EvaluateClass(const std::vector<const MapObject*>& d,
-                   const std::vector<const GroundTruthObject*>& g, double max_match_m,
-                   ClassEval* row, ObjectEvalResult* r) {
+                   const std::vector<const GroundTruthObject*>& g,
+                   const ObjectEvalOptions& options, ClassEval* row, ObjectEvalResult* r) {
   std::vector<std::vector<double>> cost(d.size(), std::vector<double>(g.size(), kForbidden));
   for (size_t i = 0; i < d.size(); ++i) {
     for (size_t j = 0; j < g.size(); ++j) {
       const double dist = DistanceTo(*g[j], d[i]->centroid_m);
-      if (dist <= max_match_m) cost[i][j] = dist;
+      const double radius_m =
+          options.max_match_m + (g[j]->confidence == "low" ? options.low_tolerance_m : 0.0);
+      if (dist <= radius_m) cost[i][j] = dist;
     }
   }
   const std::vector<int> assigned =
@@ -125,7 +127,7 @@ ObjectEvalResult EvaluateObjects(const std::vector<MapObject>& objects, const Gr
       if (o.class_name == cls) d.push_back(&o);
     }
     row.mapped = static_cast<int>(d.size());
-    EvaluateClass(d, g, options.max_match_m, &row, &r);
+    EvaluateClass(d, g, options, &row, &r);
     r.classes.push_back(row);
   }
   Summarise(&r);

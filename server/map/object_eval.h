@@ -19,6 +19,9 @@ namespace loci::server {
 
 struct ObjectEvalOptions {
   double max_match_m = 0.3;  // matching radius, m (0.3)
+  // Extra radius for `low` ground-truth objects, whose positions objects_gt.md gives only to
+  // +-0.2 m (0.2). A map object within it is neutral, not a false positive.
+  double low_tolerance_m = 0.2;
   // Classes evaluated (map objects and ground truth); empty = all. Dynamic GT objects never are.
   std::vector<std::string> classes;
 };

@@ -162,7 +162,9 @@ class ObjectMap {
   // another class, larger, seen at least as often, near, not flat-topped furniture nor a
   // never_part_of class.
   bool CanHoldPart(const FusedObject& whole, const FusedObject& part) const;
-  // The object holding at least part_containment of `part`'s voxels, else 0.
+  // `part` lies under the middle of `whole`, a stand class: its stand (object_parts.cc).
+  bool StandsUnder(const FusedObject& whole, const FusedObject& part) const;
+  // The object holding at least part_containment of `part`'s voxels, or standing it, else 0.
   int64_t WholeOf(const FusedObject& part) const;
   // Judges again the objects that `id` (just observed) can hold: whether they are its parts may
   // have changed (a kUpdated change for each whose confirmation changed).

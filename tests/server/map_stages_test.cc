@@ -549,5 +549,41 @@ TEST(ObjectEval, HungarianLowConfidenceAndVisiblePart) {
   EXPECT_EQ(checked, 2);
 }
 
+// A `low` object is placed only to +-0.2 m: a map object within the radius plus that tolerance
+// is neutral; one beyond it, or a high object's neighbour at the same distance, is not.
+TEST(ObjectEval, LowObjectsMatchWithinTheirTolerance) {
+  GroundTruthScene gt;
+  GroundTruthObject chair;
+  chair.id = 1;
+  chair.name = "chair_far";
+  chair.class_name = "chair";
+  chair.centroid_m = Eigen::Vector3d(3, 0, 0);
+  chair.confidence = "low";
+  gt.objects.push_back(chair);
+  chair.id = 2;
+  chair.name = "chair_near";
+  chair.centroid_m = Eigen::Vector3d(0, 0, 0);
+  chair.confidence = "high";
+  gt.objects.push_back(chair);
+  auto chair_at = [](int64_t id, double x_m, double y_m) {
+    MapObject o;
+    o.id = id;
+    o.class_name = "chair";
+    o.centroid_m = Eigen::Vector3d(x_m, y_m, 0);
+    return o;
+  };
+  const std::vector<MapObject> found = {chair_at(10, 3.45, 0), chair_at(11, 0, 0.45)};
+  const ObjectEvalResult r = EvaluateObjects(found, gt, ObjectEvalOptions{});
+  EXPECT_EQ(r.false_positive_ids, std::vector<int64_t>{11});
+  ASSERT_EQ(r.matches.size(), 1u);
+  EXPECT_TRUE(r.matches[0].neutral);
+  EXPECT_EQ(r.matches[0].object_id, 10);
+  ObjectEvalOptions strict;
+  strict.low_tolerance_m = 0;
+  const ObjectEvalResult s = EvaluateObjects(found, gt, strict);
+  EXPECT_EQ(s.false_positive_ids.size(), 2u);
+  EXPECT_TRUE(s.matches.empty());
+}
+
 }  // namespace
 }  // namespace loci::server
