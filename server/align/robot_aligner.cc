@@ -241,8 +241,13 @@ std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
     const bool refine =
         !own_island && static_cast<int>(++dense_tried) <= place_.dense.max_per_keyframe;
     ++verified;
+    spdlog::debug("verified match {}-{}: {} inliers, RMS {:.4f} m, rotation sigma {:.3f} deg, "
+                  "chi2/pair {:.2f}, inlier area {:.3f}",
+                  c.keyframe_id, kf.keyframe_id, v.inliers, v.rms_m, v.rotation_sigma_deg,
+                  v.chi2_per_pair, v.inlier_area);
     const SE3d T_a_b = RefinedDense(c.keyframe_id, refine ? dense : nullptr, v.T_a_b);
-    matches.push_back({c.keyframe_id, kf.keyframe_id, T_a_b, v.inliers, v.rms_m, loop});
+    matches.push_back({c.keyframe_id, kf.keyframe_id, T_a_b, v.inliers, v.rms_m, loop,
+                       v.rotation_sigma_deg * M_PI / 180.0});
   }
   std::lock_guard<std::mutex> lock(stats_mu_);
   ++stats_.queries;

@@ -150,7 +150,9 @@ void RefineWeighted(const KeyframeFeatures& a, const KeyframeFeatures& b,
     cov_b.push_back(PointCovariance(in_b.back(), sigma_b_px, noise_b));
   }
   v->inlier_area = InlierArea(uv_a, a.camera);
-  RefineAlignment(in_a, in_b, cov_a, cov_b, kRefineIterations, &v->T_a_b);
+  const AlignmentFit fit = RefineAlignment(in_a, in_b, cov_a, cov_b, kRefineIterations, &v->T_a_b);
+  v->rotation_sigma_deg = fit.rotation_sigma_rad * 180.0 / M_PI;
+  v->chi2_per_pair = fit.pairs > 0 ? fit.chi2 / fit.pairs : 0.0;
 }
 
 // The 3D-3D stage on the PnP inliers with depth in both keyframes: the Umeyama check (inlier

@@ -23,11 +23,27 @@ struct PointNoise {
 // Covariance of a point p (camera frame, m) whose pixel has position noise sigma_px.
 Eigen::Matrix3d PointCovariance(const Eigen::Vector3d& p, double sigma_px, const PointNoise& noise);
 
+// How well the points determine the refined T_a_b.
+struct AlignmentFit {
+  // Gauss-Newton information J^T W J at the estimate, for a left perturbation
+  // T <- exp(delta) T with delta = (rotation vector, translation).
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+  double chi2 = 0;  // sum of r^T W r over the pairs
+  int pairs = 0;
+  // The estimate's rotation standard deviation along its weakest direction, rad: the largest
+  // eigenvalue of the rotation block of information^-1, scaled by the a-posteriori variance
+  // factor chi2 / (3 pairs - 6) when that exceeds 1 (the noise model is optimistic). A cluster
+  // of points on one small patch turns and shifts together along a direction it cannot see.
+  double rotation_sigma_rad = 0;
+};
+
 // Refines T_a_b (in place) from point pairs p_a[k] ~ T_a_b * p_b[k] with covariances cov_a[k]
-// and cov_b[k] in their own frames; `iterations` Gauss-Newton steps at most.
-void RefineAlignment(const std::vector<Eigen::Vector3d>& p_a,
-                     const std::vector<Eigen::Vector3d>& p_b,
-                     const std::vector<Eigen::Matrix3d>& cov_a,
-                     const std::vector<Eigen::Matrix3d>& cov_b, int iterations, SE3d* T_a_b);
+// and cov_b[k] in their own frames; `iterations` Gauss-Newton steps at most. Returns the fit at
+// the final estimate (zero when there are fewer than 3 pairs).
+AlignmentFit RefineAlignment(const std::vector<Eigen::Vector3d>& p_a,
+                             const std::vector<Eigen::Vector3d>& p_b,
+                             const std::vector<Eigen::Matrix3d>& cov_a,
+                             const std::vector<Eigen::Matrix3d>& cov_b, int iterations,
+                             SE3d* T_a_b);
 
 }  // namespace loci::place
