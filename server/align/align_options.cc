@@ -28,12 +28,11 @@ Status LoopOptions::FromYaml(const YAML::Node& node) {
                                       {"enabled", "min_gap_s", "sigma_trans_m", "sigma_rot_rad",
                                        "optimize_every_edges", "optimize_min_keyframes",
                                        "optimize_growth", "apply_chunk_keyframes",
-                                       "island_max_verify", "fit_sigma_scale"}));
+                                       "island_max_verify"}));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "enabled", &enabled));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "min_gap_s", &min_gap_s));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "sigma_trans_m", &sigma_trans_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "sigma_rot_rad", &sigma_rot_rad));
-  LOCI_RETURN_IF_ERROR(ReadOptional(node, "fit_sigma_scale", &fit_sigma_scale));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "optimize_every_edges", &optimize_every_edges));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "optimize_min_keyframes", &optimize_min_keyframes));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "optimize_growth", &optimize_growth));
@@ -46,9 +45,6 @@ Status LoopOptions::Validate() const {
   if (!(min_gap_s >= 0)) return absl::InvalidArgumentError("align.loops.min_gap_s must be >= 0");
   if (!(sigma_trans_m > 0) || !(sigma_rot_rad > 0)) {
     return absl::InvalidArgumentError("align.loops.sigma_trans_m and sigma_rot_rad must be > 0");
-  }
-  if (!(fit_sigma_scale >= 0 && fit_sigma_scale <= 100)) {
-    return absl::InvalidArgumentError("align.loops.fit_sigma_scale must be in [0, 100]");
   }
   if (optimize_every_edges < 1 || optimize_min_keyframes < 0) {
     return absl::InvalidArgumentError(

@@ -24,13 +24,6 @@ struct LoopOptions {
   // (0.02, 0.01). The wrong-loop guard (graph.pcm) works in these units.
   double sigma_trans_m = 0.02;
   double sigma_rot_rad = 0.01;
-  // A match whose own estimate is less certain widens both: the rotation sigma becomes at least
-  // this x the estimate's rotation sigma along its weakest direction (the weighted 3D-3D fit's
-  // covariance, scaled by its residuals: place::Verification::rotation_sigma_deg), and the
-  // translation sigma grows in proportion. Inliers on one patch leave rotation and translation
-  // free together; such matches were the worst loop edges on fr1_rpy (session 39). 0 = off:
-  // every match weighs the same (3).
-  double fit_sigma_scale = 3.0;
   // The graph is solved once this many new verified edges (loops or merges between mapped
   // keyframes) are in (3) ...
   int optimize_every_edges = 3;

@@ -30,7 +30,7 @@ void LoopCloser::AddKeyframe(const LoopKeyframe& keyframe) {
 
 void LoopCloser::AddMatch(const VerifiedMatch& match, bool fresh, int64_t graph) {
   std::lock_guard<std::mutex> lock(mu_);
-  matches_[{match.a_id, match.b_id}] = {match.T_a_b, match.rotation_sigma_rad};
+  matches_[{match.a_id, match.b_id}] = match.T_a_b;
   if (!fresh) return;
   ++(match.loop ? stats_.loop_matches : stats_.merge_matches);
   ++pending_[graph].new_matches;
@@ -119,13 +119,6 @@ StatusOr<GraphResult> LoopCloser::Optimize(const std::vector<MappedKeyframe>& ma
   return result;
 }
 
-Information6 LoopCloser::MatchInformation(double fit_sigma_rad) const {
-  const double sigma_rot_rad =
-      std::max(options_.sigma_rot_rad, options_.fit_sigma_scale * fit_sigma_rad);
-  const double scale = sigma_rot_rad / options_.sigma_rot_rad;
-  return IsotropicInformation(options_.sigma_trans_m * scale, sigma_rot_rad);
-}
-
 Status LoopCloser::BuildGraph(const std::vector<MappedKeyframe>& mapped, bool gravity_aligned,
                               const std::vector<CentroidObservation>& centroids,
                               PoseGraph* graph) {
@@ -148,14 +141,14 @@ Status LoopCloser::BuildGraph(const std::vector<MappedKeyframe>& mapped, bool gr
     }
     prev = &kf;
   }
-  for (const auto& [ids, match] : matches_) {
+  const Information6 info = IsotropicInformation(options_.sigma_trans_m, options_.sigma_rot_rad);
+  for (const auto& [ids, T_a_b] : matches_) {
     auto a = session_of.find(ids.first), b = session_of.find(ids.second);
     if (a == session_of.end() || b == session_of.end()) continue;  // not both mapped
-    const Information6 info = MatchInformation(match.rotation_sigma_rad);
     if (a->second == b->second) {
-      LOCI_RETURN_IF_ERROR(graph->AddLoopEdge(ids.first, ids.second, match.T_a_b, info));
+      LOCI_RETURN_IF_ERROR(graph->AddLoopEdge(ids.first, ids.second, T_a_b, info));
     } else {
-      LOCI_RETURN_IF_ERROR(graph->AddMergeEdge(ids.first, ids.second, match.T_a_b, info));
+      LOCI_RETURN_IF_ERROR(graph->AddMergeEdge(ids.first, ids.second, T_a_b, info));
     }
   }
   if (!graph_.landmarks.enabled) return absl::OkStatus();

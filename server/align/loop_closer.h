@@ -125,8 +125,6 @@ class LoopCloser {
   // The graph over the records (mu_ held by the caller's lock inside).
   Status BuildGraph(const std::vector<MappedKeyframe>& mapped, bool gravity_aligned,
                     const std::vector<CentroidObservation>& centroids, PoseGraph* graph);
-  // A match's information as a graph edge (LoopOptions::fit_sigma_scale).
-  Information6 MatchInformation(double fit_sigma_rad) const;
   // What counts towards a graph's next solve.
   struct Pending {
     int new_matches = 0;
@@ -137,11 +135,7 @@ class LoopCloser {
   std::mutex solve_mu_;       // one solve at a time; guards pcm_cache_
   std::map<int64_t, LoopKeyframe> keyframes_;                // by id
   // T_a_b by (a, b); loop or merge is decided by the keyframes' sessions when solving.
-  struct StoredMatch {
-    SE3d T_a_b;
-    double rotation_sigma_rad = 0;  // 0 = unknown
-  };
-  std::map<std::pair<int64_t, int64_t>, StoredMatch> matches_;
+  std::map<std::pair<int64_t, int64_t>, SE3d> matches_;
   std::map<int64_t, Pending> pending_;  // by graph
   LoopStats stats_;
   std::map<int64_t, PcmCache> pcm_caches_;  // by graph; solve_mu_

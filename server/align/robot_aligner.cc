@@ -246,8 +246,7 @@ std::vector<VerifiedMatch> RobotAligner::Match(const AlignKeyframe& kf,
                   c.keyframe_id, kf.keyframe_id, v.inliers, v.rms_m, v.rotation_sigma_deg,
                   v.chi2_per_pair, v.inlier_area);
     const SE3d T_a_b = RefinedDense(c.keyframe_id, refine ? dense : nullptr, v.T_a_b);
-    matches.push_back({c.keyframe_id, kf.keyframe_id, T_a_b, v.inliers, v.rms_m, loop,
-                       v.rotation_sigma_deg * M_PI / 180.0});
+    matches.push_back({c.keyframe_id, kf.keyframe_id, T_a_b, v.inliers, v.rms_m, loop});
   }
   std::lock_guard<std::mutex> lock(stats_mu_);
   ++stats_.queries;

@@ -76,10 +76,6 @@ struct VerifiedMatch {
   int inliers = 0;   // 3D-3D inliers
   double rms_m = 0;  // their RMS distance after alignment
   bool loop = false; // same session
-  // The estimate's rotation sigma along its weakest direction, rad (place::Verification's
-  // rotation_sigma_deg): its own uncertainty as a graph edge (align.loops.fit_sigma_scale).
-  // 0 = unknown.
-  double rotation_sigma_rad = 0;
 };
 
 // An island (all its sessions) placed in another unaligned session's island.

@@ -26,7 +26,7 @@ struct Verification {
   double rms_m = 0;                   // RMS 3D distance of those inliers after alignment, m
   // Share of keyframe a's image covered by the box of the middle 90% of the inliers' pixels.
   double inlier_area = 0;
-  // Rotation standard deviation of T_a_b along its weakest direction, deg
+  // Rotation standard deviation of T_a_b along its weakest direction under the noise model, deg
   // (AlignmentFit::rotation_sigma_rad of the weighted refinement).
   double rotation_sigma_deg = 0;
   double chi2_per_pair = 0;  // the refinement's chi2 / pairs (3 when the noise model holds)

@@ -50,13 +50,11 @@ NormalEquations Linearise(const std::vector<Eigen::Vector3d>& p_a,
   return n;
 }
 
-double RotationSigmaRad(const Eigen::Matrix<double, 6, 6>& H, double chi2, int pairs) {
+double RotationSigmaRad(const Eigen::Matrix<double, 6, 6>& H) {
   const Eigen::Matrix<double, 6, 6> cov = H.ldlt().solve(Eigen::Matrix<double, 6, 6>::Identity());
   if (!cov.allFinite()) return M_PI;
-  const int dof = 3 * pairs - 6;
-  const double factor = dof > 0 ? std::max(1.0, chi2 / dof) : 1.0;
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov.topLeftCorner<3, 3>());
-  return std::sqrt(std::max(0.0, eig.eigenvalues().maxCoeff()) * factor);
+  return std::sqrt(std::max(0.0, eig.eigenvalues().maxCoeff()));
 }
 
 }  // namespace
@@ -90,7 +88,7 @@ AlignmentFit RefineAlignment(const std::vector<Eigen::Vector3d>& p_a,
   fit.information = n.H;
   fit.chi2 = n.chi2;
   fit.pairs = static_cast<int>(p_a.size());
-  fit.rotation_sigma_rad = RotationSigmaRad(n.H, n.chi2, fit.pairs);
+  fit.rotation_sigma_rad = RotationSigmaRad(n.H);
   return fit;
 }
 

@@ -30,10 +30,11 @@ struct AlignmentFit {
   Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
   double chi2 = 0;  // sum of r^T W r over the pairs
   int pairs = 0;
-  // The estimate's rotation standard deviation along its weakest direction, rad: the largest
-  // eigenvalue of the rotation block of information^-1, scaled by the a-posteriori variance
-  // factor chi2 / (3 pairs - 6) when that exceeds 1 (the noise model is optimistic). A cluster
-  // of points on one small patch turns and shifts together along a direction it cannot see.
+  // The estimate's rotation standard deviation along its weakest direction under the noise
+  // model, rad: the square root of the largest eigenvalue of the rotation block of
+  // information^-1. A cluster of points on one small patch turns and shifts together along a
+  // direction it cannot see. Not scaled by how well the residuals fit (chi2): a sensor noisier
+  // than the model, or unrectified rolling-shutter frames, would widen every match alike.
   double rotation_sigma_rad = 0;
 };
 

@@ -62,8 +62,7 @@ void MapServer::RecordMatches(int64_t query_session_row,
   closer_->NoteRecognised(query_graph);
   for (const VerifiedMatch& m : matches) {
     closer_->AddMatch(m, /*fresh=*/true, MatchGraph(m.a_id, query_graph));
-    const Status st = store_->PutPlaceMatch(
-        {m.a_id, m.b_id, m.T_a_b, m.inliers, m.rms_m, m.rotation_sigma_rad});
+    const Status st = store_->PutPlaceMatch({m.a_id, m.b_id, m.T_a_b, m.inliers, m.rms_m});
     if (!st.ok()) {
       spdlog::warn("match of keyframes {} and {} not stored ({}); it is used until a restart",
                    m.a_id, m.b_id, st.ToString());
@@ -86,8 +85,7 @@ void MapServer::LoadPlaceMatches(const std::map<int64_t, int64_t>& unsolved) {
     // solve, as it did before the restart (RecordMatches).
     auto it = unsolved.find(m.b_keyframe_id);
     const bool fresh = it != unsolved.end();
-    closer_->AddMatch({m.a_keyframe_id, m.b_keyframe_id, m.T_a_b, m.inliers, m.rms_m, false,
-                       m.rotation_sigma_rad},
+    closer_->AddMatch({m.a_keyframe_id, m.b_keyframe_id, m.T_a_b, m.inliers, m.rms_m, false},
                       fresh, fresh ? MatchGraph(m.a_keyframe_id, it->second) : kSharedGraph);
     pending += fresh;
   }

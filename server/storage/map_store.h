@@ -79,7 +79,6 @@ struct PlaceMatchRecord {
   SE3d T_a_b = SE3d::Identity();
   int inliers = 0;
   double rms_m = 0;
-  double rotation_sigma_rad = 0;  // the estimate's, along its weakest direction (0 = unknown)
 };
 
 // What ForEachKeyframe reads besides the pose and metadata.

@@ -140,13 +140,11 @@ Status SqliteStore::PutPlaceMatch(const PlaceMatchRecord& m) {
   return Write([&](sqlite3* db) -> Status {
     Stmt s(db,
            "INSERT OR REPLACE INTO place_matches(a_keyframe_id, b_keyframe_id, tx, ty, tz, qw, qx,"
-           " qy, qz, inliers, rms_m, found_ns, rotation_sigma_rad)"
-           " VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+           " qy, qz, inliers, rms_m, found_ns) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
     if (!s.status().ok()) return SqlError(db, "prepare store place match");
     s.Bind(1, m.a_keyframe_id).Bind(2, m.b_keyframe_id);
     BindPose(s, 3, m.T_a_b);
     s.Bind(10, static_cast<int64_t>(m.inliers)).Bind(11, m.rms_m).Bind(12, NowNs());
-    s.Bind(13, m.rotation_sigma_rad);
     if (s.Step() != SQLITE_DONE) {
       return SqlError(db, absl::StrCat("store the match of keyframes ", m.a_keyframe_id, " and ",
                                        m.b_keyframe_id));
@@ -158,14 +156,13 @@ Status SqliteStore::PutPlaceMatch(const PlaceMatchRecord& m) {
 StatusOr<std::vector<PlaceMatchRecord>> SqliteStore::ListPlaceMatches() {
   LOCI_ASSIGN_OR_RETURN(auto reader, readers_.Acquire());
   Stmt q(reader.get(),
-         "SELECT a_keyframe_id, b_keyframe_id, tx, ty, tz, qw, qx, qy, qz, inliers, rms_m,"
-         " rotation_sigma_rad FROM place_matches ORDER BY b_keyframe_id, a_keyframe_id");
+         "SELECT a_keyframe_id, b_keyframe_id, tx, ty, tz, qw, qx, qy, qz, inliers, rms_m"
+         " FROM place_matches ORDER BY b_keyframe_id, a_keyframe_id");
   LOCI_RETURN_IF_ERROR(q.status());
   std::vector<PlaceMatchRecord> out;
   int rc;
   while ((rc = q.Step()) == SQLITE_ROW) {
-    out.push_back({q.Int(0), q.Int(1), PoseFrom(q, 2), static_cast<int>(q.Int(9)), q.Real(10),
-                   q.Real(11)});
+    out.push_back({q.Int(0), q.Int(1), PoseFrom(q, 2), static_cast<int>(q.Int(9)), q.Real(10)});
   }
   if (rc != SQLITE_DONE) return SqlError(reader.get(), "read place matches");
   return out;
