@@ -299,6 +299,22 @@ void ObjectMap::MergeMoved(const std::vector<int64_t>& object_ids,
     const int64_t id = Resolve(object_id);
     if (objects_.count(id)) MergeDuplicates(id, changes);
   }
+  // Parts, stands and straddling pieces are judged by where things lie, which the move changed:
+  // judged again as after an observation.
+  const ClassDetectionRates rates = Rates();
+  std::set<int64_t> judged;
+  for (int64_t object_id : moved) {
+    const int64_t id = Resolve(object_id);
+    auto it = objects_.find(id);
+    if (it == objects_.end() || !judged.insert(id).second) continue;
+    const bool was_confirmed = it->second.confirmed();
+    Judge(&it->second, rates);
+    if (it->second.confirmed() != was_confirmed) {
+      changes->push_back({ObjectChange::Kind::kUpdated, id, 0, {}});
+    }
+    JudgeParts(id, rates, changes);
+    JudgeStraddlers(id, rates, changes);
+  }
 }
 
 void ObjectMap::ObserveView(const KeyframeView& view, const std::vector<int64_t>& observed_ids,

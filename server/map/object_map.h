@@ -85,8 +85,9 @@ class ObjectMap {
   // class_name: the observation's detected class.
   bool MoveObservation(int64_t object_id, const std::vector<ColoredPoint>& old_m,
                        const std::vector<ColoredPoint>& new_m, const std::string& class_name);
-  // After moves: recomputes the moved objects' geometry (one kUpdated each), then merges those
-  // that now coincide with others (kMerged + kRemoved).
+  // After moves: recomputes the moved objects' geometry (one kUpdated each), merges those that
+  // now coincide with others (kMerged + kRemoved), then judges the moved objects and the parts
+  // and pieces near them again (kUpdated for each whose confirmation changed).
   void MergeMoved(const std::vector<int64_t>& object_ids, std::vector<ObjectChange>* changes);
 
   // Forgets every object (the map is re-derived); ids keep counting up.

@@ -614,5 +614,46 @@ TEST(ObjectRules, AnObjectUnderTheMiddleOfAMonitorIsItsStand) {
   EXPECT_TRUE(on.mouse_confirmed);
 }
 
+// A loop closure moves keyframes, and with them what lies under what: the foot's views, mapped
+// beside the monitor by a drifted pose, are moved under it. Judged again after the move, it is
+// the monitor's stand.
+TEST(ObjectRules, AStandFoundAfterAMoveIsJudgedThen) {
+  FusionOptions opt = WithSizes(1.5);
+  opt.max_size_m["mouse"] = 0.25;
+  ObjectMap map(opt, 0.01);
+  std::vector<ObjectChange> changes;
+  const Eigen::Vector3d step(0.01, 0.01, 0.01);
+  const Eigen::Vector3d drift(0.0, 0.45, 0.0);  // the foot's views mapped 45 cm aside
+  auto foot = [&](int64_t kf, const Eigen::Vector3d& offset) {
+    return Grid("mouse", 4, kf, Eigen::Vector3d(0.44, 0.88, 0.78) + offset,
+                Eigen::Vector3d(0.52, 0.97, 0.84) + offset, step);
+  };
+  int64_t foot_id = 0;
+  std::vector<int64_t> foot_kfs;
+  for (int64_t kf = 1; kf <= 16; ++kf) {
+    std::vector<MapObservation> views = {
+        Grid("tv", 1, kf, {0.47, 0.65, 0.94}, {0.49, 1.20, 1.25}, step)};
+    if (kf >= 5 && kf <= 12) {
+      views.push_back(foot(kf, drift));
+      foot_kfs.push_back(kf);
+    }
+    const std::vector<int64_t> ids = map.Integrate(views, &changes);
+    if (views.size() > 1) foot_id = ids[1];
+  }
+  ASSERT_TRUE(map.Find(map.Resolve(foot_id))->confirmed());  // beside the monitor: an object
+  for (int64_t kf : foot_kfs) {
+    ASSERT_TRUE(map.MoveObservation(foot_id, foot(kf, drift).points_m,
+                                    foot(kf, Eigen::Vector3d::Zero()).points_m, "mouse"));
+  }
+  changes.clear();
+  map.MergeMoved({foot_id}, &changes);
+  EXPECT_FALSE(map.Find(map.Resolve(foot_id))->confirmed());
+  bool reported = false;
+  for (const ObjectChange& c : changes) {
+    reported |= c.kind == ObjectChange::Kind::kUpdated && c.object_id == map.Resolve(foot_id);
+  }
+  EXPECT_TRUE(reported);
+}
+
 }  // namespace
 }  // namespace loci::server
