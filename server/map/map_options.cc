@@ -237,6 +237,7 @@ Status MapOptions::ClassesFromYaml(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "mapped", &mapped_classes));
   LOCI_RETURN_IF_ERROR(ReadClassMetres(node, "max_size_m", &max_size_m));
   LOCI_RETURN_IF_ERROR(ReadClassMetres(node, "max_height_m", &max_height_m));
+  LOCI_RETURN_IF_ERROR(ReadClassMetres(node, "max_thickness_m", &max_thickness_m));
   if (!mapped_classes.empty()) {
     fusion.label_universe = std::max<int>(2, static_cast<int>(mapped_classes.size()));
   }

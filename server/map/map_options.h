@@ -161,6 +161,11 @@ struct FusionOptions {
   // own most likely class's limit is not confirmed (a fused 0.4 m "mouse"). <= 0 = off (1.5).
   std::map<std::string, double> max_size_m;
   double class_size_slack = 1.5;
+  // Class shape priors (Mapper sets it from MapOptions::max_thickness_m): an object whose
+  // oriented box is thicker than this along its thinnest side (its most likely class's value,
+  // m) is not confirmed: a flat panel fused from views of the wall beside and behind it. Absent
+  // = no limit.
+  std::map<std::string, double> max_thickness_m;
   // Two objects of the same class whose axis-aligned boxes (map frame) overlap by more than this
   // share of the smaller box's volume are one object: two solid things do not interpenetrate.
   // Far objects (3 m and more: depth noise ~z^2, a degree of pose error moves them 5 cm) come back
@@ -226,6 +231,9 @@ struct MapOptions {
   // `max_height_m`: the 5-95 % extent of its points along up); taller observations are dropped.
   // Absent = no limit.
   std::map<std::string, double> max_height_m;
+  // Thickest plausible fused object of a class, m (config/classes.yaml `max_thickness_m`: the
+  // thinnest side of its oriented box). Absent = no limit.
+  std::map<std::string, double> max_thickness_m;
 
   // Reads the sections cloud / observation / fusion / octomap and the class lists.
   // Fingerprints of what the stored map was made with (stored beside it; another fingerprint

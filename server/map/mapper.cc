@@ -18,6 +18,7 @@ double MsSince(double t0_cpu_ms) { return ThreadCpuMs() - t0_cpu_ms; }
 FusionOptions FusionWithFlatTops(const MapOptions& options) {
   FusionOptions f = options.fusion;
   f.max_size_m = options.max_size_m;
+  f.max_thickness_m = options.max_thickness_m;
   f.flat_top_classes = options.observation.mask.flat_top_classes;
   f.flat_top_margin_m = options.observation.mask.flat_top_margin_m;
   return f;

@@ -64,6 +64,13 @@ bool ObjectMap::FitsClass(const std::string& class_name, double size_m) const {
   return it == options_.max_size_m.end() || size_m <= options_.class_size_slack * it->second;
 }
 
+bool ObjectMap::FitsClassShape(const FusedObject& object) const {
+  const std::string class_name = object.labels().Argmax();
+  if (!FitsClass(class_name, 2.0 * object.half_size_m())) return false;
+  const auto it = options_.max_thickness_m.find(class_name);
+  return it == options_.max_thickness_m.end() || 2.0 * object.obb_half_m().minCoeff() <= it->second;
+}
+
 bool ObjectMap::ClassesFit(const std::string& class_a, double size_a_m, const std::string& class_b,
                            double size_b_m) const {
   if (class_a == class_b) return true;
@@ -350,9 +357,10 @@ ClassDetectionRates ObjectMap::Rates() const {
 
 double ObjectMap::Judge(FusedObject* object, const ClassDetectionRates& rates) const {
   const auto min_span_ns = static_cast<int64_t>(options_.confirm_min_span_s * 1e9);
-  // A fused 0.4 m "mouse" is a wrong label or a box smeared over what lies around it: it stays a
-  // candidate (its evidence kept) while its size does not fit its class.
-  const bool size_fits = FitsClass(object->labels().Argmax(), 2.0 * object->half_size_m());
+  // A fused 0.4 m "mouse" is a wrong label or a box smeared over what lies around it, and a
+  // 0.4 m thick "tv" is the wall around a screen without depth: it stays a candidate (its
+  // evidence kept) while its size or shape does not fit its class.
+  const bool size_fits = FitsClassShape(*object);
   object->UpdateConfirmed(options_.confirm_observations, min_span_ns, rates.For(*object),
                           options_.confirm_llr, size_fits);
   // So does a part of another object (object_parts.cc) and a piece of furniture lying across two

@@ -143,6 +143,8 @@ class ObjectMap {
                          std::optional<MapObject>* self_box) const;
   // An object of size_m (longest side) can be of the class (FusionOptions::class_size_slack).
   bool FitsClass(const std::string& class_name, double size_m) const;
+  // The object's size and thickness fit its most likely class (FusionOptions::max_thickness_m).
+  bool FitsClassShape(const FusedObject& object) const;
   // Same class, or each one's size fits the other's class and neither or both are flat-topped
   // furniture (FusionOptions::flat_top_classes).
   bool ClassesFit(const std::string& class_a, double size_a_m, const std::string& class_b,

@@ -119,7 +119,8 @@ Status ServerOptions::LoadClasses() {
   const ConfigFileScope scope(file);
   // dynamic_weight is loci-track's (TrackerOptions::ClassWeightsFromYaml).
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
-      node, "", {"mapped", "dynamic_classes", "dynamic_weight", "max_size_m", "max_height_m"}));
+      node, "", {"mapped", "dynamic_classes", "dynamic_weight", "max_size_m", "max_height_m",
+                 "max_thickness_m"}));
   return map.ClassesFromYaml(node);
 }
 
