@@ -157,19 +157,21 @@ RelationResult RelationEvaluator::On(const ObjectGeom& s, const ObjectGeom& a, b
 RelationResult RelationEvaluator::Under(const ObjectGeom& s, const ObjectGeom& a, bool ev) const {
   RelationResult r;
   const double overlap = FootprintFraction(s, a);
-  const double depth = a.box.max.z() - s.centroid_g.z();  // centre below the anchor's top
+  // Below the anchor's top surface, as On measures it: a desk's box that caught a monitor reaches
+  // far above its top, and the mouse on the desk is not under it.
+  const double depth = a.top_z - s.centroid_g.z();
   r.confidence = 0.5 + 0.5 * Clamp01(overlap / std::max(0.6, opt_.under_min_overlap));
   const bool shelter = std::find(opt_.under_anchors.begin(), opt_.under_anchors.end(),
                                  a.class_name) != opt_.under_anchors.end();
   r.holds = shelter && overlap >= opt_.under_min_overlap && depth > opt_.vertical_tolerance_m &&
-            s.box.min.z() < a.box.max.z() - opt_.vertical_tolerance_m &&
+            s.box.min.z() < a.top_z - opt_.vertical_tolerance_m &&
             s.box.FootprintArea() <= a.box.FootprintArea() * 1.5;
   r.distance_m = std::max(0.0, a.box.min.z() - s.box.max.z());
   if (ev) {
     r.evidence = absl::StrFormat(
         "centre %.2f m below the top surface (z %.2f m), footprint "
         "overlap %.2f",
-        depth, a.box.max.z(), overlap);
+        depth, a.top_z, overlap);
   }
   return r;
 }

@@ -143,9 +143,16 @@ TEST_F(RelationsTest, OnTheTopSurfaceOfAFlatTopTable) {
   MapObject desk = Box(60, "dining table", {0, 0, 0}, {1.2, 0.8, 1.2});
   const MapObject keyboard = Box(61, "keyboard", {0.3, 0.2, 0.75}, {0.75, 0.35, 0.78});
   EXPECT_FALSE(eval_.Evaluate(RelationKind::kOn, frame_.Geom(keyboard), frame_.Geom(desk)).holds);
+  // Before the top surface is known, the box top is the surface: the keyboard looks under it.
+  EXPECT_TRUE(eval_.Evaluate(RelationKind::kUnder, frame_.Geom(keyboard), frame_.Geom(desk)).holds);
   desk.top_surface_z_m = 0.75;
   const RelationResult r = eval_.Evaluate(RelationKind::kOn, frame_.Geom(keyboard), frame_.Geom(desk));
   EXPECT_TRUE(r.holds) << r.evidence;
+  // Nor is it under the desk (fr1_rpy, session 40: "I found the mouse under the dining table");
+  // a chair's seat below the top is.
+  EXPECT_FALSE(eval_.Evaluate(RelationKind::kUnder, frame_.Geom(keyboard), frame_.Geom(desk)).holds);
+  const MapObject chair = Box(63, "chair", {0.2, 0.1, 0.0}, {0.7, 0.6, 0.9});
+  EXPECT_TRUE(eval_.Evaluate(RelationKind::kUnder, frame_.Geom(chair), frame_.Geom(desk)).holds);
   // Only for flat-top furniture: a monitor's densest layer is not a surface.
   MapObject tv = Box(62, "tv", {0, 0, 0.7}, {1.2, 0.8, 1.2});
   tv.top_surface_z_m = 0.75;
