@@ -341,7 +341,10 @@ void ObjectMap::ObserveView(const KeyframeView& view, const std::vector<int64_t>
     }
   }
   for (int64_t id : gone) {
-    changes->push_back({ObjectChange::Kind::kRemoved, id, 0, objects_.at(id).Snapshot()});
+    const FusedObject& object = objects_.at(id);
+    spdlog::debug("object {} ({}, {} views, {} missed) removed: too many views missed it", id,
+                  object.labels().Argmax(), object.observation_count(), object.misses());
+    changes->push_back({ObjectChange::Kind::kRemoved, id, 0, object.Snapshot()});
     objects_.erase(id);
   }
 }
