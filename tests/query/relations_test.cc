@@ -150,7 +150,9 @@ TEST_F(RelationsTest, OnTheTopSurfaceOfAFlatTopTable) {
   EXPECT_TRUE(r.holds) << r.evidence;
   // Nor is it under the desk (fr1_rpy, session 40: "I found the mouse under the dining table");
   // a chair's seat below the top is.
-  EXPECT_FALSE(eval_.Evaluate(RelationKind::kUnder, frame_.Geom(keyboard), frame_.Geom(desk)).holds);
+  const RelationResult under =
+      eval_.Evaluate(RelationKind::kUnder, frame_.Geom(keyboard), frame_.Geom(desk));
+  EXPECT_FALSE(under.holds) << under.evidence;
   const MapObject chair = Box(63, "chair", {0.2, 0.1, 0.0}, {0.7, 0.6, 0.9});
   EXPECT_TRUE(eval_.Evaluate(RelationKind::kUnder, frame_.Geom(chair), frame_.Geom(desk)).holds);
   // Only for flat-top furniture: a monitor's densest layer is not a surface.
