@@ -206,6 +206,7 @@ Around CountAroundPlane(const std::vector<Eigen::Vector3d>& points, const Eigen:
 // support furniture. Needs intrinsics and gravity.
 struct Supports {
   std::vector<bool> support;         // per plane
+  std::vector<bool> bare;            // per plane: level, goes on outside the box, nothing on it
   std::optional<double> top_height;  // support furniture: height of its top along up, m
 };
 
@@ -215,6 +216,7 @@ Supports FindSupports(const cv::Rect& roi, const cv::Mat& depth_m, const cv::Mat
                       const MaskContext& context) {
   Supports out;
   out.support.assign(planes.size(), false);
+  out.bare.assign(planes.size(), false);
   std::vector<bool>& support = out.support;
   if (!context.camera || !context.gravity_cam || !context.gravity_cam->allFinite() ||
       context.gravity_cam->norm() < 0.5) {
@@ -263,6 +265,9 @@ Supports FindSupports(const cv::Rect& roi, const cv::Mat& depth_m, const cv::Mat
     }
     const Around around = CountAroundPlane(points, normals[k], up, margin_m);
     const size_t below = around.below, above = around.above;
+    // Nothing of the box rises above a level surface that goes on outside it.
+    out.bare[k] = !support_class && !o.IsThinClass(context.class_name) && continues[k] &&
+                  above < 0.05 * heights.size();
     // Something of the box hangs below it: not the support, unless the plane continues outside
     // the box under an object that is not furniture (what lies below is then past the edge of
     // a desk: the floor, the desk's front).
@@ -283,15 +288,32 @@ Supports FindSupports(const cv::Rect& roi, const cv::Mat& depth_m, const cv::Mat
   return out;
 }
 
+// Whether the box shows only a bare support (BackgroundPlanes::bare_support): a level plane that
+// goes on outside the box with nothing on it holds the box centre, where the plane's tolerance
+// is fine enough for an object on it to stand out (MaskOptions::bare_support_max_tolerance_m).
+bool BareSupport(const cv::Mat& depth_m, const std::vector<InverseDepthPlane>& planes,
+                 const std::vector<bool>& bare, const std::vector<double>& centre,
+                 const MaskOptions& o) {
+  for (size_t k = 0; k < planes.size(); ++k) {
+    if (!bare[k] || centre[k] < o.max_centre_fraction) continue;
+    const double z_m = planes[k].DepthAt(0.5 * depth_m.cols, 0.5 * depth_m.rows);
+    if (z_m > 0 && PlaneToleranceM(z_m, o) <= o.bare_support_max_tolerance_m) return true;
+  }
+  return false;
+}
+
 }  // namespace
 
-cv::Mat BackgroundPlaneMask(const cv::Mat& depth, const cv::Rect& roi, const cv::Mat& depth_m,
-                            const MaskOptions& o, const MaskContext& context) {
-  cv::Mat background = cv::Mat::zeros(depth_m.size(), CV_8UC1);
+BackgroundPlanes BackgroundPlaneMask(const cv::Mat& depth, const cv::Rect& roi,
+                                     const cv::Mat& depth_m, const MaskOptions& o,
+                                     const MaskContext& context) {
+  BackgroundPlanes out;
+  out.mask = cv::Mat::zeros(depth_m.size(), CV_8UC1);
+  cv::Mat& background = out.mask;
   const int valid = cv::countNonZero(depth_m > 0.f);
-  if (valid < std::max(o.min_pixels, 30)) return background;
+  if (valid < std::max(o.min_pixels, 30)) return out;
   const std::vector<InverseDepthPlane> planes = FindPlanes(depth_m, valid, o);
-  if (planes.empty()) return background;
+  if (planes.empty()) return out;
   const cv::Mat labels = LabelPlanes(depth_m, planes, o);
   std::vector<double> outside(planes.size()), centre(planes.size());
   std::vector<bool> continues(planes.size());
@@ -301,6 +323,7 @@ cv::Mat BackgroundPlaneMask(const cv::Mat& depth, const cv::Rect& roi, const cv:
     continues[k] = outside[k] >= o.min_outside_fraction;
   }
   const Supports supports = FindSupports(roi, depth_m, labels, planes, continues, o, context);
+  out.bare_support = BareSupport(depth_m, planes, supports.bare, centre, o);
   const std::vector<bool>& support = supports.support;
   const bool support_class = o.IsSupportClass(context.class_name);
   std::vector<bool> is_background(planes.size(), false);
@@ -339,7 +362,7 @@ cv::Mat BackgroundPlaneMask(const cv::Mat& depth, const cv::Rect& roi, const cv:
   if (valid - removed < std::max<double>(o.min_pixels, o.min_object_fraction * valid)) {
     background.setTo(0);
   }
-  return background;
+  return out;
 }
 
 }  // namespace loci::detection

@@ -39,8 +39,14 @@ double ValidDepthM(const cv::Mat& depth, int u, int v, const MaskOptions& o);
 // planes would leave almost nothing (an object too thin to tell from its support, such as a
 // phone lying on a table far away): the caller then segments by depth alone.
 // With gravity and intrinsics in `context`, horizontal support planes are background too (see
-// MaskOptions::horizontal_max_deg).
-cv::Mat BackgroundPlaneMask(const cv::Mat& depth, const cv::Rect& roi, const cv::Mat& depth_m,
-                            const MaskOptions& o, const MaskContext& context = {});
+// MaskOptions::horizontal_max_deg), and bare_support tells a box that shows only its support
+// (MaskOptions::bare_support_max_tolerance_m).
+struct BackgroundPlanes {
+  cv::Mat mask;
+  bool bare_support = false;
+};
+BackgroundPlanes BackgroundPlaneMask(const cv::Mat& depth, const cv::Rect& roi,
+                                     const cv::Mat& depth_m, const MaskOptions& o,
+                                     const MaskContext& context = {});
 
 }  // namespace loci::detection

@@ -21,7 +21,8 @@ constexpr const char* kMaskKeys[] = {"depth_scale",           "min_depth_m",
                                      "min_object_fraction",   "max_centre_fraction",
                                      "horizontal_max_deg",    "support_min_rise_m",
                                      "support_classes",       "flat_top_classes",
-                                     "flat_top_margin_m"};
+                                     "flat_top_margin_m",     "bare_support_max_tolerance_m",
+                                     "thin_classes"};
 
 StatusOr<MaskOptions> MaskOptions::FromYaml(const YAML::Node& node) {
   MaskOptions o;
@@ -49,6 +50,9 @@ StatusOr<MaskOptions> MaskOptions::FromYaml(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "support_classes", &o.support_classes));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "flat_top_classes", &o.flat_top_classes));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "flat_top_margin_m", &o.flat_top_margin_m));
+  LOCI_RETURN_IF_ERROR(
+      ReadOptional(node, "bare_support_max_tolerance_m", &o.bare_support_max_tolerance_m));
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "thin_classes", &o.thin_classes));
   LOCI_RETURN_IF_ERROR(o.Validate());
   return o;
 }
@@ -74,7 +78,7 @@ Status MaskOptions::Validate() const {
       !(min_object_fraction >= 0.f && min_object_fraction < 1.f) ||
       !(max_centre_fraction > 0.f && max_centre_fraction <= 1.f) ||
       !(horizontal_max_deg >= 0.f && horizontal_max_deg < 90.f) || !(support_min_rise_m >= 0.f) ||
-      !(flat_top_margin_m >= 0.f)) {
+      !(flat_top_margin_m >= 0.f) || !(bare_support_max_tolerance_m >= 0.f)) {
     return absl::InvalidArgumentError("mask: invalid background-plane parameter");
   }
   return absl::OkStatus();
@@ -88,6 +92,10 @@ bool MaskOptions::IsSupportClass(const std::string& class_name) const {
 bool MaskOptions::IsFlatTopClass(const std::string& class_name) const {
   return IsSupportClass(class_name) && std::find(flat_top_classes.begin(), flat_top_classes.end(),
                                                  class_name) != flat_top_classes.end();
+}
+
+bool MaskOptions::IsThinClass(const std::string& class_name) const {
+  return std::find(thin_classes.begin(), thin_classes.end(), class_name) != thin_classes.end();
 }
 
 namespace {
@@ -124,9 +132,11 @@ cv::Mat SegmentObjectDepth(const cv::Mat& depth, const cv::Rect2f& box_px, const
       static_cast<int>(std::ceil((std::log(o.max_depth_m) - log_min) / log_step)) + 1;
   std::vector<double> hist(num_bins, 0.0);
   cv::Mat bin_of(roi.size(), CV_32S, cv::Scalar(kNoDepth));
-  const cv::Mat background = o.remove_support_plane
-                                 ? BackgroundPlaneMask(depth, roi, depth_m, o, context)
-                                 : cv::Mat::zeros(roi.size(), CV_8UC1);
+  BackgroundPlanes planes;
+  if (o.remove_support_plane) planes = BackgroundPlaneMask(depth, roi, depth_m, o, context);
+  if (planes.bare_support) return mask;
+  const cv::Mat background =
+      planes.mask.empty() ? cv::Mat(cv::Mat::zeros(roi.size(), CV_8UC1)) : planes.mask;
   cv::Mat weight(roi.size(), CV_32F);
   const double cx = box_px.x + box_px.width * 0.5 - roi.x;
   const double cy = box_px.y + box_px.height * 0.5 - roi.y;

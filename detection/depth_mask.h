@@ -81,9 +81,19 @@ struct MaskOptions {
   // ... precisely: what rises more than this above the top, m. A top is flat to depth noise
   // (about 1 cm at 2 m), while a book lying on it is 2 cm thick or more. Default 0.03.
   float flat_top_margin_m = 0.03f;
+  // With gravity and intrinsics: a box of an object that is no support furniture whose centre
+  // lies on a level plane that goes on outside the box, with nothing of the box rising 3 cm above
+  // it, shows only that surface (sheets of paper on a desk called "book"): the mask is empty.
+  // Only where the plane tolerance at the box centre's depth is at most this, so that an object
+  // lying on the surface would stand out of it (Kinect: up to about 2 m for 0.015). 0 = off.
+  // thin_classes lie flatter than that (a phone, cutlery) and keep the surface as their mask.
+  float bare_support_max_tolerance_m = 0.015f;
+  std::vector<std::string> thin_classes = {"cell phone", "remote", "knife",
+                                           "fork",       "spoon",  "scissors"};
 
   bool IsSupportClass(const std::string& class_name) const;
   bool IsFlatTopClass(const std::string& class_name) const;
+  bool IsThinClass(const std::string& class_name) const;
   static StatusOr<MaskOptions> FromYaml(const YAML::Node& node);
   Status Validate() const;
 };
@@ -97,7 +107,8 @@ struct MaskContext {
 
 // Mask (CV_8UC1, 255 = object) covering MaskRect(box_px, depth.cols, depth.rows), for depth
 // CV_16U (raw, scaled by depth_scale) or CV_32F (metres) registered to the image of the box.
-// All zeros when the box has too little valid depth; empty Mat when the box misses the image
+// All zeros when the box has too little valid depth or shows only a bare support
+// (bare_support_max_tolerance_m); empty Mat when the box misses the image
 // or the depth type is unsupported.
 cv::Mat SegmentObjectDepth(const cv::Mat& depth, const cv::Rect2f& box_px,
                            const MaskOptions& options, const MaskContext& context = {});

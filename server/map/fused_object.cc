@@ -178,6 +178,18 @@ VoxelSet FusedObject::KeysAt(double voxel_m) const {
   return keys;
 }
 
+VoxelSet FusedObject::ShapeKeysAt(double voxel_m) const {
+  if (supported_voxels_ == 0) return KeysAt(voxel_m);
+  const SupportRule rule = CurrentSupportRule();
+  VoxelSet keys;
+  keys.reserve(supported_voxels_);
+  for (const auto& [key, v] : voxels_) {
+    const Eigen::Vector3d p = v.sum_m / v.count;
+    if (Supported(p, rule)) keys.insert(KeyOf(p, voxel_m));
+  }
+  return keys;
+}
+
 FusedObject::SupportRule FusedObject::CurrentSupportRule() const {
   SupportRule rule;
   uint32_t observations = point_observations_;

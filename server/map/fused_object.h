@@ -137,6 +137,9 @@ class FusedObject {
 
   // Voxel keys of the fused points at `voxel_m` (overlap measure).
   VoxelSet KeysAt(double voxel_m) const;
+  // The same for the voxels that shape the object (SupportOptions: supported cells, the views
+  // of its most likely class): what the object is, not every view fused into it.
+  VoxelSet ShapeKeysAt(double voxel_m) const;
   bool HasTrack(int64_t session_row, int64_t track_id) const {
     return track_id != 0 && tracks_.count({session_row, track_id}) > 0;
   }

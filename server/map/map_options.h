@@ -98,7 +98,11 @@ struct FusionOptions {
   // fusion.top_load_reach_m (0.15, 0 = off) and fusion.top_load_max_gap_m (0.05).
   TopLoadOptions top_loads;
   // Two objects with the same argmax class merge when their centroids are closer than
-  // merge_centroid_m (0.1) or when |A∩B| / min(|A|, |B|) exceeds merge_containment (0.5).
+  // merge_centroid_m (0.1) or when |A∩B| / min(|A|, |B|) exceeds merge_containment (0.5). A and
+  // B are the voxels that shape each object (SupportOptions: its own class's views, cells seen
+  // more than once), not every view fused in: "laptop" views of a monitor and the keyboard before
+  // it, fused into the keyboard, do not make it hold the monitor (session 41). Flat-topped
+  // furniture, pieced together from partial views, compares all its voxels.
   double merge_centroid_m = 0.1;
   double merge_containment = 0.5;
   // The same containment for two pieces of flat-topped furniture (0.85): a one-view piece that

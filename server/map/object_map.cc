@@ -214,13 +214,18 @@ const char* ObjectMap::Duplicates(const FusedObject& self, const FusedObject& ot
   if (d < options_.merge_centroid_m) return "centroids";
   if (d >= options_.track_gate_m + 1.0) return nullptr;
   if (same_class && d < RangeMergeGate(self, other)) return "range uncertainty";
-  if (self_keys->empty()) *self_keys = self.KeysAt(options_.overlap_voxel_m);
-  const double containment =
-      same_class && IsFlatTopClass(options_.flat_top_classes, cls) &&
-              options_.furniture_merge_containment > 0
-          ? options_.furniture_merge_containment
-          : options_.merge_containment;
-  if (VoxelContainment(*self_keys, other.KeysAt(options_.overlap_voxel_m)) > containment) {
+  // Objects compare the voxels that shape them (a keyboard that took in "laptop" views of the
+  // monitor behind it does not hold the monitor); furniture, pieced together from partial views,
+  // compares all of its voxels, with its own stricter containment.
+  const bool furniture = IsFlatTopClass(options_.flat_top_classes, cls);
+  auto keys_of = [&](const FusedObject& o) {
+    return furniture ? o.KeysAt(options_.overlap_voxel_m) : o.ShapeKeysAt(options_.overlap_voxel_m);
+  };
+  if (self_keys->empty()) *self_keys = keys_of(self);
+  const double containment = same_class && furniture && options_.furniture_merge_containment > 0
+                                 ? options_.furniture_merge_containment
+                                 : options_.merge_containment;
+  if (VoxelContainment(*self_keys, keys_of(other)) > containment) {
     return "voxel containment";
   }
   if (same_class && options_.furniture_footprint_containment > 0 &&

@@ -314,6 +314,35 @@ TEST(ObjectRules, ATvThickerThanAPanelIsNotConfirmed) {
   EXPECT_TRUE(TvConfirmed(0.06, true));
 }
 
+// fr1_rpy start 60 (session 40): blurred views call the main monitor "laptop" with boxes that hold
+// the keyboard before it. Such a view joins the keyboard or the monitor, and the merge rules then
+// found the one inside the other by all their voxels: one object, the monitor lost. Merges now
+// compare what shapes each object (its own class's views), and the two stay apart.
+TEST(ObjectRules, LaptopViewsOverAKeyboardAndAMonitorDoNotMergeThem) {
+  FusionOptions opt = WithSizes(1.5);
+  opt.max_size_m["keyboard"] = 0.7;
+  ObjectMap map(opt, 0.01);
+  std::vector<ObjectChange> changes;
+  const Eigen::Vector3d step(0.02, 0.02, 0.02);
+  int64_t keyboard = 0, tv = 0;
+  for (int64_t kf = 1; kf <= 6; ++kf) {
+    const std::vector<int64_t> ids = map.Integrate(
+        {Grid("keyboard", 1, kf, {0.5, 0.0, 0.76}, {0.95, 0.16, 0.8}, step),
+         Grid("tv", 2, kf, {0.5, 0.36, 0.86}, {0.95, 0.42, 1.2}, step)},
+        &changes);
+    keyboard = ids[0];
+    tv = ids[1];
+  }
+  ASSERT_NE(keyboard, tv);
+  // The "laptop" boxes: the keyboard and the screen above and behind it.
+  for (int64_t kf = 7; kf <= 9; ++kf) {
+    map.Integrate({Grid("laptop", 0, kf, {0.5, 0.0, 0.76}, {0.95, 0.42, 1.2}, step)}, &changes);
+  }
+  EXPECT_NE(map.Resolve(tv), map.Resolve(keyboard));
+  EXPECT_EQ(map.Find(map.Resolve(keyboard))->labels().Argmax(), "keyboard");
+  EXPECT_EQ(map.Find(map.Resolve(tv))->labels().Argmax(), "tv");
+}
+
 // Each track its own object before merging (association by track only).
 FusionOptions TrackOnly(double merge_box_containment) {
   FusionOptions opt = WithSizes(1.5);
