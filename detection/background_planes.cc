@@ -324,6 +324,7 @@ BackgroundPlanes BackgroundPlaneMask(const cv::Mat& depth, const cv::Rect& roi,
   }
   const Supports supports = FindSupports(roi, depth_m, labels, planes, continues, o, context);
   out.bare_support = BareSupport(depth_m, planes, supports.bare, centre, o);
+  if (out.bare_support) return out;  // no mask at all: the background is not needed
   const std::vector<bool>& support = supports.support;
   const bool support_class = o.IsSupportClass(context.class_name);
   std::vector<bool> is_background(planes.size(), false);

@@ -40,7 +40,7 @@ double ValidDepthM(const cv::Mat& depth, int u, int v, const MaskOptions& o);
 // phone lying on a table far away): the caller then segments by depth alone.
 // With gravity and intrinsics in `context`, horizontal support planes are background too (see
 // MaskOptions::horizontal_max_deg), and bare_support tells a box that shows only its support
-// (MaskOptions::bare_support_max_tolerance_m).
+// (MaskOptions::bare_support_max_tolerance_m; the mask is then all zeros).
 struct BackgroundPlanes {
   cv::Mat mask;
   bool bare_support = false;
