@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 
 #include "server/map/point_components.h"
@@ -126,7 +127,13 @@ void FusedObject::Absorb(const FusedObject& other) {
   tracks_.insert(other.tracks_.begin(), other.tracks_.end());
   straddled_with_.insert(straddled_with_.end(), other.straddled_with_.begin(),
                          other.straddled_with_.end());
-  misses_ += other.misses_;
+  std::vector<int64_t> missed;
+  std::set_union(missed_keyframes_.begin(), missed_keyframes_.end(),
+                 other.missed_keyframes_.begin(), other.missed_keyframes_.end(),
+                 std::back_inserter(missed));
+  missed_keyframes_.clear();
+  std::set_difference(missed.begin(), missed.end(), keyframes_.begin(), keyframes_.end(),
+                      std::back_inserter(missed_keyframes_));
   ObserveRange(other.nearest_range_m_);
   RecomputeGeometry();
 }
@@ -143,6 +150,9 @@ void FusedObject::Observe(const std::string& class_name, double score, int64_t s
   }
   robots_.insert(robot);
   if (keyframes_.empty() || keyframes_.back() != keyframe_id) keyframes_.push_back(keyframe_id);
+  const auto missed =
+      std::lower_bound(missed_keyframes_.begin(), missed_keyframes_.end(), keyframe_id);
+  if (missed != missed_keyframes_.end() && *missed == keyframe_id) missed_keyframes_.erase(missed);
   if (track_id != 0) tracks_.insert({session_row, track_id});
 }
 
@@ -161,7 +171,14 @@ void FusedObject::ObserveRange(double range_m) {
 
 double FusedObject::ExistenceLlr(const ExistenceModel& m) const {
   return observation_count() * std::log(m.p_real / m.p_false) +
-         misses_ * std::log((1 - m.p_real) / (1 - m.p_false));
+         misses() * std::log((1 - m.p_real) / (1 - m.p_false));
+}
+
+void FusedObject::Miss(int64_t keyframe_id) {
+  if (std::find(keyframes_.begin(), keyframes_.end(), keyframe_id) != keyframes_.end()) return;
+  const auto it =
+      std::lower_bound(missed_keyframes_.begin(), missed_keyframes_.end(), keyframe_id);
+  if (it == missed_keyframes_.end() || *it != keyframe_id) missed_keyframes_.insert(it, keyframe_id);
 }
 
 void FusedObject::UpdateConfirmed(int confirm_observations, int64_t min_span_ns,
@@ -347,7 +364,7 @@ MapObject FusedObject::Snapshot() const {
   o.observation_count = observation_count();
   o.point_count = static_cast<uint32_t>(supported_voxels_ > 0 ? supported_voxels_ : voxels_.size());
   o.confirmed = confirmed_;
-  o.missed_views = misses_;
+  o.missed_views = misses();
   o.existence = existence();
   o.top_surface_z_m = top_surface_z_m_;
   return o;

@@ -104,8 +104,10 @@ class FusedObject {
   // Records one keyframe's observation of this object.
   void Observe(const std::string& class_name, double score, int64_t session_row, int64_t track_id,
                const std::string& robot, int64_t keyframe_id, int64_t t_ns);
-  // Records a keyframe that should have seen the object but did not (visibility.h).
-  void Miss() { ++misses_; }
+  // Records a keyframe that should have seen the object but did not (visibility.h). Misses are
+  // kept per keyframe, as hits are: two pieces of one object missed in the same keyframe and then
+  // merged hold one miss for it, and none where the other piece saw it.
+  void Miss(int64_t keyframe_id);
   // Existence as a sequential test between "a real object, detected in a view with probability
   // p_real" and "a false detection, repeated with probability p_false": the log-likelihood
   // ratio of the hits (keyframes that saw it) and misses. A weak detector that finds a real book
@@ -121,9 +123,9 @@ class FusedObject {
                        double min_llr, bool size_fits);
   // Hits / (hits + misses), for display.
   double existence() const {
-    return observation_count() / std::max(1.0, double(observation_count()) + misses_);
+    return observation_count() / std::max(1.0, double(observation_count()) + misses());
   }
-  uint32_t misses() const { return misses_; }
+  uint32_t misses() const { return static_cast<uint32_t>(missed_keyframes_.size()); }
   // Up to 48 of the object's supported points (map frame), and its largest half extent, m.
   const std::vector<Eigen::Vector3d>& sample_m() const { return sample_m_; }
   double half_size_m() const { return obb_half_m_.maxCoeff(); }
@@ -211,7 +213,7 @@ class FusedObject {
   std::set<std::pair<int64_t, int64_t>> tracks_;  // (session_row, track_id)
   std::vector<int64_t> straddled_with_;  // one id per straddling view, as it was then
   bool confirmed_ = false;
-  uint32_t misses_ = 0;
+  std::vector<int64_t> missed_keyframes_;  // sorted, none of them in keyframes_
   double nearest_range_m_ = 0;
   std::vector<Eigen::Vector3d> sample_m_;
 };

@@ -71,7 +71,8 @@ void FusedObject::SaveState(loci::store::v1::FusedObjectState* out) const {
   }
   for (int64_t id : straddled_with_) out->add_straddled_with(id);
   out->set_confirmed(confirmed_);
-  out->set_misses(misses_);
+  out->set_misses(misses());
+  for (int64_t kf : missed_keyframes_) out->add_missed_keyframes(kf);
   out->set_nearest_range_m(nearest_range_m_);
 }
 
@@ -130,7 +131,14 @@ Status FusedObject::LoadState(const loci::store::v1::FusedObjectState& in) {
   for (int i = 0; i < in.track_id_size(); ++i) tracks_.insert({in.track_session(i), in.track_id(i)});
   straddled_with_ = {in.straddled_with().begin(), in.straddled_with().end()};
   confirmed_ = in.confirmed();
-  misses_ = in.misses();
+  if (in.missed_keyframes_size() != static_cast<int>(in.misses())) {
+    // Checkpoints from before session 42 hold a count only: the map is replayed.
+    return absl::FailedPreconditionError(absl::StrCat(
+        "the map checkpoint counts ", in.misses(), " missed views of object ", in.id(),
+        " but lists ", in.missed_keyframes_size(), " (written before misses were per keyframe)"));
+  }
+  missed_keyframes_ = {in.missed_keyframes().begin(), in.missed_keyframes().end()};
+  std::sort(missed_keyframes_.begin(), missed_keyframes_.end());
   nearest_range_m_ = in.nearest_range_m();
   RecomputeGeometry();
   return absl::OkStatus();

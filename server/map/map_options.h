@@ -81,7 +81,8 @@ struct FusionOptions {
   double confirm_min_span_s = 0.5;
   // Flat-topped furniture: a view of which at least this share of the voxels lies in each of two
   // or more such objects of the map straddles them (one box over two desks back to back, one
-  // plane through both tops): it is left out instead of joining them (0.25). 0: off.
+  // plane through both tops): it is left out instead of joining them (0.25), when two of them lie
+  // apart (neither's footprint lies by this share on the other). 0: off.
   double straddle_share = 0.25;
   // Pieces of furniture that at least this many views straddled (straddle_share) never merge,
   // whatever their voxels share later (a piece grew between them, a pose moved): those views

@@ -304,7 +304,7 @@ Mapper::Observed Mapper::IntegrateProducts(const MapperKeyframe& kf,
     seen.insert(seen.end(), ids.begin(), ids.end());
     const KeyframeView view{&kf.camera, &products.visibility_depth_m, products.depth_stride,
                             T_map_kf.inverse(), &products.detection_boxes};
-    objects_.ObserveView(view, seen, &changes);
+    objects_.ObserveView(kf.keyframe_id, view, seen, &changes);
     AppendEvents(changes, events);
     times->fusion_ms = MsSince(t0);
 

@@ -329,7 +329,8 @@ void ObjectMap::MergeMoved(const std::vector<int64_t>& object_ids,
   }
 }
 
-void ObjectMap::ObserveView(const KeyframeView& view, const std::vector<int64_t>& observed_ids,
+void ObjectMap::ObserveView(int64_t keyframe_id, const KeyframeView& view,
+                            const std::vector<int64_t>& observed_ids,
                             std::vector<ObjectChange>* changes) {
   std::unordered_set<int64_t> observed;
   for (int64_t id : observed_ids) observed.insert(Resolve(id));
@@ -340,7 +341,7 @@ void ObjectMap::ObserveView(const KeyframeView& view, const std::vector<int64_t>
     if (!ExpectedInView(object.sample_m(), object.half_size_m(), view, options_.visibility)) {
       continue;
     }
-    object.Miss();
+    object.Miss(keyframe_id);
     if (Judge(&object, rates) <= options_.remove_llr) {
       gone.push_back(id);
     }

@@ -76,8 +76,8 @@ class ObjectMap {
   // Negative evidence of one keyframe: every object not observed in it (observed_ids) that
   // the view should have shown takes a miss; objects whose existence falls are unconfirmed, or
   // removed (kRemoved changes).
-  void ObserveView(const KeyframeView& view, const std::vector<int64_t>& observed_ids,
-                   std::vector<ObjectChange>* changes);
+  void ObserveView(int64_t keyframe_id, const KeyframeView& view,
+                   const std::vector<int64_t>& observed_ids, std::vector<ObjectChange>* changes);
 
   // A keyframe moved: its observation of `object_id` (merges followed) takes its points out
   // (old_m, as added) and back in at new_m. False when the object is gone (removed for lack of
@@ -128,8 +128,8 @@ class ObjectMap {
   // as a new object and be confirmed again before its misses add up).
   double Judge(FusedObject* object, const ClassDetectionRates& rates) const;
   // Flat-topped furniture (FusionOptions::straddle_share): the objects a view of it lies on by at
-  // least that share of its voxels each, when there are two or more (one detector box over two
-  // desks back to back), else none. Its points would join them: such a view counts as a hit for
+  // least that share of its voxels each, when there are two or more and two of them lie apart
+  // (one detector box over two desks back to back), else none. Its points would join them: such a view counts as a hit for
   // each and adds no points.
   std::vector<int64_t> StraddledFurniture(const MapObservation& obs,
                                           const VoxelSet& obs_keys) const;
@@ -176,6 +176,9 @@ class ObjectMap {
   // Straddling pieces (object_straddlers.cc, FusionOptions::straddle_pieces): `piece` is
   // flat-topped furniture lying across two confirmed such objects apart from each other.
   bool LiesAcrossTables(const FusedObject& piece) const;
+  // Whether two of these pieces of furniture lie apart: neither's footprint lies by
+  // straddle_share on the other.
+  bool HoldsPiecesApart(const std::vector<int64_t>& piece_ids) const;
   // Judges again the flat-topped furniture near `id` (just observed), as JudgeParts does.
   void JudgeStraddlers(int64_t id, const ClassDetectionRates& rates,
                        std::vector<ObjectChange>* changes);

@@ -121,6 +121,31 @@ TEST(ObjectRules, AViewStraddlingTwoDesksJoinsNeither) {
   EXPECT_EQ(DesksAfterAStraddlingView(0.25), "2 objects, straddled 2, id 0: 4 4");
 }
 
+// One desk top (1 x 1 m at 0.77 m) seen in two overlapping pieces, x 0-0.6 m and 0.35-1.0 m
+// (tracker boxes 1 and 2, keyframes 1-3): each lies 0.38-0.42 on the other, too little for a
+// merge (footprint containment 0.5, voxel 0.85) and too much for two desks side by side. Then a
+// view of the whole top (keyframe 4), 0.6 and 0.65 on the pieces: it joins them rather than
+// straddling them (fr1_rpy start 60: desk_main stayed two pieces, every view over both left
+// out). Returns the objects, how many the view straddled, and the table's views (keyframes).
+std::string TopAfterAViewOverItsPieces() {
+  FusionOptions opt = TableOptions();
+  opt.furniture_footprint_containment = 0.5;
+  ObjectMap map(opt, 0.01);
+  SeeTopsInThreeKeyframes(&map, {1, 0.0, 0.6, 0.0, 1.0, 0.77}, {2, 0.35, 1.0, 0.0, 1.0, 0.77});
+  EXPECT_EQ(map.size(), 2u);
+  std::vector<ObjectChange> changes;
+  std::vector<int64_t> straddled;
+  map.Integrate({Rect("dining table", 0.4, 0, 4, 0.0, 1.0, 0.0, 1.0, 0.77)}, &changes, &straddled);
+  std::ostringstream out;
+  out << map.size() << " objects, straddled " << straddled.size() << ":";
+  for (const MapObject& o : map.Snapshot(false)) out << " " << o.observation_count;
+  return out.str();
+}
+
+TEST(ObjectRules, AViewOverTwoOverlappingPiecesOfATopJoinsThem) {
+  EXPECT_EQ(TopAfterAViewOverItsPieces(), "1 objects, straddled 0: 4");
+}
+
 // A desk (1 x 1 m, tracker box 1) and a small table 10 cm beside it (0.3 x 0.3 m, box 2), each
 // seen in keyframes 1-3, then one view straddling both (keyframe 4: 43 % of its voxels on each,
 // as fr1_rpy's single boxes over both desks). Then the desk's tracker box takes in the small
@@ -156,7 +181,7 @@ TEST(ObjectRules, FurnitureAViewStraddledStaysTwoWhenOnePieceGrowsOverTheOther) 
 // untracked) that lies 55 % on it: too little to be associated with it (assoc_containment 0.6),
 // enough for a merge at merge_containment 0.5, which takes its other half into the table. Such
 // pieces let fr1_rpy's main desk creep over the desk beside it (session 29). Returns the
-// number of objects and the table's views.
+// number of objects and the table's views (keyframes).
 std::string TableAfterAHalfOnPiece(double furniture_merge_containment) {
   FusionOptions opt = TableOptions();
   opt.furniture_merge_containment = furniture_merge_containment;
@@ -477,7 +502,7 @@ MiceResult Mice(double class_prior_views, bool real_present) {
     const std::vector<int64_t> ids = map.Integrate(seen, &changes);
     if (real_present && kf % 3 != 0) real = ids.front();
     if (kf == 1) recurring = ids.back();
-    map.ObserveView({&camera, &depth_m, 1, SE3d::Identity(), &boxes}, ids, &changes);
+    map.ObserveView(kf, {&camera, &depth_m, 1, SE3d::Identity(), &boxes}, ids, &changes);
   }
   MiceResult r;
   const FusedObject* real_object = map.Find(map.Resolve(real));
