@@ -178,7 +178,9 @@ void FusedObject::Miss(int64_t keyframe_id) {
   if (std::find(keyframes_.begin(), keyframes_.end(), keyframe_id) != keyframes_.end()) return;
   const auto it =
       std::lower_bound(missed_keyframes_.begin(), missed_keyframes_.end(), keyframe_id);
-  if (it == missed_keyframes_.end() || *it != keyframe_id) missed_keyframes_.insert(it, keyframe_id);
+  if (it == missed_keyframes_.end() || *it != keyframe_id) {
+    missed_keyframes_.insert(it, keyframe_id);
+  }
 }
 
 void FusedObject::UpdateConfirmed(int confirm_observations, int64_t min_span_ns,

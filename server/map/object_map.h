@@ -129,8 +129,8 @@ class ObjectMap {
   double Judge(FusedObject* object, const ClassDetectionRates& rates) const;
   // Flat-topped furniture (FusionOptions::straddle_share): the objects a view of it lies on by at
   // least that share of its voxels each, when there are two or more and two of them lie apart
-  // (one detector box over two desks back to back), else none. Its points would join them: such a view counts as a hit for
-  // each and adds no points.
+  // (one detector box over two desks back to back), else none. Its points would join them: such a
+  // view counts as a hit for each and adds no points.
   std::vector<int64_t> StraddledFurniture(const MapObservation& obs,
                                           const VoxelSet& obs_keys) const;
   // The observation counts as a hit for each object (labels, keyframes, existence), without
