@@ -57,6 +57,8 @@ Status WriteObjectsJsonExport(const std::string& path, const std::vector<MapObje
                    {"robots", o.robots},
                    {"last_robot", o.last_robot},
                    {"observation_count", o.observation_count},
+                   {"missed_views", o.missed_views},
+                   {"existence", o.existence},
                    {"point_count", o.point_count},
                    {"confirmed", o.confirmed},
                    {"on", nullptr},

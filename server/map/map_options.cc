@@ -25,6 +25,7 @@ constexpr const char* kFusionKeys[] = {
     "straddle_apart_views", "straddle_pieces", "furniture_merge_containment",
     "furniture_footprint_containment",
     "top_load_reach_m", "top_load_max_gap_m", "top_load_max_sink_m", "top_load_rival_min_views",
+    "top_load_confirm_loads",
     "part_containment", "never_part_of", "stand_classes", "stand_height_m"};
 // clang-format on
 
@@ -160,6 +161,8 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_max_sink_m", &fusion.top_loads.max_sink_m));
     LOCI_RETURN_IF_ERROR(
         ReadOptional(n, "top_load_rival_min_views", &fusion.top_loads.rival_min_views));
+    LOCI_RETURN_IF_ERROR(
+        ReadOptional(n, "top_load_confirm_loads", &fusion.top_loads.confirm_loads));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_centroid_m", &fusion.merge_centroid_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_sigmas", &fusion.merge_sigmas));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "depth_sigma_at_1m", &fusion.depth_sigma_at_1m));
@@ -300,6 +303,7 @@ Status MapOptions::Validate() const {
     return bad("fusion.top_load_max_sink_m in [0, 0.5]");
   }
   if (fusion.top_loads.rival_min_views < 0) return bad("fusion.top_load_rival_min_views >= 0");
+  if (fusion.top_loads.confirm_loads < 0) return bad("fusion.top_load_confirm_loads >= 0");
   if (!(fusion.support_cell_m > 0.001) ||
       !(fusion.min_support_fraction >= 0 && fusion.min_support_fraction <= 1)) {
     return bad("fusion.support_cell_m > 0.001 and fusion.min_support_fraction in [0, 1]");

@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <limits>
 #include <optional>
 #include <set>
 
@@ -375,11 +376,31 @@ double ObjectMap::Judge(FusedObject* object, const ClassDetectionRates& rates) c
   // So does a part of another object (object_parts.cc) and a piece of furniture lying across two
   // others (object_straddlers.cc); only asked of an object that would be confirmed, the tests
   // read voxels.
+  // A piece of furniture carrying things is a real top however rarely it is boxed
+  // (TopLoadOptions::confirm_loads): views and span as above, no existence test, no removal.
+  const bool held_up = !object->confirmed() && size_fits && HeldUpByLoads(*object);
+  if (held_up) {
+    object->UpdateConfirmed(options_.confirm_observations, min_span_ns, rates.For(*object),
+                            -std::numeric_limits<double>::infinity(), size_fits);
+  }
   if (object->confirmed() && (WholeOf(*object) != 0 || LiesAcrossTables(*object))) {
     object->UpdateConfirmed(options_.confirm_observations, min_span_ns, rates.For(*object),
                             options_.confirm_llr, false);
   }
-  return object->ExistenceLlr(rates.base());
+  return held_up ? std::numeric_limits<double>::infinity() : object->ExistenceLlr(rates.base());
+}
+
+bool ObjectMap::HeldUpByLoads(const FusedObject& piece) const {
+  const TopLoadOptions& o = options_.top_loads;
+  const int min_views = std::max(options_.confirm_observations, o.rival_min_views);
+  if (o.confirm_loads <= 0 || static_cast<int>(piece.observation_count()) < min_views ||
+      !IsFlatTopClass(options_.flat_top_classes, piece.labels().Argmax())) {
+    return false;
+  }
+  std::vector<MapObject> all;
+  all.reserve(objects_.size());
+  for (const auto& [id, object] : objects_) all.push_back(object.Snapshot());
+  return LoadsHeldBy(piece.id(), options_.flat_top_classes, o, all) >= o.confirm_loads;
 }
 
 int64_t ObjectMap::Resolve(int64_t id) const {

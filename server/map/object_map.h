@@ -122,11 +122,14 @@ class ObjectMap {
   FusedObject NewObject(int64_t id) const;
   // The existence models of this moment: per-class detection rates of the confirmed objects.
   ClassDetectionRates Rates() const;
-  // Re-decides whether `object` is confirmed by the model `rates` gives it. Returns its LLR by
-  // the base model, which decides removal: an object its class's rate leaves unconfirmed stays
+  // Re-decides whether `object` is confirmed by the model `rates` gives it, or by the loads it
+  // holds up (HeldUpByLoads). Returns its LLR by the base model (infinite when held up), which
+  // decides removal: an object its class's rate leaves unconfirmed stays
   // as a candidate and keeps its evidence (removed, a box recurring at one spot would come back
   // as a new object and be confirmed again before its misses add up).
   double Judge(FusedObject* object, const ClassDetectionRates& rates) const;
+  // Flat-topped furniture that TopLoadOptions::confirm_loads confirmed things rest on.
+  bool HeldUpByLoads(const FusedObject& piece) const;
   // Flat-topped furniture (FusionOptions::straddle_share): the objects a view of it lies on by at
   // least that share of its voxels each, when there are two or more and two of them lie apart
   // (one detector box over two desks back to back), else none. Its points would join them: such a

@@ -138,6 +138,26 @@ void ExtendTopsUnderLoads(const std::vector<std::string>& flat_top_classes,
   }
 }
 
+int LoadsHeldBy(int64_t table_id, const std::vector<std::string>& flat_top_classes,
+                const TopLoadOptions& options, const std::vector<MapObject>& objects) {
+  if (options.reach_m <= 0) return 0;
+  std::vector<size_t> tables;
+  size_t held_by = objects.size();
+  for (size_t i = 0; i < objects.size(); ++i) {
+    const MapObject& o = objects[i];
+    if (!IsTable(o, flat_top_classes) && !IsRival(o, flat_top_classes, options)) continue;
+    tables.push_back(i);
+    if (o.id == table_id) held_by = i;
+  }
+  if (held_by == objects.size()) return 0;
+  int held = 0;
+  for (const MapObject& load : objects) {
+    if (!load.confirmed || IsFlatTopClass(flat_top_classes, load.class_name)) continue;
+    held += BestTable(load, objects, tables, options) == held_by;
+  }
+  return held;
+}
+
 std::vector<int64_t> TablesUnderLoads(const std::vector<std::string>& flat_top_classes,
                                       const TopLoadOptions& options,
                                       const std::vector<MapObject>& loads,

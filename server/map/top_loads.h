@@ -32,6 +32,12 @@ struct TopLoadOptions {
   // rarely boxes under its monitors and keyboard) still takes the loads it holds best: they
   // widen no confirmed table, whose top would otherwise run on across it (0: off).
   int rival_min_views = 3;
+  // A piece of such furniture that holds at least this many confirmed loads (each resting on it
+  // better than on any other table or rival piece) is a real top, however rarely the detector
+  // boxes it: it is confirmed from confirm_observations views on and never removed for the views
+  // that missed it (0: off). A cluttered desk is boxed in a few views in a hundred, and a false
+  // box that recurs at one spot does not carry a keyboard, a monitor and a cup at its height.
+  int confirm_loads = 2;
 };
 
 // Widens the tables among `objects` (flat_top_classes, confirmed, with a top height) in place,
@@ -48,6 +54,12 @@ std::vector<int64_t> TablesUnderLoads(const std::vector<std::string>& flat_top_c
                                       const TopLoadOptions& options,
                                       const std::vector<MapObject>& loads,
                                       const std::vector<MapObject>& objects);
+
+// How many confirmed objects among `objects` (not furniture) rest on the table or rival piece
+// `table_id` better than on any other (the first round of ExtendTopsUnderLoads: no widening);
+// 0 when `table_id` is neither.
+int LoadsHeldBy(int64_t table_id, const std::vector<std::string>& flat_top_classes,
+                const TopLoadOptions& options, const std::vector<MapObject>& objects);
 
 // Whether `load` rests on `table` by those rules; its footprint's distance to the table's in
 // *distance_m and the share of its footprint over the table's in *overlap (either may be null).

@@ -60,6 +60,8 @@ TEST_F(MapExport, ObjectsJsonReadsBackAsObjectsJson) {
   cup.aabb_max_m = {1.05, 2.05, 0.87};
   cup.robots = {"r1", "r2"};
   cup.observation_count = 5;
+  cup.missed_views = 7;
+  cup.existence = 0.97;
   cup.confirmed = true;
   ASSERT_TRUE(WriteObjectsJsonExport(Path("objects.json"), {cup}, Vec3d::UnitZ()).ok());
 
@@ -80,6 +82,8 @@ TEST_F(MapExport, ObjectsJsonReadsBackAsObjectsJson) {
   EXPECT_DOUBLE_EQ(e["labels"]["bowl"].get<double>(), 0.2);
   EXPECT_EQ(e["robots"], nlohmann::json::array({"r1", "r2"}));
   EXPECT_EQ(e["observation_count"], 5);
+  EXPECT_EQ(e["missed_views"], 7);
+  EXPECT_DOUBLE_EQ(e["existence"].get<double>(), 0.97);
   EXPECT_EQ(e["confirmed"], true);
   EXPECT_EQ(e["obb"]["q_map_box_wxyz"], nlohmann::json::array({1.0, 0.0, 0.0, 0.0}));
 }

@@ -186,6 +186,32 @@ TEST(TopLoads, ADeskRarelyDetectedKeepsItsLoadsFromWideningTheDeskBesideIt) {
   EXPECT_NEAR(Find(objects, 1).aabb_min_m.x(), -0.70, 1e-9);
 }
 
+TEST(TopLoads, APieceHoldsTheLoadsThatRestOnItBetterThanOnAnyOther) {
+  // The scene above: desk_main's candidate (5 views) holds the keyboard, mouse, mug and monitor;
+  // desk_person's piece the book.
+  const auto scene = [](uint32_t candidate_views) {
+    MapObject main_desk = Table(2, {-0.25, -0.99, 0.74}, {0.38, -0.36, 0.77});
+    main_desk.confirmed = false;
+    main_desk.observation_count = candidate_views;
+    MapObject mouse = Box(4, "mouse", {-0.43, -0.89, 0.72}, {-0.28, -0.70, 0.82});
+    mouse.confirmed = false;  // a candidate holds no table up
+    return std::vector<MapObject>{Table(1, {0.27, -1.69, 0.72}, {1.39, -0.70, 0.77}), main_desk,
+                                  Box(3, "keyboard", {-0.40, -0.80, 0.75}, {0.15, -0.35, 0.83}),
+                                  mouse,
+                                  Box(5, "cup", {0.11, -0.70, 0.75}, {0.24, -0.54, 0.92}),
+                                  Box(6, "tv", {-0.70, -0.99, 0.75}, {-0.30, -0.80, 1.24}),
+                                  Box(7, "book", {0.62, -0.85, 0.75}, {1.00, -0.40, 0.85})};
+  };
+  const TopLoadOptions options;
+  EXPECT_EQ(LoadsHeldBy(2, kFlatTops, options, scene(5)), 3);  // keyboard, mug, monitor
+  EXPECT_EQ(LoadsHeldBy(1, kFlatTops, options, scene(5)), 1);  // the book
+  EXPECT_EQ(LoadsHeldBy(2, kFlatTops, options, scene(2)), 0);  // 2 views: no rival piece
+  EXPECT_EQ(LoadsHeldBy(3, kFlatTops, options, scene(5)), 0);  // a keyboard is no table
+  TopLoadOptions off;
+  off.reach_m = 0;
+  EXPECT_EQ(LoadsHeldBy(2, kFlatTops, off, scene(5)), 0);
+}
+
 TEST(TopLoads, ATableIsAnnouncedAgainWhenOnlyItsLoadsChanged) {
   // The desk's snapshot holds the keyboard's footprint: a new keyboard, a mouse gone (its last
   // state) or a book that became a candidate change the desk too; a chair on the floor beside
