@@ -152,7 +152,11 @@ int LoadsHeldBy(int64_t table_id, const std::vector<std::string>& flat_top_class
   if (held_by == objects.size()) return 0;
   int held = 0;
   for (const MapObject& load : objects) {
-    if (!load.confirmed || IsFlatTopClass(flat_top_classes, load.class_name)) continue;
+    const auto& floor = options.floor_classes;
+    if (!load.confirmed || IsFlatTopClass(flat_top_classes, load.class_name) ||
+        std::find(floor.begin(), floor.end(), load.class_name) != floor.end()) {
+      continue;
+    }
     held += BestTable(load, objects, tables, options) == held_by;
   }
   return held;

@@ -38,6 +38,9 @@ struct TopLoadOptions {
   // that missed it (0: off). A cluttered desk is boxed in a few views in a hundred, and a false
   // box that recurs at one spot does not carry a keyboard, a monitor and a cup at its height.
   int confirm_loads = 2;
+  // Things that stand on the floor hold no top up: two chairs on a "table" piece of floor around
+  // a kitchen table do not make it one (loads for confirm_loads only).
+  std::vector<std::string> floor_classes = {"chair", "couch", "bed", "bench", "person"};
 };
 
 // Widens the tables among `objects` (flat_top_classes, confirmed, with a top height) in place,
@@ -55,8 +58,8 @@ std::vector<int64_t> TablesUnderLoads(const std::vector<std::string>& flat_top_c
                                       const std::vector<MapObject>& loads,
                                       const std::vector<MapObject>& objects);
 
-// How many confirmed objects among `objects` (not furniture) rest on the table or rival piece
-// `table_id` better than on any other (the first round of ExtendTopsUnderLoads: no widening);
+// How many confirmed objects among `objects` (not furniture, not of floor_classes) rest on the
+// table or rival piece `table_id` better than on any other (the first round of ExtendTopsUnderLoads: no widening);
 // 0 when `table_id` is neither.
 int LoadsHeldBy(int64_t table_id, const std::vector<std::string>& flat_top_classes,
                 const TopLoadOptions& options, const std::vector<MapObject>& objects);

@@ -212,6 +212,22 @@ TEST(TopLoads, APieceHoldsTheLoadsThatRestOnItBetterThanOnAnyOther) {
   EXPECT_EQ(LoadsHeldBy(2, kFlatTops, off, scene(5)), 0);
 }
 
+TEST(TopLoads, ChairsHoldNoPieceOfFloorUp) {
+  // A "dining table" piece of floor (top z 0.02) boxed with a kitchen table, two chairs standing
+  // on it: they rest on it by height and footprint, and would widen it, but hold no top up.
+  MapObject floor = Table(1, {0.0, 0.0, 0.0}, {1.2, 0.8, 0.02});
+  floor.confirmed = false;
+  floor.observation_count = 4;
+  std::vector<MapObject> objects = {floor,
+                                    Box(2, "chair", {0.1, 0.1, 0.02}, {0.6, 0.6, 0.95}),
+                                    Box(3, "chair", {0.7, 0.1, 0.02}, {1.1, 0.6, 0.95})};
+  EXPECT_TRUE(RestsOn(objects[1], objects[0], TopLoadOptions{}, nullptr, nullptr));
+  EXPECT_EQ(LoadsHeldBy(1, kFlatTops, TopLoadOptions{}, objects), 0);
+  TopLoadOptions no_floor_classes;
+  no_floor_classes.floor_classes.clear();
+  EXPECT_EQ(LoadsHeldBy(1, kFlatTops, no_floor_classes, objects), 2);
+}
+
 TEST(TopLoads, ATableIsAnnouncedAgainWhenOnlyItsLoadsChanged) {
   // The desk's snapshot holds the keyboard's footprint: a new keyboard, a mouse gone (its last
   // state) or a book that became a candidate change the desk too; a chair on the floor beside
