@@ -59,8 +59,8 @@ std::vector<int64_t> TablesUnderLoads(const std::vector<std::string>& flat_top_c
                                       const std::vector<MapObject>& objects);
 
 // How many confirmed objects among `objects` (not furniture, not of floor_classes) rest on the
-// table or rival piece `table_id` better than on any other (the first round of ExtendTopsUnderLoads: no widening);
-// 0 when `table_id` is neither.
+// table or rival piece `table_id` better than on any other (the first round of
+// ExtendTopsUnderLoads: no widening); 0 when `table_id` is neither.
 int LoadsHeldBy(int64_t table_id, const std::vector<std::string>& flat_top_classes,
                 const TopLoadOptions& options, const std::vector<MapObject>& objects);
 
