@@ -148,6 +148,8 @@ class FusedObject {
 
   int64_t id() const { return id_; }
   const Eigen::Vector3d& centroid_m() const { return centroid_m_; }
+  const Eigen::Vector3d& aabb_min_m() const { return aabb_min_m_; }  // map axes
+  const Eigen::Vector3d& aabb_max_m() const { return aabb_max_m_; }
   const LabelDistribution& labels() const { return labels_; }
   uint32_t observation_count() const { return static_cast<uint32_t>(keyframes_.size()); }
   bool confirmed() const { return confirmed_; }

@@ -397,10 +397,22 @@ bool ObjectMap::HeldUpByLoads(const FusedObject& piece) const {
       !IsFlatTopClass(options_.flat_top_classes, piece.labels().Argmax())) {
     return false;
   }
-  std::vector<MapObject> all;
-  all.reserve(objects_.size());
-  for (const auto& [id, object] : objects_) all.push_back(object.Snapshot());
-  return LoadsHeldBy(piece.id(), options_.flat_top_classes, o, all) >= o.confirm_loads;
+  // Only what comes within reach of the piece can rest on it, and only tables within reach of
+  // such a thing compete for it (RestsOn): the rest of the map is not copied.
+  const auto near = [&](const FusedObject& a, const FusedObject& b) {
+    return FootprintDistanceM(a.aabb_min_m(), a.aabb_max_m(), b.aabb_min_m(), b.aabb_max_m()) <=
+           o.reach_m;
+  };
+  std::vector<const FusedObject*> loads;
+  for (const auto& [id, object] : objects_) {
+    if (near(object, piece)) loads.push_back(&object);
+  }
+  std::vector<MapObject> nearby;
+  for (const auto& [id, object] : objects_) {
+    const auto near_object = [&](const FusedObject* load) { return near(object, *load); };
+    if (std::any_of(loads.begin(), loads.end(), near_object)) nearby.push_back(object.Snapshot());
+  }
+  return LoadsHeldBy(piece.id(), options_.flat_top_classes, o, nearby) >= o.confirm_loads;
 }
 
 int64_t ObjectMap::Resolve(int64_t id) const {

@@ -84,13 +84,17 @@ size_t BestTable(const MapObject& load, const std::vector<MapObject>& objects,
 
 }  // namespace
 
+double FootprintDistanceM(const Eigen::Vector3d& a_min, const Eigen::Vector3d& a_max,
+                          const Eigen::Vector3d& b_min, const Eigen::Vector3d& b_max) {
+  return std::hypot(IntervalGap(a_min.x(), a_max.x(), b_min.x(), b_max.x()),
+                    IntervalGap(a_min.y(), a_max.y(), b_min.y(), b_max.y()));
+}
+
 bool RestsOn(const MapObject& load, const MapObject& table, const TopLoadOptions& options,
              double* distance_m, double* overlap) {
   const Eigen::Vector3d &a0 = load.aabb_min_m, &a1 = load.aabb_max_m;
   const Eigen::Vector3d &b0 = table.aabb_min_m, &b1 = table.aabb_max_m;
-  const double dx = IntervalGap(a0.x(), a1.x(), b0.x(), b1.x());
-  const double dy = IntervalGap(a0.y(), a1.y(), b0.y(), b1.y());
-  const double distance = std::hypot(dx, dy);
+  const double distance = FootprintDistanceM(a0, a1, b0, b1);
   const double area = std::max(1e-9, (a1.x() - a0.x()) * (a1.y() - a0.y()));
   if (distance_m != nullptr) *distance_m = distance;
   if (overlap != nullptr) {

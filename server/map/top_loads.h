@@ -64,6 +64,11 @@ std::vector<int64_t> TablesUnderLoads(const std::vector<std::string>& flat_top_c
 int LoadsHeldBy(int64_t table_id, const std::vector<std::string>& flat_top_classes,
                 const TopLoadOptions& options, const std::vector<MapObject>& objects);
 
+// Horizontal distance between two axis-aligned boxes' footprints (map frame, z up), m; 0 when
+// they overlap.
+double FootprintDistanceM(const Eigen::Vector3d& a_min, const Eigen::Vector3d& a_max,
+                          const Eigen::Vector3d& b_min, const Eigen::Vector3d& b_max);
+
 // Whether `load` rests on `table` by those rules; its footprint's distance to the table's in
 // *distance_m and the share of its footprint over the table's in *overlap (either may be null).
 bool RestsOn(const MapObject& load, const MapObject& table, const TopLoadOptions& options,
