@@ -373,9 +373,6 @@ double ObjectMap::Judge(FusedObject* object, const ClassDetectionRates& rates) c
   const bool size_fits = FitsClassShape(*object);
   object->UpdateConfirmed(options_.confirm_observations, min_span_ns, rates.For(*object),
                           options_.confirm_llr, size_fits);
-  // So does a part of another object (object_parts.cc) and a piece of furniture lying across two
-  // others (object_straddlers.cc); only asked of an object that would be confirmed, the tests
-  // read voxels.
   // A piece of furniture carrying things is a real top however rarely it is boxed
   // (TopLoadOptions::confirm_loads): views and span as above, no existence test, no removal.
   const bool held_up = !object->confirmed() && size_fits && HeldUpByLoads(*object);
@@ -383,6 +380,9 @@ double ObjectMap::Judge(FusedObject* object, const ClassDetectionRates& rates) c
     object->UpdateConfirmed(options_.confirm_observations, min_span_ns, rates.For(*object),
                             -std::numeric_limits<double>::infinity(), size_fits);
   }
+  // So does a part of another object (object_parts.cc) and a piece of furniture lying across two
+  // others (object_straddlers.cc); only asked of an object that would be confirmed, the tests
+  // read voxels.
   if (object->confirmed() && (WholeOf(*object) != 0 || LiesAcrossTables(*object))) {
     object->UpdateConfirmed(options_.confirm_observations, min_span_ns, rates.For(*object),
                             options_.confirm_llr, false);

@@ -124,9 +124,9 @@ class ObjectMap {
   ClassDetectionRates Rates() const;
   // Re-decides whether `object` is confirmed by the model `rates` gives it, or by the loads it
   // holds up (HeldUpByLoads). Returns its LLR by the base model (infinite when held up), which
-  // decides removal: an object its class's rate leaves unconfirmed stays
-  // as a candidate and keeps its evidence (removed, a box recurring at one spot would come back
-  // as a new object and be confirmed again before its misses add up).
+  // decides removal: an object its class's rate leaves unconfirmed stays as a candidate and
+  // keeps its evidence (removed, a box recurring at one spot would come back as a new object and
+  // be confirmed again before its misses add up).
   double Judge(FusedObject* object, const ClassDetectionRates& rates) const;
   // Flat-topped furniture that TopLoadOptions::confirm_loads confirmed things rest on.
   bool HeldUpByLoads(const FusedObject& piece) const;

@@ -187,8 +187,9 @@ TEST(TopLoads, ADeskRarelyDetectedKeepsItsLoadsFromWideningTheDeskBesideIt) {
 }
 
 TEST(TopLoads, APieceHoldsTheLoadsThatRestOnItBetterThanOnAnyOther) {
-  // The scene above: desk_main's candidate (5 views) holds the keyboard, mouse, mug and monitor;
-  // desk_person's piece the book.
+  // The scene above, with the mouse a candidate: desk_main's candidate (5 views) holds the
+  // keyboard, mug and monitor (the mouse, unconfirmed, holds nothing up); desk_person's piece the
+  // book.
   const auto scene = [](uint32_t candidate_views) {
     MapObject main_desk = Table(2, {-0.25, -0.99, 0.74}, {0.38, -0.36, 0.77});
     main_desk.confirmed = false;
