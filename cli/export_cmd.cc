@@ -137,7 +137,9 @@ void RegisterExportCommand(CLI::App& app) {
   c->add_option("--trajectories", args->trajectories,
                 "directory for one TUM trajectory per robot (keyframe poses, map frame)");
   c->add_option("--voxel", args->voxel_m, "cloud voxel size, m (0 = the map's)");
-  c->add_flag("--all", args->all, "include unconfirmed candidate objects");
+  c->add_flag("--all", args->all,
+              "include unconfirmed candidate objects (their views, missed_views and existence "
+              "show what holds them back)");
   c->callback([args] { ExitCode() = RunExport(*args); });
 }
 
