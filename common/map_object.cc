@@ -1,5 +1,9 @@
 #include "common/map_object.h"
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
 namespace loci {
 
 MapObject Transformed(MapObject o, const SE3d& T_b_a) {
@@ -16,7 +20,19 @@ MapObject Transformed(MapObject o, const SE3d& T_b_a) {
   o.centroid_m = T_b_a * o.centroid_m;
   o.obb_center_m = T_b_a * o.obb_center_m;
   o.R_map_box = T_b_a.linear() * o.R_map_box;
+  const bool keeps_up = T_b_a.linear()(2, 2) > 1.0 - 1e-9;
+  for (double* z_m : {&o.top_surface_z_m, &o.bottom_z_m}) {
+    *z_m = keeps_up ? *z_m + T_b_a.translation().z() : std::numeric_limits<double>::quiet_NaN();
+  }
   return o;
+}
+
+double BottomZ(const MapObject& o) {
+  const double box_bottom_m = std::min(o.aabb_min_m.z(), o.aabb_max_m.z());
+  const double box_top_m = std::max(o.aabb_min_m.z(), o.aabb_max_m.z());
+  const bool known = std::isfinite(o.bottom_z_m) && o.bottom_z_m >= box_bottom_m &&
+                     o.bottom_z_m <= box_top_m;
+  return known ? o.bottom_z_m : box_bottom_m;
 }
 
 }  // namespace loci

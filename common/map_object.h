@@ -40,6 +40,10 @@ struct MapObject {
   // Height (map z, z up) of the object's densest horizontal layer of points: the top of a
   // table whose box also caught a monitor foot or a chair back. NaN when unknown.
   double top_surface_z_m = std::numeric_limits<double>::quiet_NaN();
+  // Height (map z, z up) below which only a small share of the object's points lie: its bottom
+  // without the few points a fused box catches under it (the desk's edge under a book, 5-7 cm
+  // below its top). NaN when unknown.
+  double bottom_z_m = std::numeric_limits<double>::quiet_NaN();
   // "" for an object of the shared map. Otherwise the session id of the map island it is in:
   // a robot session not aligned to the shared map yet, mapped in its own frame (its odometry
   // frame levelled z-up), so its positions are not in the map frame.
@@ -48,6 +52,12 @@ struct MapObject {
 
 // The object expressed in another frame: T_b_a maps its frame a to frame b. Centroid, oriented
 // box and R_map_box move rigidly; the axis-aligned box becomes the box of the moved corners.
+// The heights (top_surface_z_m, bottom_z_m) move with a transform that keeps z up and become
+// NaN under one that tilts it.
 MapObject Transformed(MapObject o, const SE3d& T_b_a);
+
+// The object's bottom height (map z, z up): bottom_z_m when known and within its box, else the
+// box's bottom.
+double BottomZ(const MapObject& o);
 
 }  // namespace loci

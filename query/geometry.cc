@@ -45,6 +45,7 @@ ObjectGeom GravityFrame::Geom(const MapObject& o) const {
   }
   g.size_m = g.box.Size().maxCoeff();
   g.top_z = g.box.max.z();
+  g.bottom_z = identity_ ? BottomZ(o) : g.box.min.z();
   if (identity_ && std::isfinite(o.top_surface_z_m) &&
       std::find(flat_top_classes_.begin(), flat_top_classes_.end(), o.class_name) !=
           flat_top_classes_.end() &&

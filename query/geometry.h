@@ -31,6 +31,9 @@ struct ObjectGeom {
   // Height of the surface things rest on: the box top, or for flat-top furniture (tables) the
   // object's densest horizontal layer when the map knows it.
   double top_z = 0;
+  // Height of its bottom: the box bottom, or the object's robust bottom (BottomZ) when the map
+  // knows it.
+  double bottom_z = 0;
   BoxG box;
   Vec3d centroid_g = Vec3d::Zero();
   double size_m = 0;

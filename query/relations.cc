@@ -131,7 +131,7 @@ RelationResult RelationEvaluator::On(const ObjectGeom& s, const ObjectGeom& a, b
   // A class that stands on feet its points leave out (a monitor) may hover by their height.
   const auto stand = opt_.on_stand_m.find(s.class_name);
   const double stand_m = stand == opt_.on_stand_m.end() ? 0.0 : stand->second;
-  const double raw_gap = s.box.min.z() - a.top_z;
+  const double raw_gap = s.bottom_z - a.top_z;
   const double gap = raw_gap > 0 ? std::max(0.0, raw_gap - stand_m) : raw_gap;
   const double overlap = FootprintFraction(s, a);
   // Penetration (negative gap) is common in fused boxes that caught a few support points, so it
@@ -178,7 +178,7 @@ RelationResult RelationEvaluator::Under(const ObjectGeom& s, const ObjectGeom& a
 
 RelationResult RelationEvaluator::Above(const ObjectGeom& s, const ObjectGeom& a, bool ev) const {
   RelationResult r;
-  const double gap = s.box.min.z() - a.box.max.z();
+  const double gap = s.bottom_z - a.box.max.z();
   const double overlap = FootprintFractionOfSmaller(s, a);
   r.confidence = 0.5 + 0.5 * Clamp01(overlap / std::max(0.6, opt_.above_min_overlap));
   r.holds = gap >= -opt_.vertical_tolerance_m && overlap >= opt_.above_min_overlap;
@@ -192,7 +192,7 @@ RelationResult RelationEvaluator::Above(const ObjectGeom& s, const ObjectGeom& a
 
 RelationResult RelationEvaluator::Below(const ObjectGeom& s, const ObjectGeom& a, bool ev) const {
   RelationResult r;
-  const double gap = a.box.min.z() - s.box.max.z();
+  const double gap = a.bottom_z - s.box.max.z();
   const double overlap = FootprintFractionOfSmaller(s, a);
   r.confidence = 0.5 + 0.5 * Clamp01(overlap / std::max(0.6, opt_.above_min_overlap));
   r.holds = gap >= -opt_.vertical_tolerance_m && overlap >= opt_.above_min_overlap;
@@ -200,7 +200,7 @@ RelationResult RelationEvaluator::Below(const ObjectGeom& s, const ObjectGeom& a
   if (ev) {
     r.evidence =
         absl::StrFormat("top %.2f m %s the bottom (z %.2f m), footprint overlap %.2f",
-                        std::abs(gap), gap >= 0 ? "below" : "above", a.box.min.z(), overlap);
+                        std::abs(gap), gap >= 0 ? "below" : "above", a.bottom_z, overlap);
   }
   return r;
 }
@@ -227,7 +227,7 @@ RelationResult RelationEvaluator::Near(const ObjectGeom& s, const ObjectGeom& a,
 RelationResult RelationEvaluator::NextTo(const ObjectGeom& s, const ObjectGeom& a, bool ev) const {
   RelationResult r;
   const double hgap = HorizontalGap(s.box, a.box);
-  const double level = std::abs(s.box.min.z() - a.box.min.z());
+  const double level = std::abs(s.bottom_z - a.bottom_z);
   const double z_overlap = std::max(
       0.0, std::min(s.box.max.z(), a.box.max.z()) - std::max(s.box.min.z(), a.box.min.z()));
   const double min_height = std::max(1e-6, std::min(s.box.Size().z(), a.box.Size().z()));

@@ -282,6 +282,16 @@ double DensestLayerZ(const std::vector<Eigen::Vector3d>& pts) {
   return (best + 0.5) * kLayerM;
 }
 
+// The q-quantile of the points' heights (map z; q 0 = the lowest). `pts` must not be empty.
+double HeightQuantile(const std::vector<Eigen::Vector3d>& pts, double q) {
+  std::vector<double> z_m;
+  z_m.reserve(pts.size());
+  for (const Eigen::Vector3d& p : pts) z_m.push_back(p.z());
+  const size_t k = static_cast<size_t>(std::clamp(q, 0.0, 1.0) * (z_m.size() - 1));
+  std::nth_element(z_m.begin(), z_m.begin() + k, z_m.end());
+  return z_m[k];
+}
+
 }  // namespace
 
 void FusedObject::RecomputeGeometry() {
@@ -312,6 +322,7 @@ void FusedObject::RecomputeGeometry() {
     aabb_min_m_ = aabb_min_m_.cwiseMin(p);
     aabb_max_m_ = aabb_max_m_.cwiseMax(p);
   }
+  bottom_z_m_ = HeightQuantile(pts, support_.bottom_quantile);
   const Eigen::Vector3d mean = sum / static_cast<double>(pts.size());
   centroid_m_ = centroid_from_box_
                     ? BoxCentre(MainParts(pts, support_.cell_m, support_.centroid_min_part))
@@ -369,6 +380,7 @@ MapObject FusedObject::Snapshot() const {
   o.missed_views = misses();
   o.existence = existence();
   o.top_surface_z_m = top_surface_z_m_;
+  o.bottom_z_m = bottom_z_m_;
   return o;
 }
 

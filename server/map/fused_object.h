@@ -55,6 +55,9 @@ struct SupportOptions {
   std::vector<std::string> flat_top_classes;
   double flat_top_margin_m = 0.03;
   int min_label_views = 3;
+  // The object's bottom height (MapObject::bottom_z_m) is this quantile of those points'
+  // heights (0 = the box's bottom).
+  double bottom_quantile = 0.05;
 };
 
 // A FusedObject's voxel and support cell (at namespace scope: a nested struct with member
@@ -207,6 +210,7 @@ class FusedObject {
   Eigen::Vector3d obb_half_m_ = Eigen::Vector3d::Zero();
   Eigen::Matrix3d R_map_box_ = Eigen::Matrix3d::Identity();
   double top_surface_z_m_ = 0;
+  double bottom_z_m_ = 0;
   int64_t first_seen_ns_ = 0;
   int64_t last_seen_ns_ = 0;
   std::set<std::string> robots_;

@@ -19,7 +19,7 @@ constexpr const char* kFusionKeys[] = {
     "merge_centroid_m",        "merge_containment", "merge_across_classes", "assoc_containment",
     "max_size_ratio",          "label_universe",    "min_likelihood",       "existence_p_real",
     "existence_p_false",       "confirm_llr",       "remove_llr",           "visibility",
-    "centroid_min_part",       "class_size_slack",  "merge_box_containment",
+    "centroid_min_part",       "class_size_slack",  "merge_box_containment", "bottom_quantile",
     "merge_sigmas",            "depth_sigma_at_1m", "view_sigma_rad",       "shape_min_label_views",
     "existence_class_prior_views", "confirm_min_span_s", "straddle_share",
     "straddle_apart_views", "straddle_pieces", "furniture_merge_containment",
@@ -138,6 +138,7 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "support_cell_m", &fusion.support_cell_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_support_fraction", &fusion.min_support_fraction));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "centroid_min_part", &fusion.centroid_min_part));
+    LOCI_RETURN_IF_ERROR(ReadOptional(n, "bottom_quantile", &fusion.bottom_quantile));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "shape_min_label_views", &fusion.shape_min_label_views));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "class_size_slack", &fusion.class_size_slack));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_box_containment", &fusion.merge_box_containment));
@@ -324,6 +325,9 @@ Status MapOptions::Validate() const {
   if (!std::isfinite(fusion.class_size_slack)) return bad("fusion.class_size_slack finite");
   if (!(fusion.centroid_min_part >= 0 && fusion.centroid_min_part < 0.5)) {
     return bad("fusion.centroid_min_part in [0, 0.5)");
+  }
+  if (!(fusion.bottom_quantile >= 0 && fusion.bottom_quantile < 0.5)) {
+    return bad("fusion.bottom_quantile in [0, 0.5)");
   }
   if (fusion.shape_min_label_views < 0) {
     return bad("fusion.shape_min_label_views >= 0");

@@ -132,6 +132,11 @@ struct FusionOptions {
   // The box-centre centroid ignores disconnected parts of the supported points smaller than
   // this fraction of them (FusedObject SupportOptions); 0 = the full box (0.05).
   double centroid_min_part = 0.05;
+  // An object's bottom height (MapObject::bottom_z_m, for the query's relations) is this
+  // quantile of those voxels' heights: the few points a box catches under a thing (its
+  // support's edge) do not lower it (FusedObject SupportOptions; 0 = the box's bottom) (0.05).
+  // The top-load rules keep the box's bottom (top_load_max_sink_m allows for those points).
+  double bottom_quantile = 0.05;
   // Once an object's most likely class has this many observations with points, only those
   // shape it (support cells, centroid, boxes); views of other classes fused in still count for
   // its label and existence. 0 = every observation shapes it (3).

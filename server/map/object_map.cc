@@ -42,7 +42,8 @@ FusedObject ObjectMap::NewObject(int64_t id) const {
       id, voxel_m_, options_.centroid_from_box,
       LabelDistribution(options_.label_universe, options_.min_likelihood),
       {options_.support_cell_m, options_.min_support_fraction, options_.centroid_min_part,
-       options_.flat_top_classes, options_.flat_top_margin_m, options_.shape_min_label_views});
+       options_.flat_top_classes, options_.flat_top_margin_m, options_.shape_min_label_views,
+       options_.bottom_quantile});
 }
 
 namespace {

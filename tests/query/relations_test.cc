@@ -46,6 +46,7 @@ TEST_F(RelationsTest, MonitorOnItsStandIsOnTheTable) {
   ObjectGeom tv = geoms_.at(2);
   tv.class_name = "tv";
   tv.box.min.z() = geoms_.at(1).top_z + 0.17;
+  tv.bottom_z = tv.box.min.z();
   tv.box.max.z() = tv.box.min.z() + 0.35;
   tv.centroid_g.z() = tv.box.min.z() + 0.175;
   const RelationResult on = eval_.Evaluate(RelationKind::kOn, tv, geoms_.at(1), nullptr, true);
@@ -55,11 +56,13 @@ TEST_F(RelationsTest, MonitorOnItsStandIsOnTheTable) {
   book.class_name = "book";
   EXPECT_FALSE(eval_.Evaluate(RelationKind::kOn, book, geoms_.at(1)).holds);
   tv.box.min.z() += 0.25;
+  tv.bottom_z += 0.25;
   tv.box.max.z() += 0.25;
   EXPECT_FALSE(eval_.Evaluate(RelationKind::kOn, tv, geoms_.at(1)).holds);
   RelationOptions none;
   none.on_stand_m.clear();
   tv.box.min.z() -= 0.25;
+  tv.bottom_z -= 0.25;
   tv.box.max.z() -= 0.25;
   EXPECT_FALSE(RelationEvaluator(none).Evaluate(RelationKind::kOn, tv, geoms_.at(1)).holds);
 }
@@ -67,9 +70,11 @@ TEST_F(RelationsTest, MonitorOnItsStandIsOnTheTable) {
 TEST_F(RelationsTest, OnToleratesSmallGapsButNotHovering) {
   ObjectGeom book = geoms_.at(2);
   book.box.min.z() += 0.02;
+  book.bottom_z += 0.02;
   book.box.max.z() += 0.02;
   EXPECT_TRUE(eval_.Evaluate(RelationKind::kOn, book, geoms_.at(1)).holds);
   book.box.min.z() += 0.2;  // 22 cm above the table top: above, not on
+  book.bottom_z += 0.2;
   book.box.max.z() += 0.2;
   book.centroid_g.z() += 0.22;
   EXPECT_FALSE(eval_.Evaluate(RelationKind::kOn, book, geoms_.at(1)).holds);
@@ -81,6 +86,24 @@ TEST_F(RelationsTest, OnToleratesSmallGapsButNotHovering) {
   edge.centroid_g.x() = 1.7;
   const RelationResult r = eval_.Evaluate(RelationKind::kOn, edge, geoms_.at(1));
   EXPECT_FALSE(r.holds) << r.evidence;
+}
+
+// fr1_rpy, start 30: the fused box of the book on the main desk reaches 7.2 cm under the desk's
+// top (its mask caught the desk's edge), while only 5 % of its points lie more than 2 cm under
+// it. By its box the book hovers in the desk; by its robust bottom it lies on it.
+TEST_F(RelationsTest, ABookWhoseBoxCaughtTheDesksEdgeIsOnTheDesk) {
+  MapObject book = Box(30, "book", {0.2, 0.2, 0.75 - 0.072}, {0.68, 0.51, 0.75 + 0.088});
+  const ObjectGeom& desk = geoms_.at(1);
+  ASSERT_DOUBLE_EQ(desk.top_z, 0.75);
+  const RelationResult by_box = eval_.Evaluate(RelationKind::kOn, frame_.Geom(book), desk);
+  EXPECT_FALSE(by_box.holds) << by_box.confidence;
+  book.bottom_z_m = 0.75 - 0.020;
+  const RelationResult robust = eval_.Evaluate(RelationKind::kOn, frame_.Geom(book), desk);
+  EXPECT_TRUE(robust.holds) << robust.confidence;
+  EXPECT_GT(robust.confidence, 0.9);
+  // A bottom outside the box is not the map's and is not used.
+  book.bottom_z_m = 0.5;
+  EXPECT_FALSE(eval_.Evaluate(RelationKind::kOn, frame_.Geom(book), desk).holds);
 }
 
 TEST_F(RelationsTest, NotOnATallerBoxBelowTheSurface) {
