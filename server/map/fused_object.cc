@@ -253,7 +253,6 @@ std::vector<ColoredPoint> FusedObject::Cloud() const {
 
 namespace {
 
-// Centre of the [trim, 1 - trim] quantile box of the points (trim 0 = their full box).
 // Centre of the points' box.
 Eigen::Vector3d BoxCentre(const std::vector<Eigen::Vector3d>& pts) {
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::max());
