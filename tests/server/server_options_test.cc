@@ -64,6 +64,16 @@ TEST_F(ServerOptionsKeys, ANonPositiveClassHeightFailsWithTheClassName) {
   EXPECT_FALSE(map.ClassesFromYaml(YAML::Load("max_height_m: [0.1]\n")).ok());
 }
 
+TEST_F(ServerOptionsKeys, TheBottomQuantileIsReadAndOneOfHalfOrMoreIsRefused) {
+  MapOptions map;
+  ASSERT_TRUE(map.FromYaml(YAML::Load("fusion:\n  bottom_quantile: 0.1\n")).ok());
+  EXPECT_DOUBLE_EQ(map.fusion.bottom_quantile, 0.1);
+  EXPECT_TRUE(map.Validate().ok());
+  const Status s = MapOptions().FromYaml(YAML::Load("fusion:\n  bottom_quantile: 0.5\n"));
+  ASSERT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("fusion.bottom_quantile"), std::string::npos) << s;
+}
+
 TEST_F(ServerOptionsKeys, ShippedConfigFilesHaveNoUnknownKeys) {
   SetStrictConfig(true);
   const std::string config = SourceDir() + "/config/";
