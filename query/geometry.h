@@ -10,6 +10,7 @@
 
 #include "common/map_object.h"
 #include "common/se3.h"
+#include "query/footprint.h"
 
 namespace loci::query {
 
@@ -35,6 +36,8 @@ struct ObjectGeom {
   // knows it.
   double bottom_z = 0;
   BoxG box;
+  // The horizontal outline of its oriented box in g (footprint.h); empty without one.
+  Footprint footprint_g;
   Vec3d centroid_g = Vec3d::Zero();
   double size_m = 0;
 };

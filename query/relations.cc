@@ -45,8 +45,11 @@ double FootprintFraction(const ObjectGeom& s, const ObjectGeom& a) {
   return FootprintOverlapArea(s.box, a.box) / area;
 }
 
-// Overlap as a fraction of the smaller footprint.
+// Overlap as a fraction of the smaller footprint: of the oriented footprints when both objects
+// have one (footprint.h), else of their boxes' footprints.
 double FootprintFractionOfSmaller(const ObjectGeom& s, const ObjectGeom& a) {
+  const double oriented = std::min(PolygonArea(s.footprint_g), PolygonArea(a.footprint_g));
+  if (oriented > 1e-9) return ConvexOverlapArea(s.footprint_g, a.footprint_g) / oriented;
   const double smaller = std::min(s.box.FootprintArea(), a.box.FootprintArea());
   if (smaller < 1e-9) return std::max(FootprintFraction(s, a), FootprintFraction(a, s));
   return FootprintOverlapArea(s.box, a.box) / smaller;

@@ -106,6 +106,30 @@ TEST_F(RelationsTest, ABookWhoseBoxCaughtTheDesksEdgeIsOnTheDesk) {
   EXPECT_FALSE(eval_.Evaluate(RelationKind::kOn, frame_.Geom(book), desk).holds);
 }
 
+// fr1_rpy, start 0: the keyboard lies in front of the main monitor, and the map's axes run at
+// about 40 deg to the desk, so their axis-aligned boxes overlap by 43 % of the keyboard's
+// footprint: "is the keyboard under the tv" answered yes. Their oriented boxes do not overlap.
+TEST_F(RelationsTest, AKeyboardInFrontOfAMonitorTurnedToTheMapAxesIsNotBelowIt) {
+  const std::vector<MapObject> desk = testing::Rotated(
+      {Box(40, "tv", {0.0, 0.0, 0.95}, {0.05, 0.55, 1.30}),
+       Box(41, "keyboard", {0.15, 0.05, 0.75}, {0.30, 0.50, 0.78})},
+      Eigen::AngleAxisd(0.7, Vec3d::UnitZ()).toRotationMatrix());
+  ObjectGeom tv = frame_.Geom(desk[0]), keyboard = frame_.Geom(desk[1]);
+  EXPECT_FALSE(eval_.Evaluate(RelationKind::kBelow, keyboard, tv).holds);
+  EXPECT_FALSE(eval_.Evaluate(RelationKind::kAbove, tv, keyboard).holds);
+  // By their boxes alone they would be.
+  tv.footprint_g.clear();
+  keyboard.footprint_g.clear();
+  EXPECT_TRUE(eval_.Evaluate(RelationKind::kBelow, keyboard, tv).holds);
+  // A keyboard under the panel (on a shelf below it) still is below it.
+  const std::vector<MapObject> under = testing::Rotated(
+      {Box(42, "keyboard", {0.0, 0.05, 0.75}, {0.05, 0.50, 0.78})},
+      Eigen::AngleAxisd(0.7, Vec3d::UnitZ()).toRotationMatrix());
+  const RelationResult below =
+      eval_.Evaluate(RelationKind::kBelow, frame_.Geom(under[0]), frame_.Geom(desk[0]));
+  EXPECT_TRUE(below.holds) << below.evidence;
+}
+
 TEST_F(RelationsTest, NotOnATallerBoxBelowTheSurface) {
   // A chair tucked under a desk reaches above the desk top (back at 0.81 m); the keyboard on
   // the desk (0.78-0.81 m) lies over the chair's footprint but rests on the desk.
