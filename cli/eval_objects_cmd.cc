@@ -59,7 +59,9 @@ StatusOr<MapUnderTest> FromDb(const std::string& db, const server::ServerOptions
   m.mapper = std::move(mapper);
   m.objects = m.mapper->Snapshot(confirmed_only);
   for (auto& [robot, traj] : m.mapper->Trajectories()) m.keyframes.push_back(traj);
-  m.adapter = std::make_shared<server::QueryAdapter>(server::QueryAdapterOptions{});
+  server::QueryAdapterOptions query;
+  server::UseMapClassPriors(options.map, &query);
+  m.adapter = std::make_shared<server::QueryAdapter>(std::move(query));
   m.source = std::make_shared<server::MapperSource>(*m.mapper);
   m.ask = [adapter = m.adapter, source = m.source](const std::string& q) {
     loci::v1::AskRequest req;

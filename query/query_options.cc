@@ -151,7 +151,6 @@ constexpr const char* kQueryKeys[] = {"classes",
 constexpr const char* kRelationKeys[] = {"on_gap_sigma_m",
                                          "on_max_gap_m",
                                          "on_min_overlap",
-                                         "on_stand_m",
                                          "under_min_overlap",
                                          "above_min_overlap",
                                          "vertical_tolerance_m",
@@ -180,12 +179,15 @@ StatusOr<QueryOptions> QueryOptionsFromYaml(const YAML::Node& node, const QueryO
   if (!node.IsMap()) return absl::InvalidArgumentError("query options: expected a YAML map");
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node, "", kQueryKeys));
   const YAML::Node rel = node["relations"];
+  if (rel && rel.IsMap() && rel["on_stand_m"]) {
+    return absl::InvalidArgumentError(
+        "relations.on_stand_m is now `stand_m` of config/classes.yaml (the map uses it too)");
+  }
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(rel, "relations", kRelationKeys));
   RelationOptions& r = o.relations;
   LOCI_RETURN_IF_ERROR(ReadOptional(rel, "on_gap_sigma_m", &r.on_gap_sigma_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(rel, "on_max_gap_m", &r.on_max_gap_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(rel, "on_min_overlap", &r.on_min_overlap));
-  LOCI_RETURN_IF_ERROR(ReadOptional(rel, "on_stand_m", &r.on_stand_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(rel, "under_min_overlap", &r.under_min_overlap));
   LOCI_RETURN_IF_ERROR(ReadOptional(rel, "above_min_overlap", &r.above_min_overlap));
   LOCI_RETURN_IF_ERROR(ReadOptional(rel, "vertical_tolerance_m", &r.vertical_tolerance_m));

@@ -27,7 +27,9 @@ struct RelationOptions {
   double on_min_overlap = 0.5;
   // on: per subject class, the height of the stand or feet it usually rests on that its points
   // leave out (a monitor's points end at its panel, 10-25 cm above the desk): a gap of up to
-  // this much above the anchor's top counts as none (m). Default {tv: 0.25}.
+  // this much above the anchor's top counts as none (m). Default {tv: 0.25}. Not a query.yaml
+  // key: the server sets it from config/classes.yaml `stand_m`, which the map's table loads use
+  // too (server::UseMapClassPriors).
   std::map<std::string, double> on_stand_m = {{"tv", 0.25}};
   // under: minimal fraction of the subject's footprint below the anchor's footprint. Default 0.2.
   double under_min_overlap = 0.2;

@@ -120,6 +120,7 @@ int main(int argc, char** argv) {
     }
     query_options.query = std::move(*q);
   }
+  loci::server::UseMapClassPriors(options.map, &query_options);
 
   // SIGINT/SIGTERM are handled by sigwait below; block them before any thread starts.
   sigset_t signals;

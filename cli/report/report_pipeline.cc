@@ -136,7 +136,9 @@ StatusOr<GroundTruthEval> EvaluateHandMade(const ReportOptions& o, const server:
   for (const auto& c : mapper.options().mapped_classes) {
     if (!mapper.options().IsDynamic(c)) in.options.classes.push_back(c);
   }
-  auto adapter = std::make_shared<server::QueryAdapter>(server::QueryAdapterOptions{});
+  server::QueryAdapterOptions query;
+  server::UseMapClassPriors(mapper.options(), &query);
+  auto adapter = std::make_shared<server::QueryAdapter>(std::move(query));
   auto source = std::make_shared<server::MapperSource>(mapper);
   in.ask = [adapter, source](const std::string& q) {
     loci::v1::AskRequest req;

@@ -215,9 +215,11 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
 
 namespace {
 
-// `key` of the classes file: a map class name -> metres (> 0).
+// `key` of the classes file: a map class name -> metres, > 0 (or >= 0 with allow_zero) and at
+// most max_m.
 Status ReadClassMetres(const YAML::Node& node, const char* key,
-                       std::map<std::string, double>* out) {
+                       std::map<std::string, double>* out, bool allow_zero = false,
+                       double max_m = std::numeric_limits<double>::infinity()) {
   const YAML::Node sizes = node[key];
   if (!sizes) return absl::OkStatus();
   if (!sizes.IsMap())
@@ -225,7 +227,10 @@ Status ReadClassMetres(const YAML::Node& node, const char* key,
   for (const auto& kv : sizes) {
     try {
       const double m = kv.second.as<double>();
-      if (!(m > 0)) throw YAML::Exception(kv.second.Mark(), "must be > 0");
+      if (!((allow_zero ? m >= 0 : m > 0) && m <= max_m)) {
+        const char* low = allow_zero ? ">= 0" : "> 0";
+        throw YAML::Exception(kv.second.Mark(), absl::StrCat("must be ", low, " and <= ", max_m));
+      }
       (*out)[kv.first.as<std::string>()] = m;
     } catch (const YAML::Exception& e) {
       return absl::InvalidArgumentError(
@@ -244,6 +249,10 @@ Status MapOptions::ClassesFromYaml(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(ReadClassMetres(node, "max_size_m", &max_size_m));
   LOCI_RETURN_IF_ERROR(ReadClassMetres(node, "max_height_m", &max_height_m));
   LOCI_RETURN_IF_ERROR(ReadClassMetres(node, "max_thickness_m", &max_thickness_m));
+  if (node["stand_m"]) {  // replaces the built-in stands; 0 turns a class's off
+    fusion.top_loads.stand_m.clear();
+    LOCI_RETURN_IF_ERROR(ReadClassMetres(node, "stand_m", &fusion.top_loads.stand_m, true, 2.0));
+  }
   if (!mapped_classes.empty()) {
     fusion.label_universe = std::max<int>(2, static_cast<int>(mapped_classes.size()));
   }

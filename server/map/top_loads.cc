@@ -101,8 +101,10 @@ bool RestsOn(const MapObject& load, const MapObject& table, const TopLoadOptions
     *overlap = IntervalOverlap(a0.x(), a1.x(), b0.x(), b1.x()) *
                IntervalOverlap(a0.y(), a1.y(), b0.y(), b1.y()) / area;
   }
+  const auto stand = options.stand_m.find(load.class_name);
+  const double stand_m = stand == options.stand_m.end() ? 0.0 : stand->second;
   const double above_m = a0.z() - table.top_surface_z_m;
-  return above_m <= options.max_gap_m && -above_m <= options.max_sink_m &&
+  return above_m <= options.max_gap_m + stand_m && -above_m <= options.max_sink_m &&
          distance <= options.reach_m && a1.z() > table.top_surface_z_m;
 }
 

@@ -10,6 +10,7 @@
 // top's height, the table's label and evidence stay; the centroid moves with its box's centre.
 #pragma once
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,10 @@ struct TopLoadOptions {
   // Box bottom at most this above the top's height, m: a thing resting on the top (a foot's
   // height).
   double max_gap_m = 0.05;
+  // Per class, the stand or feet its points leave out, m: a monitor's points end at its panel,
+  // so its box bottom may lie this much more than max_gap_m above the top it stands on
+  // (config/classes.yaml `stand_m`; the query's "on" allows the same).
+  std::map<std::string, double> stand_m = {{"tv", 0.25}};
   // ... and at most this below it, m: a box reaches under the top it rests on when it caught some
   // of the top's own points, and two desks' tops a few cm apart must not decide by that alone
   // which desk a book lies on (its footprint does).

@@ -78,6 +78,10 @@ loci::v1::AskResponse AnswerOrError(const StatusOr<loci::v1::AskResponse>& answe
   return out;
 }
 
+void UseMapClassPriors(const MapOptions& map, QueryAdapterOptions* options) {
+  options->query.relations.on_stand_m = map.fusion.top_loads.stand_m;
+}
+
 QueryAdapter::QueryAdapter(QueryAdapterOptions options)
     : options_(std::move(options)), engine_(options_.query) {}
 

@@ -82,6 +82,11 @@ struct QueryAdapterOptions {
   double replay_age_s = 3600.0;
 };
 
+// Gives the query the class priors of the map it answers on (config/classes.yaml `stand_m`,
+// read into map.fusion.top_loads): the query's "on" and the desk the map widens under what rests
+// on it allow the same stand under a monitor.
+void UseMapClassPriors(const MapOptions& map, QueryAdapterOptions* options);
+
 class QueryAdapter final : public QueryEngine {
  public:
   explicit QueryAdapter(QueryAdapterOptions options);

@@ -10,6 +10,7 @@
 #include "common/config.h"
 #include "detection/detection_config.h"
 #include "query/query_options.h"
+#include "server/service/query_adapter.h"
 #include "tests/support/temp_dir.h"
 
 namespace loci::server {
@@ -62,6 +63,25 @@ TEST_F(ServerOptionsKeys, ANonPositiveClassHeightFailsWithTheClassName) {
   ASSERT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(s.message().find("max_height_m.cup"), std::string::npos) << s;
   EXPECT_FALSE(map.ClassesFromYaml(YAML::Load("max_height_m: [0.1]\n")).ok());
+}
+
+TEST_F(ServerOptionsKeys, ClassStandsReplaceTheBuiltInOnesAndReachTheQuery) {
+  ServerOptions shipped;  // config/classes.yaml of the repository
+  ASSERT_TRUE(shipped.LoadClasses().ok());
+  const std::map<std::string, double> tv = {{"tv", 0.25}};
+  EXPECT_EQ(shipped.map.fusion.top_loads.stand_m, tv);
+  MapOptions map;
+  ASSERT_TRUE(map.ClassesFromYaml(YAML::Load("stand_m: {potted plant: 0.1, tv: 0}\n")).ok());
+  const std::map<std::string, double> given = {{"potted plant", 0.1}, {"tv", 0.0}};
+  EXPECT_EQ(map.fusion.top_loads.stand_m, given);  // tv 0: the built-in stand is off
+  QueryAdapterOptions query;
+  UseMapClassPriors(map, &query);
+  EXPECT_EQ(query.query.relations.on_stand_m, given);
+  for (const char* bad : {"stand_m: {tv: -0.1}\n", "stand_m: {tv: 2.5}\n", "stand_m: [tv]\n"}) {
+    const Status s = MapOptions().ClassesFromYaml(YAML::Load(bad));
+    ASSERT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << bad;
+    EXPECT_NE(s.message().find("stand_m"), std::string::npos) << s;
+  }
 }
 
 TEST_F(ServerOptionsKeys, TheBottomQuantileIsReadAndOneOfHalfOrMoreIsRefused) {

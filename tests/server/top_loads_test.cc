@@ -73,6 +73,25 @@ TEST(TopLoads, TheDeskRunsOnUnderWhatStandsOnIt) {
   EXPECT_EQ(Find(objects, 3).aabb_min_m, MainDesk()[2].aabb_min_m);
 }
 
+TEST(TopLoads, AMonitorOnItsStandWidensTheDeskUnderIt) {
+  // monitor_second's points end at its panel, 15 cm above the top (its stand left out).
+  std::vector<MapObject> objects = MainDesk();
+  objects.back().aabb_min_m.z() = 0.92;
+  std::vector<MapObject> without = objects;
+  ExtendTopsUnderLoads(kFlatTops, TopLoadOptions{}, &objects);  // stand_m {tv: 0.25}
+  EXPECT_NEAR(Find(objects, 1).aabb_max_m.y(), 1.64, 1e-9);     // runs on under the monitor
+  TopLoadOptions no_stand;
+  no_stand.stand_m.clear();
+  ExtendTopsUnderLoads(kFlatTops, no_stand, &without);
+  EXPECT_NEAR(Find(without, 1).aabb_max_m.y(), 1.29, 1e-9);     // ends at the mouse
+  // A screen on the wall 35 cm over the desk does not stand on it.
+  std::vector<MapObject> wall = MainDesk();
+  wall.back().aabb_min_m.z() = 1.12;
+  wall.back().aabb_max_m.z() = 1.50;
+  ExtendTopsUnderLoads(kFlatTops, TopLoadOptions{}, &wall);
+  EXPECT_NEAR(Find(wall, 1).aabb_max_m.y(), 1.29, 1e-9);
+}
+
 TEST(TopLoads, OnlyConfirmedThingsAtTheTopsHeightAndWithinReach) {
   std::vector<MapObject> objects = {Table(1, {0.75, 0.30, 0.75}, {1.04, 1.00, 0.77})};
   objects.push_back(Box(2, "chair", {1.1, 0.4, 0.0}, {1.6, 0.9, 1.0}));   // on the floor beside it
