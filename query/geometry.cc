@@ -13,20 +13,6 @@ double IntervalGap(double a0, double a1, double b0, double b1) {
   return std::max(0.0, std::max(a0, b0) - std::min(a1, b1));
 }
 
-// The outline in g of the object's oriented box: its 8 corners turned into g, projected on the
-// horizontal plane, their convex hull. Empty when the object has no oriented box.
-Footprint OrientedFootprint(const MapObject& o, const Mat3d& R_g_map) {
-  const Vec3d h = o.obb_half_extent_m.cwiseAbs();
-  if (!(h.maxCoeff() > 0) || !h.allFinite() || !o.R_map_box.allFinite()) return {};
-  std::vector<Eigen::Vector2d> corners;
-  for (int corner = 0; corner < 8; ++corner) {
-    const Vec3d q(corner & 1 ? h.x() : -h.x(), corner & 2 ? h.y() : -h.y(),
-                  corner & 4 ? h.z() : -h.z());
-    corners.push_back((R_g_map * (o.obb_center_m + o.R_map_box * q)).head<2>());
-  }
-  return ConvexHull(std::move(corners));
-}
-
 }  // namespace
 
 GravityFrame::GravityFrame(const Vec3d& up_map, std::vector<std::string> flat_top_classes)

@@ -10,7 +10,7 @@
 
 #include "common/map_object.h"
 #include "common/se3.h"
-#include "query/footprint.h"
+#include "common/footprint.h"
 
 namespace loci::query {
 

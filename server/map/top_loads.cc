@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 
+#include "common/footprint.h"
 #include "server/map/fused_object.h"
 
 namespace loci::server {
@@ -94,12 +95,16 @@ bool RestsOn(const MapObject& load, const MapObject& table, const TopLoadOptions
              double* distance_m, double* overlap) {
   const Eigen::Vector3d &a0 = load.aabb_min_m, &a1 = load.aabb_max_m;
   const Eigen::Vector3d &b0 = table.aabb_min_m, &b1 = table.aabb_max_m;
-  const double distance = FootprintDistanceM(a0, a1, b0, b1);
-  const double area = std::max(1e-9, (a1.x() - a0.x()) * (a1.y() - a0.y()));
+  const Footprint load_fp = OrientedFootprint(load), table_fp = OrientedFootprint(table);
+  const bool oriented = PolygonArea(load_fp) > 1e-9 && PolygonArea(table_fp) > 1e-9;
+  const double distance = oriented ? ConvexDistanceM(load_fp, table_fp)
+                                   : FootprintDistanceM(a0, a1, b0, b1);
   if (distance_m != nullptr) *distance_m = distance;
   if (overlap != nullptr) {
-    *overlap = IntervalOverlap(a0.x(), a1.x(), b0.x(), b1.x()) *
-               IntervalOverlap(a0.y(), a1.y(), b0.y(), b1.y()) / area;
+    const double area = std::max(1e-9, (a1.x() - a0.x()) * (a1.y() - a0.y()));
+    *overlap = oriented ? ConvexOverlapArea(load_fp, table_fp) / PolygonArea(load_fp)
+                        : IntervalOverlap(a0.x(), a1.x(), b0.x(), b1.x()) *
+                              IntervalOverlap(a0.y(), a1.y(), b0.y(), b1.y()) / area;
   }
   const auto stand = options.stand_m.find(load.class_name);
   const double stand_m = stand == options.stand_m.end() ? 0.0 : stand->second;

@@ -2,11 +2,13 @@
 // sees between the monitors, keyboard and books standing on it, so its box and centroid cover
 // only that part, often a strip in front. ExtendTopsUnderLoads widens the footprint of each
 // confirmed piece of flat-topped furniture (a table) to take in the footprints of the confirmed
-// objects resting on its top: an object whose box bottom lies at most max_gap_m above the top's
-// height and at most max_sink_m below it, and whose footprint comes within reach_m of the
-// table's (axis-aligned boxes, map frame, z up), or of the part of the table already grown under
-// other loads. An object near two tables rests on the one its footprint overlaps most, then the
-// one nearest, then the one whose top is closest to its bottom. Only footprints change: the
+// objects resting on its top: an object whose box bottom lies at most max_gap_m (plus its class's
+// stand) above the top's height and at most max_sink_m below it, and whose footprint comes within
+// reach_m of the table's, or of the part of the table already grown under other loads.
+// Footprints are the outlines of the oriented boxes (common/footprint.h; map frame, z up), else
+// of the axis-aligned boxes: a desk piece turned 40 deg to the map's axes has an axis-aligned box
+// that holds the books on the desk beside it. An object near two tables rests on the one its
+// footprint overlaps most, then the one nearest, then the one whose top is closest to its bottom. Only footprints change: the
 // top's height, the table's label and evidence stay; the centroid moves with its box's centre.
 #pragma once
 

@@ -1,9 +1,10 @@
-#include "query/footprint.h"
+#include "common/footprint.h"
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
-namespace loci::query {
+namespace loci {
 namespace {
 
 // z of (a - o) x (b - o): > 0 when o, a, b turn counter-clockwise.
@@ -16,6 +17,26 @@ Eigen::Vector2d Crossing(const Eigen::Vector2d& p, const Eigen::Vector2d& q,
                          const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
   const double dp = Cross(a, b, p), dq = Cross(a, b, q);
   return p + (q - p) * (dp / (dp - dq));
+}
+
+// Distance from p to the segment a-b.
+double SegmentDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
+                       const Eigen::Vector2d& b) {
+  const Eigen::Vector2d ab = b - a;
+  const double len2 = ab.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  return (a + t * ab - p).norm();
+}
+
+// Smallest distance from a vertex of `from` to an edge of `to`.
+double VertexToEdges(const Footprint& from, const Footprint& to) {
+  double d = std::numeric_limits<double>::infinity();
+  for (const Eigen::Vector2d& p : from) {
+    for (size_t i = 0; i < to.size(); ++i) {
+      d = std::min(d, SegmentDistance(p, to[i], to[(i + 1) % to.size()]));
+    }
+  }
+  return d;
 }
 
 }  // namespace
@@ -70,4 +91,23 @@ double ConvexOverlapArea(const Footprint& a, const Footprint& b) {
   return PolygonArea(clipped);
 }
 
-}  // namespace loci::query
+double ConvexDistanceM(const Footprint& a, const Footprint& b) {
+  if (a.empty() || b.empty()) return std::numeric_limits<double>::infinity();
+  if (ConvexOverlapArea(a, b) > 0) return 0.0;
+  // Two convex polygons apart: their closest points include a vertex of one.
+  return std::min(VertexToEdges(a, b), VertexToEdges(b, a));
+}
+
+Footprint OrientedFootprint(const MapObject& o, const Eigen::Matrix3d& R_g_map) {
+  const Eigen::Vector3d h = o.obb_half_extent_m.cwiseAbs();
+  if (!(h.maxCoeff() > 0) || !h.allFinite() || !o.R_map_box.allFinite()) return {};
+  std::vector<Eigen::Vector2d> corners;
+  for (int corner = 0; corner < 8; ++corner) {
+    const Eigen::Vector3d q(corner & 1 ? h.x() : -h.x(), corner & 2 ? h.y() : -h.y(),
+                            corner & 4 ? h.z() : -h.z());
+    corners.push_back((R_g_map * (o.obb_center_m + o.R_map_box * q)).head<2>());
+  }
+  return ConvexHull(std::move(corners));
+}
+
+}  // namespace loci
