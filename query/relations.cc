@@ -32,8 +32,13 @@ constexpr std::array<KindInfo, 13> kKinds = {{
 
 double Clamp01(double v) { return std::clamp(v, 0.0, 1.0); }
 
-// Fraction of `s`'s footprint over `a`'s; a degenerate footprint counts by its centroid.
+// Fraction of `s`'s footprint over `a`'s: of the oriented footprints when both objects have one
+// (common/footprint.h), else of their boxes'; a degenerate footprint counts by its centroid.
 double FootprintFraction(const ObjectGeom& s, const ObjectGeom& a) {
+  const double oriented = PolygonArea(s.footprint_g);
+  if (oriented > 1e-9 && PolygonArea(a.footprint_g) > 1e-9) {
+    return ConvexOverlapArea(s.footprint_g, a.footprint_g) / oriented;
+  }
   const double area = s.box.FootprintArea();
   if (area < 1e-9) {
     const Vec3d& c = s.centroid_g;

@@ -81,9 +81,11 @@ TEST_F(RelationsTest, OnToleratesSmallGapsButNotHovering) {
   EXPECT_TRUE(eval_.Evaluate(RelationKind::kAbove, book, geoms_.at(1)).holds);
   // Half off the edge: footprint overlap below on_min_overlap.
   ObjectGeom edge = geoms_.at(2);
+  const double shift_m = 1.7 - edge.centroid_g.x();
   edge.box.min.x() = 1.5;
   edge.box.max.x() = 1.9;
   edge.centroid_g.x() = 1.7;
+  for (Eigen::Vector2d& corner : edge.footprint_g) corner.x() += shift_m;
   const RelationResult r = eval_.Evaluate(RelationKind::kOn, edge, geoms_.at(1));
   EXPECT_FALSE(r.holds) << r.evidence;
 }
@@ -128,6 +130,30 @@ TEST_F(RelationsTest, AKeyboardInFrontOfAMonitorTurnedToTheMapAxesIsNotBelowIt) 
   const RelationResult below =
       eval_.Evaluate(RelationKind::kBelow, frame_.Geom(under[0]), frame_.Geom(desk[0]));
   EXPECT_TRUE(below.holds) << below.evidence;
+}
+
+// fr1_rpy, live run 3: a piece of one desk, turned 40 deg to the map's axes, has an axis-aligned
+// box that holds the book lying on the desk beside it, 3 cm higher (the book's box caught a
+// centimetre of its desk's edge). By the oriented footprints the book is not on that piece; on
+// a piece of its own desk it is.
+TEST_F(RelationsTest, ABookBesideADeskTurnedToTheMapAxesIsNotOnIt) {
+  MapObject lower = Box(50, "dining table", {-0.9, 0.0, 0.70}, {0.0, 1.5, 0.74});
+  MapObject own = Box(51, "dining table", {0.0, 0.0, 0.73}, {0.8, 1.5, 0.77});
+  lower.top_surface_z_m = 0.74;
+  own.top_surface_z_m = 0.77;
+  const std::vector<MapObject> turned = testing::Rotated(
+      {lower, own, Box(52, "book", {0.08, 1.2, 0.76}, {0.32, 1.45, 0.81})},
+      Eigen::AngleAxisd(40.0 * M_PI / 180, Vec3d::UnitZ()).toRotationMatrix());
+  ObjectGeom lower_g = frame_.Geom(turned[0]), book = frame_.Geom(turned[2]);
+  const RelationResult on_lower = eval_.Evaluate(RelationKind::kOn, book, lower_g, nullptr, true);
+  EXPECT_FALSE(on_lower.holds) << on_lower.evidence;
+  EXPECT_NE(on_lower.evidence.find("footprint overlap 0.00"), std::string::npos)
+      << on_lower.evidence;
+  EXPECT_TRUE(eval_.Evaluate(RelationKind::kOn, book, frame_.Geom(turned[1])).holds);
+  // By their axis-aligned boxes, the lower piece's box holds half the book's: it was "on" both.
+  lower_g.footprint_g.clear();
+  book.footprint_g.clear();
+  EXPECT_TRUE(eval_.Evaluate(RelationKind::kOn, book, lower_g).holds);
 }
 
 TEST_F(RelationsTest, NotOnATallerBoxBelowTheSurface) {
