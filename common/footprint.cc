@@ -74,12 +74,14 @@ double PolygonArea(const Footprint& polygon) {
 
 double ConvexOverlapArea(const Footprint& a, const Footprint& b) {
   if (a.size() < 3 || b.size() < 3) return 0.0;
-  Footprint clipped = a;
+  // The query clips thousands of pairs per question: buffers that keep their capacity.
+  thread_local Footprint clipped, in;
+  clipped.assign(a.begin(), a.end());
   for (size_t i = 0; i < b.size() && !clipped.empty(); ++i) {
     const Eigen::Vector2d& e0 = b[i];
     const Eigen::Vector2d& e1 = b[(i + 1) % b.size()];
-    Footprint in;
     in.swap(clipped);
+    clipped.clear();
     for (size_t j = 0; j < in.size(); ++j) {
       const Eigen::Vector2d& p = in[j];
       const Eigen::Vector2d& q = in[(j + 1) % in.size()];

@@ -35,11 +35,13 @@ double Clamp01(double v) { return std::clamp(v, 0.0, 1.0); }
 // Fraction of `s`'s footprint over `a`'s: of the oriented footprints when both objects have one
 // (common/footprint.h), else of their boxes'; a degenerate footprint counts by its centroid.
 double FootprintFraction(const ObjectGeom& s, const ObjectGeom& a) {
+  const double area = s.box.FootprintArea();
   const double oriented = PolygonArea(s.footprint_g);
   if (oriented > 1e-9 && PolygonArea(a.footprint_g) > 1e-9) {
+    // An outline lies within its box: boxes apart, outlines apart (most pairs; cheap).
+    if (area >= 1e-9 && FootprintOverlapArea(s.box, a.box) <= 0) return 0.0;
     return ConvexOverlapArea(s.footprint_g, a.footprint_g) / oriented;
   }
-  const double area = s.box.FootprintArea();
   if (area < 1e-9) {
     const Vec3d& c = s.centroid_g;
     return c.x() >= a.box.min.x() && c.x() <= a.box.max.x() && c.y() >= a.box.min.y() &&
