@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
+#include "common/footprint.h"
 #include "common/map_object.h"
 #include "common/se3.h"
-#include "common/footprint.h"
 
 namespace loci::query {
 

@@ -31,6 +31,16 @@ double IntervalOverlap(double a0, double a1, double b0, double b1) {
   return std::max(0.0, std::min(a1, b1) - std::max(a0, b0));
 }
 
+// A box holding the object's axis-aligned box and its oriented box (map frame).
+void EnclosingBox(const MapObject& o, Eigen::Vector3d* lo, Eigen::Vector3d* hi) {
+  *lo = o.aabb_min_m;
+  *hi = o.aabb_max_m;
+  const Eigen::Vector3d h = o.R_map_box.cwiseAbs() * o.obb_half_extent_m.cwiseAbs();
+  if (!h.allFinite() || !o.obb_center_m.allFinite()) return;
+  *lo = lo->cwiseMin(o.obb_center_m - h);
+  *hi = hi->cwiseMax(o.obb_center_m + h);
+}
+
 // The load's footprint corners at the table top's height (map frame).
 std::vector<Eigen::Vector3d> FootprintCorners(const MapObject& load, double z_m) {
   const Eigen::Vector3d& lo = load.aabb_min_m;
@@ -95,22 +105,35 @@ bool RestsOn(const MapObject& load, const MapObject& table, const TopLoadOptions
              double* distance_m, double* overlap) {
   const Eigen::Vector3d &a0 = load.aabb_min_m, &a1 = load.aabb_max_m;
   const Eigen::Vector3d &b0 = table.aabb_min_m, &b1 = table.aabb_max_m;
-  const Footprint load_fp = OrientedFootprint(load), table_fp = OrientedFootprint(table);
-  const bool oriented = PolygonArea(load_fp) > 1e-9 && PolygonArea(table_fp) > 1e-9;
-  const double distance = oriented ? ConvexDistanceM(load_fp, table_fp)
-                                   : FootprintDistanceM(a0, a1, b0, b1);
-  if (distance_m != nullptr) *distance_m = distance;
-  if (overlap != nullptr) {
-    const double area = std::max(1e-9, (a1.x() - a0.x()) * (a1.y() - a0.y()));
-    *overlap = oriented ? ConvexOverlapArea(load_fp, table_fp) / PolygonArea(load_fp)
-                        : IntervalOverlap(a0.x(), a1.x(), b0.x(), b1.x()) *
-                              IntervalOverlap(a0.y(), a1.y(), b0.y(), b1.y()) / area;
-  }
   const auto stand = options.stand_m.find(load.class_name);
   const double stand_m = stand == options.stand_m.end() ? 0.0 : stand->second;
   const double above_m = a0.z() - table.top_surface_z_m;
-  return above_m <= options.max_gap_m + stand_m && -above_m <= options.max_sink_m &&
-         distance <= options.reach_m && a1.z() > table.top_surface_z_m;
+  if (!(above_m <= options.max_gap_m + stand_m && -above_m <= options.max_sink_m &&
+        a1.z() > table.top_surface_z_m)) {
+    return false;
+  }
+  // Boxes holding both the axis-aligned box and the outline: apart by more than the reach, so
+  // are the outlines (most pairs; no outline made).
+  Eigen::Vector3d load_lo, load_hi, table_lo, table_hi;
+  EnclosingBox(load, &load_lo, &load_hi);
+  EnclosingBox(table, &table_lo, &table_hi);
+  if (FootprintDistanceM(load_lo, load_hi, table_lo, table_hi) > options.reach_m) return false;
+  const double box_distance = FootprintDistanceM(a0, a1, b0, b1);
+  const Footprint load_fp = OrientedFootprint(load), table_fp = OrientedFootprint(table);
+  const double load_area = PolygonArea(load_fp);
+  const bool oriented = load_area > 1e-9 && PolygonArea(table_fp) > 1e-9;
+  const double shared = oriented ? ConvexOverlapArea(load_fp, table_fp) : 0.0;
+  const double distance =
+      oriented ? (shared > 0 ? 0.0 : ConvexDistanceM(load_fp, table_fp)) : box_distance;
+  if (distance > options.reach_m) return false;
+  if (distance_m != nullptr) *distance_m = distance;
+  if (overlap != nullptr) {
+    const double area = std::max(1e-9, (a1.x() - a0.x()) * (a1.y() - a0.y()));
+    *overlap = oriented ? shared / load_area
+                        : IntervalOverlap(a0.x(), a1.x(), b0.x(), b1.x()) *
+                              IntervalOverlap(a0.y(), a1.y(), b0.y(), b1.y()) / area;
+  }
+  return true;
 }
 
 void ExtendTopsUnderLoads(const std::vector<std::string>& flat_top_classes,

@@ -8,8 +8,9 @@
 // Footprints are the outlines of the oriented boxes (common/footprint.h; map frame, z up), else
 // of the axis-aligned boxes: a desk piece turned 40 deg to the map's axes has an axis-aligned box
 // that holds the books on the desk beside it. An object near two tables rests on the one its
-// footprint overlaps most, then the one nearest, then the one whose top is closest to its bottom. Only footprints change: the
-// top's height, the table's label and evidence stay; the centroid moves with its box's centre.
+// footprint overlaps most, then the one nearest, then the one whose top is closest to its
+// bottom. Only footprints change: the top's height, the table's label and evidence stay; the
+// centroid moves with its box's centre.
 #pragma once
 
 #include <map>
@@ -76,8 +77,9 @@ int LoadsHeldBy(int64_t table_id, const std::vector<std::string>& flat_top_class
 double FootprintDistanceM(const Eigen::Vector3d& a_min, const Eigen::Vector3d& a_max,
                           const Eigen::Vector3d& b_min, const Eigen::Vector3d& b_max);
 
-// Whether `load` rests on `table` by those rules; its footprint's distance to the table's in
-// *distance_m and the share of its footprint over the table's in *overlap (either may be null).
+// Whether `load` rests on `table` by those rules; when it does, its footprint's distance to the
+// table's in *distance_m and the share of its footprint over the table's in *overlap (either may
+// be null). The heights and the boxes' distance are tested before any outline is made.
 bool RestsOn(const MapObject& load, const MapObject& table, const TopLoadOptions& options,
              double* distance_m, double* overlap);
 
