@@ -28,18 +28,6 @@ double SegmentDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& a,
   return (a + t * ab - p).norm();
 }
 
-// Whether an edge of `edges` (counter-clockwise) has every vertex of `other` strictly outside it.
-bool SeparatedByAnEdgeOf(const Footprint& edges, const Footprint& other) {
-  for (size_t i = 0; i < edges.size(); ++i) {
-    const Eigen::Vector2d& e0 = edges[i];
-    const Eigen::Vector2d& e1 = edges[(i + 1) % edges.size()];
-    bool all_outside = true;
-    for (const Eigen::Vector2d& p : other) all_outside = all_outside && Cross(e0, e1, p) < 0;
-    if (all_outside) return true;
-  }
-  return false;
-}
-
 // Smallest distance from a vertex of `from` to an edge of `to`.
 double VertexToEdges(const Footprint& from, const Footprint& to) {
   double d = std::numeric_limits<double>::infinity();
@@ -107,9 +95,8 @@ double ConvexOverlapArea(const Footprint& a, const Footprint& b) {
 
 double ConvexDistanceM(const Footprint& a, const Footprint& b) {
   if (a.empty() || b.empty()) return std::numeric_limits<double>::infinity();
-  // Convex polygons are apart when an edge of one separates them (no clip needed); then their
-  // closest points include a vertex of one.
-  if (!SeparatedByAnEdgeOf(a, b) && !SeparatedByAnEdgeOf(b, a)) return 0.0;
+  if (ConvexOverlapArea(a, b) > 0) return 0.0;
+  // Two convex polygons apart: their closest points include a vertex of one.
   return std::min(VertexToEdges(a, b), VertexToEdges(b, a));
 }
 
