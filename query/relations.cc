@@ -191,7 +191,10 @@ RelationResult RelationEvaluator::Above(const ObjectGeom& s, const ObjectGeom& a
   const double gap = s.bottom_z - a.box.max.z();
   const double overlap = FootprintFractionOfSmaller(s, a);
   r.confidence = 0.5 + 0.5 * Clamp01(overlap / std::max(0.6, opt_.above_min_overlap));
-  r.holds = gap >= -opt_.vertical_tolerance_m && overlap >= opt_.above_min_overlap;
+  // Its centre clears the anchor's top too: a desk piece 4 cm higher beside another (boxes
+  // that overlap by a few centimetres of noise) is not above it.
+  r.holds = gap >= -opt_.vertical_tolerance_m && overlap >= opt_.above_min_overlap &&
+            s.centroid_g.z() > a.box.max.z() + opt_.vertical_tolerance_m;
   r.distance_m = std::max(0.0, gap);
   if (ev) {
     r.evidence = absl::StrFormat("bottom %s the top (z %.2f m), footprint overlap %.2f",
@@ -205,7 +208,10 @@ RelationResult RelationEvaluator::Below(const ObjectGeom& s, const ObjectGeom& a
   const double gap = a.bottom_z - s.box.max.z();
   const double overlap = FootprintFractionOfSmaller(s, a);
   r.confidence = 0.5 + 0.5 * Clamp01(overlap / std::max(0.6, opt_.above_min_overlap));
-  r.holds = gap >= -opt_.vertical_tolerance_m && overlap >= opt_.above_min_overlap;
+  // Its centre lies under the anchor's bottom too: fr1_rpy's two desks meet with tops 3 cm
+  // apart, and the lower piece was "under" the higher one by 4 cm of overlapping boxes.
+  r.holds = gap >= -opt_.vertical_tolerance_m && overlap >= opt_.above_min_overlap &&
+            s.centroid_g.z() < a.bottom_z - opt_.vertical_tolerance_m;
   r.distance_m = std::max(0.0, gap);
   if (ev) {
     r.evidence =

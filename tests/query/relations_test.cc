@@ -156,6 +156,27 @@ TEST_F(RelationsTest, ABookBesideADeskTurnedToTheMapAxesIsNotOnIt) {
   EXPECT_TRUE(eval_.Evaluate(RelationKind::kOn, book, lower_g).holds);
 }
 
+// fr1_rpy, start 60: two desks meet with tops about 3 cm apart, and the boxes of the two map
+// pieces overlap by a few centimetres. "what is under the desk" named the other piece: its box
+// top was 4 cm above the desk's bottom, within the vertical tolerance. Neither piece is under,
+// below or above the other; a box on the floor under the desk is.
+TEST_F(RelationsTest, ADeskPieceBesideAnotherIsNeitherUnderNorAboveIt) {
+  MapObject desk = Box(60, "dining table", {0.0, 0.0, 0.72}, {0.8, 1.5, 0.78});
+  desk.top_surface_z_m = 0.77;
+  desk.bottom_z_m = 0.76;
+  MapObject piece = Box(61, "dining table", {-0.5, 0.6, 0.71}, {0.4, 2.0, 0.80});
+  piece.top_surface_z_m = 0.74;
+  const ObjectGeom desk_g = frame_.Geom(desk), piece_g = frame_.Geom(piece);
+  for (RelationKind kind : {RelationKind::kUnder, RelationKind::kBelow, RelationKind::kAbove}) {
+    const RelationResult r = eval_.Evaluate(kind, piece_g, desk_g, nullptr, true);
+    EXPECT_FALSE(r.holds) << RelationName(kind) << ": " << r.evidence;
+    EXPECT_FALSE(eval_.Evaluate(kind, desk_g, piece_g).holds) << RelationName(kind);
+  }
+  const ObjectGeom crate = frame_.Geom(Box(62, "suitcase", {0.2, 0.4, 0.0}, {0.6, 0.9, 0.4}));
+  EXPECT_TRUE(eval_.Evaluate(RelationKind::kBelow, crate, desk_g).holds);
+  EXPECT_TRUE(eval_.Evaluate(RelationKind::kUnder, crate, desk_g).holds);
+}
+
 TEST_F(RelationsTest, NotOnATallerBoxBelowTheSurface) {
   // A chair tucked under a desk reaches above the desk top (back at 0.81 m); the keyboard on
   // the desk (0.78-0.81 m) lies over the chair's footprint but rests on the desk.
