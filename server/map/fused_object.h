@@ -45,7 +45,7 @@ struct ColoredPoint {
 // (0 = every observation counts).
 struct SupportOptions {
   double cell_m = 0.05;
-  double min_fraction = 0.1;
+  double min_fraction = 0.25;
   // The box-centre centroid ignores parts (connected cell_m cells) of the supported points that
   // hold less than this fraction of them (point_components.h), so a stray cluster does not move
   // it while a contiguous part, a table's legs, always counts (0 = the full box).

@@ -126,9 +126,9 @@ struct FusionOptions {
   double max_size_ratio = 2.0;
   // Object geometry from voxels in support_cell_m (0.05) cells that at least
   // max(2, ceil(min_support_fraction * observations)) observations saw, from 3 observations on
-  // (FusedObject SupportOptions); min_support_fraction 0 = every voxel (0.1).
+  // (FusedObject SupportOptions); min_support_fraction 0 = every voxel (0.25).
   double support_cell_m = 0.05;
-  double min_support_fraction = 0.1;
+  double min_support_fraction = 0.25;
   // The box-centre centroid ignores disconnected parts of the supported points smaller than
   // this fraction of them (FusedObject SupportOptions); 0 = the full box (0.05).
   double centroid_min_part = 0.05;
@@ -273,6 +273,6 @@ struct MapOptions {
 
 // Version of the product and fusion code; bump it when a change alters products or the map
 // for the same options (stored products and checkpoints of another version are recomputed).
-inline constexpr int kMapCodeVersion = 12;
+inline constexpr int kMapCodeVersion = 13;
 
 }  // namespace loci::server

@@ -204,5 +204,38 @@ TEST(FusedObject, MergedPiecesMissAKeyframeOnce) {
   EXPECT_FALSE(restored.LoadState(state).ok());
 }
 
+
+// fr1_rpy: two books lie side by side, and 2 of the 12 boxes of the front one also held the
+// back one. The default support (a quarter of the views) keeps the back book out of the front
+// one's shape; a tenth (the default before session 46) let it stretch the box by 20 cm and move
+// the centroid 10 cm away from the camera.
+TEST(FusedObject, ABookNextToAnotherInAFewLooseBoxesKeepsItsOwnShape) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  const auto view = [&](bool with_neighbour) {
+    std::vector<ColoredPoint> pts;
+    for (int i = 0; i < 600; ++i) {
+      pts.push_back({Eigen::Vector3f(0.25f * u(rng), 0.19f * u(rng), 0.80f), 0x4060c0});
+    }
+    for (int i = 0; with_neighbour && i < 600; ++i) {
+      pts.push_back({Eigen::Vector3f(0.25f + 0.2f * u(rng), 0.19f * u(rng), 0.82f), 0x202060});
+    }
+    return pts;
+  };
+  for (double min_fraction : {SupportOptions{}.min_fraction, 0.1}) {
+    FusedObject book(1, 0.01, true, LabelDistribution(13, 0.05),
+                     {0.05, min_fraction, 0.0, {}, 0.03});
+    for (int k = 0; k < 12; ++k) book.AddPoints(view(k == 4 || k == 9), "book");
+    const MapObject o = book.Snapshot();
+    std::printf("min_support_fraction %.2f: x from %.2f to %.2f m, centroid x %.3f m\n",
+                min_fraction, o.aabb_min_m.x(), o.aabb_max_m.x(), o.centroid_m.x());
+    if (min_fraction == 0.1) {
+      EXPECT_GT(o.aabb_max_m.x(), 0.4);
+    } else {
+      EXPECT_LT(o.aabb_max_m.x(), 0.27);
+      EXPECT_NEAR(o.centroid_m.x(), 0.125, 0.02);
+    }
+  }
+}
 }  // namespace
 }  // namespace loci::server
