@@ -184,7 +184,8 @@ struct FusionOptions {
   // off (0.75).
   double merge_box_containment = 0.75;
   // A part is no object of its own (object_parts.cc): an object whose voxels (overlap_voxel_m)
-  // lie at least part_containment inside another object's stays a candidate, with its evidence,
+  // lie at least part_containment inside those that shape another object (FusedObject
+  // ShapeKeysAt, not the few views that bled onto it) stays a candidate, with its evidence,
   // while they do (a monitor's stand called "mouse" on a few frames: fr1_rpy, session 27). The
   // other object is of another class, larger, seen at least as often, not flat-topped furniture
   // and not of a never_part_of class, which holds things on a seat or in a hand (a book on a
@@ -273,6 +274,6 @@ struct MapOptions {
 
 // Version of the product and fusion code; bump it when a change alters products or the map
 // for the same options (stored products and checkpoints of another version are recomputed).
-inline constexpr int kMapCodeVersion = 13;
+inline constexpr int kMapCodeVersion = 14;
 
 }  // namespace loci::server

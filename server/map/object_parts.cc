@@ -1,11 +1,13 @@
-// Parts (FusionOptions::part_containment): an object whose voxels are another object's
-// voxels has no surface of its own. A monitor's stand boxed as "mouse" on a few blurred frames
-// lies inside the monitor: it stays a candidate, with its evidence, as long as it does. Merged
-// into the monitor instead, it lost that evidence: the stand's next "mouse" views made a new
-// object, confirmed before its misses added up (fr1_rpy, session 27). A real thing beside or in
-// front of another has a surface of its own. One holder, not the union of several: with the
-// union, fr1_rpy's real mouse, between the keyboard and a monitor whose masks bleed onto it,
-// went into the monitor.
+// Parts (FusionOptions::part_containment): an object whose voxels are among the voxels that
+// shape another object (FusedObject::ShapeKeysAt) has no surface of its own. Not among every
+// voxel fused into it: a keyboard whose masks bled onto the cup beside it in a few views holds
+// the cup's voxels, yet the cup is no part of it (fr1_rpy live runs, session 46). A monitor's
+// stand boxed as "mouse" on a few blurred frames lies inside the monitor: it stays a candidate,
+// with its evidence, as long as it does. Merged into the monitor instead, it lost that
+// evidence: the stand's next "mouse" views made a new object, confirmed before its misses added
+// up (fr1_rpy, session 27). A real thing beside or in front of another has a surface of its
+// own. One holder, not the union of several: with the union, fr1_rpy's real mouse, between the
+// keyboard and a monitor whose masks bleed onto it, went into the monitor.
 //
 // Stands (FusionOptions::stand_classes): a monitor's foot lies under its screen, not among the
 // screen's voxels, so the voxel test misses it. An object under the middle of a stand-class
@@ -90,7 +92,7 @@ int64_t ObjectMap::WholeOf(const FusedObject& part) const {
     if (!CanHoldPart(whole, part)) continue;
     if (StandsUnder(whole, part)) return id;
     if (part_keys.empty()) part_keys = part.KeysAt(options_.overlap_voxel_m);
-    if (Within(part_keys, whole.KeysAt(options_.overlap_voxel_m)) >=
+    if (Within(part_keys, whole.ShapeKeysAt(options_.overlap_voxel_m)) >=
         options_.part_containment) {
       return id;
     }
