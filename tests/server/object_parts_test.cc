@@ -190,23 +190,26 @@ TEST(ObjectRules, AStandFoundAfterAMoveIsJudgedThen) {
 // candidate as a "part" of the keyboard. A part lies inside what shapes the whole, not inside
 // every view fused into it: a cup caught by 2 of the keyboard's 12 views stays confirmed.
 TEST(ObjectRules, ACupThatAFewOfAKeyboardsViewsBledOntoIsNotItsPart) {
+  const Eigen::Vector3d cup_min(0.47, 0.0, 0.78), cup_max(0.54, 0.07, 0.88);
+  const auto grid = [](const std::string& cls, int64_t track, int64_t kf,
+                       const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+    return Grid(cls, track, kf, lo, hi, Eigen::Vector3d::Constant(0.01));
+  };
   FusionOptions opt = WithSizes(1.5);
   opt.max_size_m["cup"] = 0.3;
   ObjectMap map(opt, 0.01);
   std::vector<ObjectChange> changes;
-  const Eigen::Vector3d step(0.01, 0.01, 0.01);
-  const Eigen::Vector3d cup_min(0.47, 0.0, 0.78), cup_max(0.54, 0.07, 0.88);
   int64_t cup = 0, keyboard = 0;
   for (int64_t kf = 1; kf <= 12; ++kf) {
-    MapObservation keys = Grid("keyboard", 1, kf, {0.0, 0.0, 0.78}, {0.50, 0.16, 0.78}, step);
+    MapObservation keys = grid("keyboard", 1, kf, {0.0, 0.0, 0.78}, {0.50, 0.16, 0.78});
     if (kf == 6 || kf == 12) {  // the mask ran onto the cup
-      const MapObservation bleed = Grid("keyboard", 1, kf, cup_min, cup_max, step);
+      const MapObservation bleed = grid("keyboard", 1, kf, cup_min, cup_max);
       keys.points_m.insert(keys.points_m.end(), bleed.points_m.begin(), bleed.points_m.end());
       keys.centroid_m = {0.25, 0.08, 0.78};
       keys.half_size_m = 0.25;
     }
     std::vector<MapObservation> views = {keys};
-    if (kf >= 3 && kf <= 8) views.push_back(Grid("cup", 2, kf, cup_min, cup_max, step));
+    if (kf >= 3 && kf <= 8) views.push_back(grid("cup", 2, kf, cup_min, cup_max));
     const std::vector<int64_t> ids = map.Integrate(views, &changes);
     keyboard = ids[0];
     if (views.size() > 1) cup = ids[1];
