@@ -11,6 +11,8 @@ int& ExitCode();
 
 // The `loci bench` group: created on first use, shared by every benchmark command.
 CLI::App* BenchGroup(CLI::App& app);
+// The `loci eval` group: likewise shared by every evaluation command.
+CLI::App* EvalGroup(CLI::App& app);
 
 void RegisterEvalCommands(CLI::App& app);
 // `loci synth` (synth/): synthetic RGB-D sequences with ground truth.
@@ -28,6 +30,8 @@ void RegisterBenchQueryCommand(CLI::App& app);
 // `loci export`, `loci eval objects`, `loci bench ingest` (server/); eval/bench groups reused.
 void RegisterExportCommand(CLI::App& app);
 void RegisterEvalObjectsCommand(CLI::App& app);
+// `loci eval loops`: a server's stored loop matches and its odometry against ground truth.
+void RegisterEvalLoopsCommand(CLI::App& app);
 void RegisterBenchIngestCommand(CLI::App& app);
 void RegisterBenchLoadCommand(CLI::App& app);
 // `loci bench merge`: time for a robot that starts anywhere to join the map (server/align/).

@@ -102,8 +102,7 @@ void RunRpe(const EvalArgs& a) {
 }  // namespace
 
 void RegisterEvalCommands(CLI::App& app) {
-  CLI::App* eval = app.add_subcommand("eval", "Evaluate trajectories and maps (TUM RGB-D metrics)");
-  eval->require_subcommand(1);
+  CLI::App* eval = EvalGroup(app);
   auto args = std::make_shared<EvalArgs>();
   auto common = [args](CLI::App* c) {
     c->add_option("GT", args->gt, "ground-truth TUM trajectory (t tx ty tz qx qy qz qw)")

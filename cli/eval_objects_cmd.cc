@@ -219,14 +219,7 @@ int RunEvalObjects(const EvalObjectsArgs& a) {
 }  // namespace
 
 void RegisterEvalObjectsCommand(CLI::App& app) {
-  CLI::App* eval = nullptr;
-  for (CLI::App* s : app.get_subcommands([](CLI::App* s) { return s->get_name() == "eval"; })) {
-    eval = s;
-  }
-  if (eval == nullptr) {
-    eval = app.add_subcommand("eval", "Evaluate trajectories and maps");
-    eval->require_subcommand(1);
-  }
+  CLI::App* eval = EvalGroup(app);
   auto args = std::make_shared<EvalObjectsArgs>();
   CLI::App* c = eval->add_subcommand(
       "objects",

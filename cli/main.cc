@@ -15,13 +15,25 @@ int& ExitCode() {
   return code;
 }
 
-CLI::App* BenchGroup(CLI::App& app) {
-  for (CLI::App* s : app.get_subcommands([](CLI::App* s) { return s->get_name() == "bench"; })) {
+namespace {
+
+CLI::App* Group(CLI::App& app, const std::string& name, const std::string& description) {
+  for (CLI::App* s : app.get_subcommands([&](CLI::App* s) { return s->get_name() == name; })) {
     return s;
   }
-  CLI::App* bench = app.add_subcommand("bench", "Benchmarks that print their figures");
-  bench->require_subcommand(1);
-  return bench;
+  CLI::App* group = app.add_subcommand(name, description);
+  group->require_subcommand(1);
+  return group;
+}
+
+}  // namespace
+
+CLI::App* BenchGroup(CLI::App& app) {
+  return Group(app, "bench", "Benchmarks that print their figures");
+}
+
+CLI::App* EvalGroup(CLI::App& app) {
+  return Group(app, "eval", "Evaluate trajectories and maps against ground truth");
 }
 
 namespace {
@@ -67,6 +79,7 @@ int main(int argc, char** argv) {
   loci::cli::RegisterSynthCommands(app);
   loci::cli::RegisterExportCommand(app);
   loci::cli::RegisterEvalObjectsCommand(app);
+  loci::cli::RegisterEvalLoopsCommand(app);
   loci::cli::RegisterBenchIngestCommand(app);
   loci::cli::RegisterBenchLoadCommand(app);
   loci::cli::RegisterBenchMergeCommand(app);

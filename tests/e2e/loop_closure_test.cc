@@ -3,8 +3,10 @@
 // loci-track with poses that drift (a steady yaw and translation drift added to the ground
 // truth, as a visual odometry's would), to a real loci-server. The server must find the loops by
 // place recognition, solve its pose graph and move the map: the keyframe ATE of the server's
-// trajectory is at most a third of the drifted one the robot sent. A replay of the database from
-// its first keyframe (no usable checkpoint) puts every keyframe where the server had it.
+// trajectory is at most a third of the drifted one the robot sent, and `loci eval loops` finds
+// the stored matches closer to the truth than the drifted odometry between the same keyframes.
+// A replay of the database from its first keyframe (no usable checkpoint) puts every keyframe
+// where the server had it.
 // On the real fr1_rpy tracked as a global shutter, the server's keyframes must be closer to the
 // ground truth than the odometry's; with the rolling shutter rectified, within issue 15's goal.
 #include <gtest/gtest.h>
@@ -18,6 +20,7 @@
 #include <map>
 #include <optional>
 #include <sstream>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "common/trajectory_eval.h"
@@ -123,6 +126,24 @@ TEST(LoopClosure, SyntheticDriftIsCutToAThirdByTheServersPoseGraph) {
   EXPECT_FALSE(g.four_dof());  // config/server.yaml: graph.dof 6dof; gravity priors are off
   EXPECT_EQ(g.gravity_priors(), 0u);
   EXPECT_EQ(r.mapped.at("A").size(), r.keyframes.at("A").size());
+
+  // `loci eval loops` on the stored matches: they are near the truth, the drifted odometry
+  // between the same keyframes (2 s and more apart, 1 deg/s) is not.
+  const std::string loops_cmd = std::string(LOCI_BIN) + " eval loops --db " + dir + "/loci.db" +
+                                " --groundtruth " + dir + "/scene/groundtruth.txt --json > " +
+                                dir + "/loops.json";
+  ASSERT_EQ(std::system(loops_cmd.c_str()), 0) << loops_cmd;
+  const nlohmann::json loops = nlohmann::json::parse(std::ifstream(dir + "/loops.json"));
+  const int pairs = loops["pairs"].get<int>();
+  const double loop_deg = loops["loop_rot_deg"]["median"].get<double>();
+  const double odometry_deg = loops["odometry_rot_deg"]["median"].get<double>();
+  std::printf("loci eval loops: %d matches, rotation error median %.2f deg, the odometry's "
+              "%.2f deg, odometry closer for %d\n",
+              pairs, loop_deg, odometry_deg, loops["odometry_closer_in_rotation"].get<int>());
+  EXPECT_GT(pairs, 10);
+  EXPECT_LT(loop_deg, 0.5);
+  EXPECT_GT(odometry_deg, 1.5);
+  EXPECT_LT(loops["odometry_closer_in_rotation"].get<int>(), pairs / 10);
 
   // The same map options written differently: the checkpoint's fingerprint does not match, so
   // `loci export` replays every keyframe from its stored pose. Keyframes a solution left in place
