@@ -2,7 +2,8 @@
 // verified loop matches a server stored (place_matches) against the ground truth, beside the
 // odometry the robot sent between the same two keyframes. A pose graph gains from its loops only
 // where they are closer to the truth than the odometry they join; this says whether they are,
-// overall and by the match's 3D fit RMS (docs/results.md, session 47).
+// overall, by the match's 3D fit RMS and by the time between its keyframes (docs/results.md,
+// sessions 47 and 48).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -35,6 +36,7 @@ struct KeyframeOdometry {
 // One loop match within an odometry segment, with both its error and the odometry's.
 struct LoopPair {
   double rms_m = 0;
+  double apart_s = 0;  // time between the two keyframes' images
   double loop_rot_deg = 0, loop_trans_m = 0;
   double odom_rot_deg = 0, odom_trans_m = 0;
 };
@@ -72,7 +74,7 @@ StatusOr<std::vector<LoopPair>> CompareLoops(const EvalLoopsArgs& a, size_t* oth
   auto gt = ReadTumTrajectory(a.groundtruth);
   if (!gt.ok()) return gt.status();
   std::vector<RelativePoseSample> loops, odometry;
-  std::vector<double> rms_m;
+  std::vector<double> rms_m, apart_s;
   for (const server::PlaceMatchRecord& m : *matches) {
     auto ia = kf->find(m.a_keyframe_id), ib = kf->find(m.b_keyframe_id);
     if (ia == kf->end() || ib == kf->end() || ia->second.session_row != ib->second.session_row ||
@@ -84,6 +86,7 @@ StatusOr<std::vector<LoopPair>> CompareLoops(const EvalLoopsArgs& a, size_t* oth
     loops.push_back({ka.t_ns, kb.t_ns, m.T_a_b});
     odometry.push_back({ka.t_ns, kb.t_ns, ka.T_odom_cam.inverse() * kb.T_odom_cam});
     rms_m.push_back(m.rms_m);
+    apart_s.push_back(std::abs(static_cast<double>(kb.t_ns - ka.t_ns)) * 1e-9);
   }
   const Trajectory sorted = SortedByTime(std::move(*gt));
   const auto offset_ns = static_cast<int64_t>(std::llround(a.offset_ms * 1e6));
@@ -93,7 +96,8 @@ StatusOr<std::vector<LoopPair>> CompareLoops(const EvalLoopsArgs& a, size_t* oth
   std::vector<LoopPair> pairs;
   for (size_t i = 0; i < loops.size(); ++i) {
     if (std::isnan(le.rot_deg[i]) || std::isnan(oe.rot_deg[i])) continue;  // no truth there
-    pairs.push_back({rms_m[i], le.rot_deg[i], le.trans_m[i], oe.rot_deg[i], oe.trans_m[i]});
+    pairs.push_back(
+        {rms_m[i], apart_s[i], le.rot_deg[i], le.trans_m[i], oe.rot_deg[i], oe.trans_m[i]});
   }
   return pairs;
 }
@@ -116,22 +120,32 @@ nlohmann::json Summary(const std::vector<LoopPair>& pairs) {
           {"odometry_closer_in_rotation", odometry_closer}};
 }
 
-// The summary overall and per band of the match's fit RMS (m): [0, 0.01), [0.01, 0.02), 0.02+.
-nlohmann::json Report(const std::vector<LoopPair>& pairs, size_t other_matches) {
+// The summaries of the pairs whose `key` falls in each band [edges[b], edges[b + 1]), each with
+// its lower edge under `from_name`.
+nlohmann::json Bands(const std::vector<LoopPair>& pairs, double LoopPair::*key,
+                     const std::vector<double>& edges, const char* from_name) {
   nlohmann::json bands = nlohmann::json::array();
-  const double edges_m[] = {0, 0.01, 0.02, INFINITY};
-  for (int b = 0; b < 3; ++b) {
+  for (size_t b = 0; b + 1 < edges.size(); ++b) {
     std::vector<LoopPair> in;
     for (const LoopPair& p : pairs) {
-      if (p.rms_m >= edges_m[b] && p.rms_m < edges_m[b + 1]) in.push_back(p);
+      if (p.*key >= edges[b] && p.*key < edges[b + 1]) in.push_back(p);
     }
     nlohmann::json s = Summary(in);
-    s["rms_from_m"] = edges_m[b];
+    s[from_name] = edges[b];
     bands.push_back(s);
   }
+  return bands;
+}
+
+// The summary overall, per band of the match's fit RMS (m): [0, 0.01), [0.01, 0.02), 0.02+, and
+// per band of the time between its keyframes (s): [0, 4), [4, 8), [8, 16), 16+. A tracker that
+// holds a local map matches both ends of a short loop against the same map points, so its
+// odometry there does not drift as a chain of independent steps would.
+nlohmann::json Report(const std::vector<LoopPair>& pairs, size_t other_matches) {
   nlohmann::json r = Summary(pairs);
   r["other_matches"] = other_matches;
-  r["by_rms"] = bands;
+  r["by_rms"] = Bands(pairs, &LoopPair::rms_m, {0, 0.01, 0.02, INFINITY}, "rms_from_m");
+  r["by_apart"] = Bands(pairs, &LoopPair::apart_s, {0, 4, 8, 16, INFINITY}, "apart_from_s");
   return r;
 }
 
@@ -155,8 +169,10 @@ void PrintText(const nlohmann::json& r) {
               "loop translation", "odometry rotation", "odometry translation",
               "odometry closer");
   PrintLine("all", r);
-  const char* names[] = {"rms < 1 cm", "rms 1-2 cm", "rms >= 2 cm"};
-  for (int b = 0; b < 3; ++b) PrintLine(names[b], r["by_rms"][b]);
+  const char* rms_names[] = {"rms < 1 cm", "rms 1-2 cm", "rms >= 2 cm"};
+  for (int b = 0; b < 3; ++b) PrintLine(rms_names[b], r["by_rms"][b]);
+  const char* apart_names[] = {"< 4 s", "4-8 s", "8-16 s", ">= 16 s"};
+  for (int b = 0; b < 4; ++b) PrintLine(apart_names[b], r["by_apart"][b]);
 }
 
 void RunEvalLoops(const EvalLoopsArgs& a) {

@@ -22,6 +22,7 @@
 #include <sstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "common/trajectory_eval.h"
 #include "common/tum_io.h"
@@ -144,6 +145,19 @@ TEST(LoopClosure, SyntheticDriftIsCutToAThirdByTheServersPoseGraph) {
   EXPECT_LT(loop_deg, 0.5);
   EXPECT_GT(odometry_deg, 1.5);
   EXPECT_LT(loops["odometry_closer_in_rotation"].get<int>(), pairs / 10);
+  // By the time between the keyframes: every pair in one band, and the drifted odometry (1 deg/s)
+  // errs more between keyframes further apart, the verified matches do not.
+  int banded = 0;
+  std::vector<const nlohmann::json*> filled;
+  for (const nlohmann::json& band : loops["by_apart"]) {
+    banded += band["pairs"].get<int>();
+    if (band["pairs"].get<int>() >= 5) filled.push_back(&band);
+  }
+  EXPECT_EQ(banded, pairs);
+  ASSERT_GE(filled.size(), 2u) << loops.dump();
+  EXPECT_GT((*filled.back())["odometry_rot_deg"]["median"].get<double>(),
+            (*filled.front())["odometry_rot_deg"]["median"].get<double>() + 1.0);
+  EXPECT_LT((*filled.back())["loop_rot_deg"]["median"].get<double>(), 0.5);
 
   // The same map options written differently: the checkpoint's fingerprint does not match, so
   // `loci export` replays every keyframe from its stored pose. Keyframes a solution left in place
