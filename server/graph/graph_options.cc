@@ -14,7 +14,7 @@ Status CheckGraphKeys(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["odometry"], "graph.odometry",
                                       {"sigma_trans_m", "sigma_trans_per_m", "sigma_rot_rad",
                                        "sigma_rot_per_rad", "full_quality_inliers",
-                                       "min_quality"}));
+                                       "min_quality", "local_map_keyframes"}));
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["pcm"], "graph.pcm",
                                       {"enabled", "chi2_threshold", "min_set_size", "residual_chi2"}));
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["loss"], "graph.loss", {"type", "scale"}));
@@ -33,6 +33,7 @@ Status ReadOdometry(const YAML::Node& n, OdometryInformationOptions* o) {
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "sigma_rot_rad", &o->sigma_rot_rad));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "sigma_rot_per_rad", &o->sigma_rot_per_rad));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "full_quality_inliers", &o->full_quality_inliers));
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "local_map_keyframes", &o->local_map_keyframes));
   return ReadOptional(n, "min_quality", &o->min_quality);
 }
 
@@ -71,6 +72,7 @@ Status ValidateOdometry(const OdometryInformationOptions& o) {
     return Bad("odometry.sigma_trans_per_m and odometry.sigma_rot_per_rad must be >= 0");
   }
   if (o.full_quality_inliers < 1) return Bad("odometry.full_quality_inliers >= 1");
+  if (o.local_map_keyframes < 0) return Bad("odometry.local_map_keyframes >= 0");
   if (!(o.min_quality > 0 && o.min_quality <= 1)) return Bad("odometry.min_quality in (0, 1]");
   return absl::OkStatus();
 }

@@ -29,6 +29,16 @@ struct OdometryInformationOptions {
   double sigma_rot_per_rad = 0.02;   // plus this fraction of the edge's rotation angle (0.02)
   int full_quality_inliers = 100;    // inlier count that counts as quality 1 (100)
   double min_quality = 0.1;          // quality floor, so no edge loses all weight (0.1)
+  // A client that tracks against a local map of its last N keyframes (loci-track: its
+  // tracker.local_map_keyframes window) measured each keyframe's pose against points that the
+  // window's older keyframes observe too: its odometry between two keyframes of one window does
+  // not drift as a chain of independent steps. With N > 2, every keyframe b also gets an edge to
+  // the keyframes 2, 4, 8, ... (< N) before it on its chain, as ORB-SLAM's covisibility edges:
+  // the odometry's T_a_b with the information of one edge of that motion (the model above, b's
+  // quality) shared among those edges (a quarter each for N = 30), and only where the client
+  // reported the quality of every step between (a pose of unknown quality, such as a file's,
+  // was tracked against no local map). 0 (default): consecutive edges only.
+  int local_map_keyframes = 0;
 };
 
 // Pairwise consistency maximisation (PCM, Mangelson et al. 2018) over loop and merge edges:

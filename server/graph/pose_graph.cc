@@ -82,6 +82,7 @@ Status PoseGraph::AddKeyframe(const KeyframeNode& node) {
   nodes_.push_back(node);
   has_next_.push_back(false);
   has_prev_.push_back(false);
+  quality_.emplace_back();
   return absl::OkStatus();
 }
 
@@ -96,6 +97,7 @@ Status PoseGraph::AddOdometryEdge(int64_t a_id, int64_t b_id, const SE3d& T_a_b,
   }
   if (!IsFinite(T_a_b)) return absl::InvalidArgumentError("pose graph: non-finite odometry");
   has_next_[a] = has_prev_[b] = true;
+  quality_[b] = quality;
   edges_.push_back({EdgeKind::kOdometry, a_id, b_id, T_a_b,
                     OdometryInformation(T_a_b, quality, options_.odometry)});
   return absl::OkStatus();
@@ -202,6 +204,7 @@ SolverInput PoseGraph::BuildSolverInput(const OdometryChains& chains,
     in.edges.push_back({a, b, e.T_a_b, e.information, constraint});
     if (constraint && chains.chain_of[a] != chains.chain_of[b]) joins.push_back({a, b, e.T_a_b});
   }
+  AddLocalMapEdges(chains, &in);
   const Islands found = FindIslands(chains, joins, ReferenceChain(chains));
   PlaceChains(chains, joins, found, four_dof, options_.place_trans_m, options_.place_rot_rad,
               &in.T_map_kf);
@@ -214,6 +217,26 @@ SolverInput PoseGraph::BuildSolverInput(const OdometryChains& chains,
     }
   }
   return in;
+}
+
+void PoseGraph::AddLocalMapEdges(const OdometryChains& chains, SolverInput* in) const {
+  const size_t window = static_cast<size_t>(options_.odometry.local_map_keyframes);
+  if (window <= 2) return;
+  size_t per_node = 0;  // the k below: the edges of one keyframe share its steps' information
+  for (size_t k = 2; k < window; k *= 2) ++per_node;
+  const auto known = [](const TrackingQuality& q) { return q.quality >= 0 || q.inliers >= 0; };
+  for (const std::vector<size_t>& chain : chains.members) {
+    size_t tracked = 0;  // consecutive steps up to p whose quality the client reported
+    for (size_t p = 1; p < chain.size(); ++p) {
+      tracked = known(quality_[chain[p]]) ? tracked + 1 : 0;
+      for (size_t k = 2; k < window && k <= tracked; k *= 2) {
+        const size_t a = chain[p - k], b = chain[p];
+        const SE3d T_a_b = ChainRelative(chains, a, b);
+        const Information6 info = OdometryInformation(T_a_b, quality_[b], options_.odometry);
+        in->edges.push_back({a, b, T_a_b, info / static_cast<double>(per_node), false});
+      }
+    }
+  }
 }
 
 size_t PoseGraph::RejectByResidual(const std::vector<SE3d>& T_map_kf,

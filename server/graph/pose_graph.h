@@ -68,6 +68,8 @@ class PoseGraph {
   SolverInput BuildSolverInput(const OdometryChains& chains, const std::vector<bool>& keep,
                                bool four_dof, const std::vector<SE3d>& start,
                                size_t* islands) const;
+  // The odometry's own T_a_b between keyframes of one local map (odometry.local_map_keyframes).
+  void AddLocalMapEdges(const OdometryChains& chains, SolverInput* in) const;
   // Drops kept loop/merge edges whose squared whitened residual at the solution exceeds
   // pcm.residual_chi2; returns how many.
   size_t RejectByResidual(const std::vector<SE3d>& T_map_kf, std::vector<bool>* keep) const;
@@ -79,6 +81,7 @@ class PoseGraph {
   std::unordered_map<int64_t, size_t> index_;
   std::vector<GraphEdge> edges_;
   std::vector<bool> has_next_, has_prev_;
+  std::vector<TrackingQuality> quality_;  // per node: of its incoming odometry edge
   std::vector<CentroidObservation> observations_;
   PcmCache* pcm_cache_ = nullptr;
 };
