@@ -32,12 +32,13 @@ struct OdometryInformationOptions {
   // A client that tracks against a local map of its last N keyframes (loci-track: its
   // tracker.local_map_keyframes window) measured each keyframe's pose against points that the
   // window's older keyframes observe too: its odometry between two keyframes of one window does
-  // not drift as a chain of independent steps. With N > 2, every keyframe b also gets an edge to
-  // the keyframes 2, 4, 8, ... (< N) before it on its chain, as ORB-SLAM's covisibility edges:
-  // the odometry's T_a_b with the information of one edge of that motion (the model above, b's
-  // quality) shared among those edges (a quarter each for N = 30), and only where the client
-  // reported the quality of every step between (a pose of unknown quality, such as a file's,
-  // was tracked against no local map). 0 (default): consecutive edges only.
+  // not drift as a chain of independent steps. With N > 2, keyframes of a chain also get edges
+  // within N keyframes, as ORB-SLAM's covisibility edges: every keyframe from the last anchor
+  // (every 8th keyframe) before it, every anchor from the anchors 8, 16, ... (< N) before it;
+  // each the odometry's T_a_b with the information of one edge of that motion (the model above,
+  // b's quality), and only where the client reported the quality of every step between (a pose
+  // of unknown quality, such as a file's, was tracked against no local map). 0 (default):
+  // consecutive edges only.
   int local_map_keyframes = 0;
 };
 

@@ -219,21 +219,32 @@ SolverInput PoseGraph::BuildSolverInput(const OdometryChains& chains,
   return in;
 }
 
+// Anchors every kSpacing keyframes of a chain: a keyframe gets an edge from the last anchor
+// before it, an anchor from the anchors kSpacing, 2 kSpacing, 4 kSpacing ... (< the window)
+// before it. Any two keyframes of one window are then three edges apart, and the graph keeps
+// its sparsity: edges straight from the keyframes 2, 4, 8 and 16 before each one made the solve
+// 8-27 times slower (`loci bench graph`, server/graph/README.md).
 void PoseGraph::AddLocalMapEdges(const OdometryChains& chains, SolverInput* in) const {
+  constexpr size_t kSpacing = 8;
   const size_t window = static_cast<size_t>(options_.odometry.local_map_keyframes);
   if (window <= 2) return;
-  size_t per_node = 0;  // the k below: the edges of one keyframe share its steps' information
-  for (size_t k = 2; k < window; k *= 2) ++per_node;
   const auto known = [](const TrackingQuality& q) { return q.quality >= 0 || q.inliers >= 0; };
+  const auto add = [&](size_t a, size_t b, double share) {
+    const SE3d T_a_b = ChainRelative(chains, a, b);
+    const Information6 info = OdometryInformation(T_a_b, quality_[b], options_.odometry);
+    in->edges.push_back({a, b, T_a_b, info * share, false});
+  };
   for (const std::vector<size_t>& chain : chains.members) {
     size_t tracked = 0;  // consecutive steps up to p whose quality the client reported
     for (size_t p = 1; p < chain.size(); ++p) {
       tracked = known(quality_[chain[p]]) ? tracked + 1 : 0;
-      for (size_t k = 2; k < window && k <= tracked; k *= 2) {
-        const size_t a = chain[p - k], b = chain[p];
-        const SE3d T_a_b = ChainRelative(chains, a, b);
-        const Information6 info = OdometryInformation(T_a_b, quality_[b], options_.odometry);
-        in->edges.push_back({a, b, T_a_b, info / static_cast<double>(per_node), false});
+      const size_t from_anchor = p % kSpacing;
+      if (from_anchor >= 2 && from_anchor <= tracked && from_anchor < window) {
+        add(chain[p - from_anchor], chain[p], 1.0);
+      }
+      if (from_anchor != 0) continue;
+      for (size_t k = kSpacing; k < window && k <= tracked; k *= 2) {
+        add(chain[p - k], chain[p], 1.0);
       }
     }
   }

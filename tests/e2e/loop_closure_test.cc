@@ -254,10 +254,10 @@ int LoopsIntoTheFirstSeconds(const std::string& db_path, double first_s) {
 // the odometry's (session 28: 0.0251 against 0.0288 m; with loops 5 s and 30 keyframes apart
 // none reached the first second, 0.0275 m). Since session 48 the graph holds the odometry within
 // the client's local map (graph.odometry.local_map_keyframes), which an unmodelled rolling
-// shutter breaks: the loops correct less of it (0.0276 m; 0.0253 m without those edges). With
+// shutter breaks: the loops correct less of it (0.0272 m; 0.0253 m without those edges). With
 // the rolling shutter rectified (the default camera) the odometry is better than the loops'
 // edges (about 1 deg from the truth, median), and the graph must keep it within the issue's
-// goal (session 48: 0.0136 m sent, 0.0133 m; 0.0139 m without those edges).
+// goal (session 48: 0.0136 m sent, 0.0132 m; 0.0139 m without those edges).
 TEST(LoopClosure, Fr1RpyServerKeyframesBeatTheOdometry) {
   const std::string tum = testing::FullTumSequence("tum_fr1_rpy", {"groundtruth.txt"});
   if (tum.empty()) GTEST_SKIP() << "no tum_fr1_rpy in $LOCI_DATA or ../shared/data";
