@@ -221,7 +221,7 @@ SolverInput PoseGraph::BuildSolverInput(const OdometryChains& chains,
 
 // Anchors every kSpacing keyframes of a chain: a keyframe gets an edge from the last anchor
 // before it, an anchor from the anchors kSpacing, 2 kSpacing, 4 kSpacing ... (< the window)
-// before it. Any two keyframes of one window are then three edges apart, and the graph keeps
+// before it. Any two keyframes of one window are then at most three edges apart; the graph keeps
 // its sparsity: edges straight from the keyframes 2, 4, 8 and 16 before each one made the solve
 // 8-27 times slower (`loci bench graph`, server/graph/README.md).
 void PoseGraph::AddLocalMapEdges(const OdometryChains& chains, SolverInput* in) const {
@@ -229,10 +229,10 @@ void PoseGraph::AddLocalMapEdges(const OdometryChains& chains, SolverInput* in) 
   const size_t window = static_cast<size_t>(options_.odometry.local_map_keyframes);
   if (window <= 2) return;
   const auto known = [](const TrackingQuality& q) { return q.quality >= 0 || q.inliers >= 0; };
-  const auto add = [&](size_t a, size_t b, double share) {
+  const auto add = [&](size_t a, size_t b) {
     const SE3d T_a_b = ChainRelative(chains, a, b);
-    const Information6 info = OdometryInformation(T_a_b, quality_[b], options_.odometry);
-    in->edges.push_back({a, b, T_a_b, info * share, false});
+    in->edges.push_back(
+        {a, b, T_a_b, OdometryInformation(T_a_b, quality_[b], options_.odometry), false});
   };
   for (const std::vector<size_t>& chain : chains.members) {
     size_t tracked = 0;  // consecutive steps up to p whose quality the client reported
@@ -240,11 +240,11 @@ void PoseGraph::AddLocalMapEdges(const OdometryChains& chains, SolverInput* in) 
       tracked = known(quality_[chain[p]]) ? tracked + 1 : 0;
       const size_t from_anchor = p % kSpacing;
       if (from_anchor >= 2 && from_anchor <= tracked && from_anchor < window) {
-        add(chain[p - from_anchor], chain[p], 1.0);
+        add(chain[p - from_anchor], chain[p]);
       }
       if (from_anchor != 0) continue;
       for (size_t k = kSpacing; k < window && k <= tracked; k *= 2) {
-        add(chain[p - k], chain[p], 1.0);
+        add(chain[p - k], chain[p]);
       }
     }
   }
