@@ -37,6 +37,7 @@ trap '[ -n "$SERVER_PID" ] && kill -TERM "$SERVER_PID" 2>/dev/null || true' EXIT
 start_server() {
   local dir="$1"
   rm -f "$dir"/loci.db*
+  : >"$dir/server.out"  # before the server opens it: the loop below reads it at once
   "$BIN/loci-server" --config "$CONFIG" --listen 127.0.0.1:0 --db "$dir/loci.db" \
     --log-level "$LOG_LEVEL" \
     >"$dir/server.out" 2>"$dir/server.log" &
