@@ -109,15 +109,48 @@ std::vector<PlaceCandidate> PlaceDatabase::Query(const BowVector& bow,
   }
   const size_t k = std::min(ranked.size(), static_cast<size_t>(query_options_.max_candidates));
   std::partial_sort(ranked.begin(), ranked.begin() + static_cast<std::ptrdiff_t>(k), ranked.end(),
-                    [](const auto& a, const auto& b) {
-                      return a.first != b.first ? a.first > b.first : a.second < b.second;
-                    });
+                    Better);
+  std::vector<std::pair<float, uint32_t>> best(ranked.begin(),
+                                               ranked.begin() + static_cast<std::ptrdiff_t>(k));
+  const std::vector<std::pair<float, uint32_t>> older = OlderOwn(ranked, k, robot);
+  best.insert(best.begin() + std::min<std::ptrdiff_t>(1, static_cast<std::ptrdiff_t>(best.size())),
+              older.begin(), older.end());
   std::vector<PlaceCandidate> out;
-  for (size_t i = 0; i < k; ++i) {
-    const Doc& doc = docs_[ranked[i].second];
-    out.push_back({doc.keyframe_id, robot_names_[doc.robot], ranked[i].first / query_mass});
+  for (const auto& [s, d] : best) {
+    const Doc& doc = docs_[d];
+    out.push_back({doc.keyframe_id, robot_names_[doc.robot], s / query_mass});
   }
   return out;
+}
+
+bool PlaceDatabase::Better(const std::pair<float, uint32_t>& a,
+                           const std::pair<float, uint32_t>& b) {
+  return a.first != b.first ? a.first > b.first : a.second < b.second;
+}
+
+std::vector<std::pair<float, uint32_t>> PlaceDatabase::OlderOwn(
+    const std::vector<std::pair<float, uint32_t>>& ranked, size_t k,
+    const std::string& robot) const {
+  std::vector<std::pair<float, uint32_t>> older;
+  const auto it = docs_of_robot_.find(robot);
+  const size_t window = static_cast<size_t>(query_options_.older_than_keyframes);
+  if (query_options_.older_candidates <= 0 || it == docs_of_robot_.end() ||
+      it->second.size() <= window) {
+    return older;
+  }
+  // Docs are numbered in insertion order: the robot's older keyframes have smaller numbers than
+  // its window's first.
+  const uint32_t first_in_window = it->second[it->second.size() - window];
+  const int robot_index = docs_[it->second.front()].robot;
+  for (size_t i = k; i < ranked.size(); ++i) {  // the ranked ones are among the best already
+    const uint32_t d = ranked[i].second;
+    if (d < first_in_window && docs_[d].robot == robot_index) older.push_back(ranked[i]);
+  }
+  const size_t n = std::min(older.size(), static_cast<size_t>(query_options_.older_candidates));
+  std::partial_sort(older.begin(), older.begin() + static_cast<std::ptrdiff_t>(n), older.end(),
+                    Better);
+  older.resize(n);
+  return older;
 }
 
 }  // namespace loci::place

@@ -56,7 +56,9 @@ class PlaceDatabase {
 
   // The best max_candidates keyframes for the bag `bow` of a keyframe of `robot`, best first,
   // each with score >= min_score; the newest exclude_recent_keyframes keyframes that `robot`
-  // inserted are left out (other robots' keyframes never are).
+  // inserted are left out (other robots' keyframes never are). The best older_candidates of
+  // `robot`'s keyframes before its newest older_than_keyframes that are not among them follow
+  // the first.
   std::vector<PlaceCandidate> Query(const BowVector& bow, const std::string& robot) const;
 
   size_t keyframes() const { return docs_.size(); }
@@ -75,6 +77,12 @@ class PlaceDatabase {
   };
   static void Append(std::vector<Posting>* postings, Posting p);
 
+  static bool Better(const std::pair<float, uint32_t>& a, const std::pair<float, uint32_t>& b);
+  // The best QueryOptions::older_candidates of `robot`'s keyframes before its newest
+  // older_than_keyframes among ranked[k..] (score, doc).
+  std::vector<std::pair<float, uint32_t>> OlderOwn(
+      const std::vector<std::pair<float, uint32_t>>& ranked, size_t k,
+      const std::string& robot) const;
   double Idf(WordId w) const;
   std::vector<uint32_t> ExcludedDocs(const std::string& robot) const;
 

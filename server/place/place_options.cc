@@ -24,7 +24,8 @@ Status CheckPlaceKeys(const YAML::Node& node) {
       node["vocabulary"], "place.vocabulary",
       {"word_max_hamming", "branching", "max_leaf_words", "max_depth", "search_leaves"}));
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["query"], "place.query",
-                                      {"max_candidates", "exclude_recent_keyframes", "min_score"}));
+                                      {"max_candidates", "exclude_recent_keyframes", "min_score",
+                                       "older_candidates", "older_than_keyframes"}));
   LOCI_RETURN_IF_ERROR(
       CheckKnownKeys(node["verify"], "place.verify",
                      {"ratio", "max_hamming", "pnp_reprojection_px", "pnp_iterations",
@@ -55,6 +56,8 @@ Status ReadVocabulary(const YAML::Node& n, VocabularyOptions* o) {
 Status ReadQuery(const YAML::Node& n, QueryOptions* o) {
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_candidates", &o->max_candidates));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "exclude_recent_keyframes", &o->exclude_recent_keyframes));
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "older_candidates", &o->older_candidates));
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "older_than_keyframes", &o->older_than_keyframes));
   return ReadOptional(n, "min_score", &o->min_score);
 }
 
@@ -185,6 +188,10 @@ Status PlaceOptions::Validate() const {
   }
   if (query.exclude_recent_keyframes < 0) return Bad("query.exclude_recent_keyframes >= 0");
   if (!(query.min_score >= 0 && query.min_score < 1)) return Bad("query.min_score in [0, 1)");
+  if (query.older_candidates < 0 || query.older_candidates > 1000) {
+    return Bad("query.older_candidates in [0, 1000]");
+  }
+  if (query.older_than_keyframes < 0) return Bad("query.older_than_keyframes >= 0");
   LOCI_RETURN_IF_ERROR(ValidateVerify(verify));
   if (consistency.min_matches < 1) return Bad("consistency.min_matches >= 1");
   if (!(consistency.max_translation_m > 0) || !(consistency.max_rotation_deg > 0)) {

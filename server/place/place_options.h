@@ -52,6 +52,13 @@ struct QueryOptions {
   // Candidates need at least this normalised score (the query's tf-idf mass shared with the
   // candidate, 0..1) (0.02).
   double min_score = 0.02;
+  // Besides, the best N of the querying robot's own keyframes older than its newest
+  // older_than_keyframes, when they are not among the max_candidates already; they follow the
+  // best candidate. The nearest views score highest, so without them every loop joins views
+  // inside a client's local map (loci-track: 30 keyframes), whose odometry holds no drift worth
+  // correcting (1, 30; 0: off).
+  int older_candidates = 1;
+  int older_than_keyframes = 30;
 };
 
 // Geometric verification of a candidate pair (geometric_verification.h).

@@ -79,6 +79,62 @@ TEST(PlaceDatabaseTest, ExcludesOnlyTheQueryingRobotsNewestKeyframes) {
   EXPECT_EQ(std::count(ids.begin(), ids.end(), 10), 0);
 }
 
+// A robot that revisits a place: its newest views of it score highest and fill the candidates,
+// while its first visit, before its local-map window, follows the best with older_candidates.
+TEST(PlaceDatabaseTest, OlderCandidatesBringTheFirstVisitBackBehindTheBest) {
+  const cv::Mat place = RandomDescriptors(300, 7);
+  // A keyframe `share` of whose 300 descriptors are the place's, the rest its own.
+  auto view = [&](double share, uint64_t seed) {
+    const int n = static_cast<int>(share * 300);
+    if (n == 0) return RandomDescriptors(300, seed);
+    cv::Mat m;
+    cv::vconcat(place.rowRange(0, n), RandomDescriptors(300 - n, seed), m);
+    return m;
+  };
+  auto fill = [&](PlaceDatabase* db) {
+    for (int p = 0; p < 10; ++p) {  // other places (robot c), so the place's words have idf > 0
+      ASSERT_TRUE(db->Insert(100 + p, "c", db->Quantise(RandomDescriptors(300, 50 + p), true)).ok());
+    }
+    // Robot a: its first visit (ids 0..2, 30 % of the place), 40 keyframes elsewhere, then the
+    // place again (ids 43..52, 60 %).
+    for (int i = 0; i < 53; ++i) {
+      const double share = i < 3 ? 0.3 : i < 43 ? 0.0 : 0.6;
+      ASSERT_TRUE(db->Insert(i, "a", db->Quantise(view(share, 1000 + i), true)).ok());
+    }
+  };
+  QueryOptions q = Window(0);
+  q.min_score = 0.05;
+  q.older_candidates = 0;
+  PlaceDatabase plain(VocabularyOptions{}, q);
+  fill(&plain);
+  const cv::Mat query = view(0.6, 999);
+  std::vector<int64_t> ids;
+  for (const PlaceCandidate& c : plain.Query(plain.Quantise(query, false), "a")) {
+    ids.push_back(c.keyframe_id);
+  }
+  ASSERT_EQ(ids.size(), 5u);
+  for (int64_t id : ids) EXPECT_GE(id, 43) << "the newest views of the place rank first";
+  q.older_candidates = 2;
+  q.older_than_keyframes = 30;
+  PlaceDatabase diverse(VocabularyOptions{}, q);
+  fill(&diverse);
+  const std::vector<PlaceCandidate> c = diverse.Query(diverse.Quantise(query, false), "a");
+  ASSERT_EQ(c.size(), 7u);
+  EXPECT_EQ(c[0].keyframe_id, ids[0]);  // the best stays first
+  EXPECT_LT(c[1].keyframe_id, 3);       // then the first visit's two best
+  EXPECT_LT(c[2].keyframe_id, 3);
+  EXPECT_GE(c[1].score, c[2].score);
+  EXPECT_LT(c[1].score, c[0].score);
+  for (size_t i = 3; i < c.size(); ++i) EXPECT_EQ(c[i].keyframe_id, ids[i - 2]);
+  // Another robot's query gets no such candidates: the window is the querying robot's.
+  EXPECT_EQ(diverse.Query(diverse.Quantise(query, false), "b").size(), 5u);
+  // Within the window there is nothing older to add.
+  q.older_than_keyframes = 60;
+  PlaceDatabase short_robot(VocabularyOptions{}, q);
+  fill(&short_robot);
+  EXPECT_EQ(short_robot.Query(short_robot.Quantise(query, false), "a").size(), 5u);
+}
+
 TEST(PlaceDatabaseTest, UnrelatedPlacesScoreBelowMinScore) {
   QueryOptions q = Window(0);
   q.min_score = 0.05;

@@ -33,7 +33,8 @@ TEST_F(PlaceOptionsTest, ReadsOnlyThePresentKeys) {
 TEST_F(PlaceOptionsTest, RejectsOutOfRangeValuesNamingThem) {
   for (const char* yaml : {"verify: {ratio: 1.5}", "verify: {min_inliers: 2}",
                            "vocabulary: {branching: 1}", "features: {max_depth_m: 0.05}",
-                           "consistency: {min_matches: 0}", "query: {min_score: 1.0}"}) {
+                           "consistency: {min_matches: 0}", "query: {min_score: 1.0}",
+                           "query: {older_candidates: -1}", "query: {older_than_keyframes: -5}"}) {
     PlaceOptions o;
     const Status s = o.FromYaml(YAML::Load(yaml));
     EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << yaml;
@@ -66,6 +67,8 @@ TEST_F(PlaceOptionsTest, ShippedServerConfigDocumentsTheDefaults) {
   EXPECT_EQ(o.vocabulary.max_leaf_words, d.vocabulary.max_leaf_words);
   EXPECT_EQ(o.query.exclude_recent_keyframes, d.query.exclude_recent_keyframes);
   EXPECT_DOUBLE_EQ(o.query.min_score, d.query.min_score);
+  EXPECT_EQ(o.query.older_candidates, d.query.older_candidates);
+  EXPECT_EQ(o.query.older_than_keyframes, d.query.older_than_keyframes);
   EXPECT_DOUBLE_EQ(o.verify.ratio, d.verify.ratio);
   EXPECT_EQ(o.verify.min_inliers, d.verify.min_inliers);
   EXPECT_DOUBLE_EQ(o.verify.max_rms_m, d.verify.max_rms_m);
