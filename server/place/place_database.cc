@@ -139,8 +139,9 @@ std::vector<std::pair<float, uint32_t>> PlaceDatabase::OlderOwn(
     return older;
   }
   // Docs are numbered in insertion order: the robot's older keyframes have smaller numbers than
-  // its window's first.
-  const uint32_t first_in_window = it->second[it->second.size() - window];
+  // its window's first (with no window, every one of its keyframes is older).
+  const uint32_t first_in_window = window == 0 ? static_cast<uint32_t>(docs_.size())
+                                               : it->second[it->second.size() - window];
   const int robot_index = docs_[it->second.front()].robot;
   for (size_t i = k; i < ranked.size(); ++i) {  // the ranked ones are among the best already
     const uint32_t d = ranked[i].second;

@@ -128,6 +128,15 @@ TEST(PlaceDatabaseTest, OlderCandidatesBringTheFirstVisitBackBehindTheBest) {
   for (size_t i = 3; i < c.size(); ++i) EXPECT_EQ(c[i].keyframe_id, ids[i - 2]);
   // Another robot's query gets no such candidates: the window is the querying robot's.
   EXPECT_EQ(diverse.Query(diverse.Quantise(query, false), "b").size(), 5u);
+  // With no window every keyframe of the robot may follow the best: the two best not among the
+  // five, here the second visit's sixth and seventh.
+  q.older_than_keyframes = 0;
+  PlaceDatabase no_window(VocabularyOptions{}, q);
+  fill(&no_window);
+  const std::vector<PlaceCandidate> all = no_window.Query(no_window.Quantise(query, false), "a");
+  ASSERT_EQ(all.size(), 7u);
+  EXPECT_GE(all[1].keyframe_id, 43);
+  EXPECT_GE(all[2].keyframe_id, 43);
   // Within the window there is nothing older to add.
   q.older_than_keyframes = 60;
   PlaceDatabase short_robot(VocabularyOptions{}, q);
