@@ -1,7 +1,8 @@
-// `loci bench load [--robots N] [--clients M] [--seconds T] [--robot-hz H] [--config FILE]`: N
-// robots stream synthetic keyframes (a rendered `loci synth` scene, 640x480 with masks) while M
-// query clients alternate Ask and FindObjects, all over loopback gRPC to an in-process loci server
-// with the query engine. Prints errors, the ingest rate, Ask and FindObjects p50/p99/max, and
+// `loci bench load [--robots N] [--clients M] [--seconds T] [--robot-hz H] [--client-hz Q]
+// [--config FILE]`: N robots stream synthetic keyframes (a rendered `loci synth` scene, 640x480
+// with masks) while M query clients alternate Ask and FindObjects (Q calls per second each, or
+// as fast as answered), all over loopback gRPC to an in-process loci server with the query
+// engine. The clients share the server's cores: unpaced, they take whatever the server leaves. Prints errors, the ingest rate, Ask and FindObjects p50/p99/max, and
 // the resident memory every 10 s.
 #include <grpcpp/create_channel.h>
 #include <unistd.h>
@@ -15,6 +16,7 @@
 #include <mutex>
 #include <thread>
 
+#include "absl/strings/str_format.h"
 #include "cli/bench_views.h"
 #include "cli/commands.h"
 #include "common/config.h"
@@ -34,6 +36,7 @@ struct BenchLoadArgs {
   int clients = 20;
   double seconds = 60;
   double robot_hz = 1.0;  // keyframes per second per robot (0 = as fast as acknowledged)
+  double client_hz = 0;   // calls per second per query client (0 = as fast as answered)
   int views = 30;
   int objects = 8;
   std::string config;  // "" = config/server.yaml
@@ -84,12 +87,15 @@ void RobotLoop(const std::shared_ptr<grpc::Channel>& channel, int index,
 }
 
 // One query client: Ask and FindObjects in turn until `stop`.
-void ClientLoop(const std::shared_ptr<grpc::Channel>& channel, const std::atomic<bool>& stop,
-                Latencies* out) {
+void ClientLoop(const std::shared_ptr<grpc::Channel>& channel, double client_hz,
+                const std::atomic<bool>& stop, Latencies* out) {
   auto stub = loci::v1::Query::NewStub(channel);
   static const char* kQuestions[] = {"where is the cup", "what is on the table",
                                      "how many laptops are there", "list all objects"};
+  const auto period = std::chrono::duration<double>(client_hz > 0 ? 1.0 / client_hz : 0.0);
+  auto next = Clock::now();
   for (int i = 0; !stop; ++i) {
+    next += std::chrono::duration_cast<Clock::duration>(period);
     grpc::ClientContext ctx;
     ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
     const auto t0 = Clock::now();
@@ -106,8 +112,11 @@ void ClientLoop(const std::shared_ptr<grpc::Channel>& channel, const std::atomic
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     // INVALID_ARGUMENT is an answer ("no cup in the map" on an empty map), not a failure.
     if (!s.ok() && s.error_code() != grpc::StatusCode::INVALID_ARGUMENT) ++out->errors;
-    std::lock_guard<std::mutex> lock(out->mu);
-    (i % 2 == 0 ? out->ask_ms : out->find_ms).push_back(ms);
+    {
+      std::lock_guard<std::mutex> lock(out->mu);
+      (i % 2 == 0 ? out->ask_ms : out->find_ms).push_back(ms);
+    }
+    std::this_thread::sleep_until(next);  // pacing of a client's calls (none when unpaced)
   }
 }
 
@@ -149,9 +158,12 @@ int RunBenchLoad(const BenchLoadArgs& a) {
   grpc::ChannelArguments args;
   args.SetMaxSendMessageSize(64 << 20);
   args.SetMaxReceiveMessageSize(-1);
-  std::printf("loci bench load: %d robots at %.1f keyframes/s each, %d query clients, %.0f s, %u "
-              "cores\n",
-              a.robots, a.robot_hz, a.clients, a.seconds, std::thread::hardware_concurrency());
+  std::printf("loci bench load: %d robots at %.1f keyframes/s each, %d query clients (%s), %.0f s, "
+              "%u cores\n",
+              a.robots, a.robot_hz, a.clients,
+              a.client_hz > 0 ? absl::StrFormat("%.1f calls/s each", a.client_hz).c_str()
+                              : "unpaced",
+              a.seconds, std::thread::hardware_concurrency());
   std::atomic<bool> stop{false};
   std::atomic<uint64_t> acked{0}, ingest_errors{0};
   Latencies lat;
@@ -164,7 +176,7 @@ int RunBenchLoad(const BenchLoadArgs& a) {
   }
   for (int c = 0; c < a.clients; ++c) {
     auto channel = grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
-    threads.emplace_back(ClientLoop, channel, std::cref(stop), &lat);
+    threads.emplace_back(ClientLoop, channel, a.client_hz, std::cref(stop), &lat);
   }
   const auto t0 = Clock::now();
   for (double t = 10; t <= a.seconds + 1e-9; t += 10) {
@@ -209,6 +221,8 @@ void RegisterBenchLoadCommand(CLI::App& app) {
       ->capture_default_str();
   c->add_option("--seconds", args->seconds, "duration")->capture_default_str();
   c->add_option("--robot-hz", args->robot_hz, "keyframes per second per robot (0 = unpaced)")
+      ->capture_default_str();
+  c->add_option("--client-hz", args->client_hz, "calls per second per query client (0 = unpaced)")
       ->capture_default_str();
   c->add_option("--views", args->views, "distinct rendered views, cycled")->capture_default_str();
   c->add_option("--config", args->config, "server YAML (default: config/server.yaml)");

@@ -147,6 +147,7 @@ void BenchDense(const TumSequence& seq, const std::vector<KeyframeFeatures>& kfs
                 const place::PlaceOptions& options) {
   std::vector<double> make_ms, refine_ms, sparse_deg, dense_deg, sparse_mm, dense_mm;
   int refused = 0;
+  place::DenseRefiner refiner(options.dense);  // one per aligner, as on the server
   auto frame = [&](size_t i) {
     cv::Mat depth_m;
     cv::imread(seq.frames[i].depth_path, cv::IMREAD_UNCHANGED)
@@ -162,7 +163,7 @@ void BenchDense(const TumSequence& seq, const std::vector<KeyframeFeatures>& kfs
     if (!v.accepted) continue;
     const place::DenseFrame a = frame(i), b = frame(i - 10);
     const double t0 = ThreadCpuMs();
-    const std::optional<SE3d> refined = place::RefineDense(a, b, v.T_a_b, options.dense);
+    const std::optional<SE3d> refined = refiner.Refine(a, b, v.T_a_b);
     refine_ms.push_back(ThreadCpuMs() - t0);
     refused += !refined;
     const std::optional<SE3d> truth = TruthAB(seq, i, i - 10);

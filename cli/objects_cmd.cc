@@ -106,9 +106,10 @@ void PrintAlignment(const loci::v1::GetStatsResponse& resp) {
                 static_cast<unsigned long long>(a.merges_ahead()),
                 static_cast<unsigned long long>(a.islands_pulled()));
     if (a.merged_keyframes() > 0) {
-      std::printf("held keyframes     %llu entered the map on alignments; the last in %.0f ms, "
-                  "%llu chunks; mapping paused at most %.0f ms (%.0f ms since start)\n",
-                  static_cast<unsigned long long>(a.merged_keyframes()), a.last_merge_ms(),
+      std::printf("held keyframes     %llu entered the map on alignments; the last %llu in %.0f "
+                  "ms, %llu chunks; mapping paused at most %.0f ms (%.0f ms since start)\n",
+                  static_cast<unsigned long long>(a.merged_keyframes()),
+                  static_cast<unsigned long long>(a.last_merge_keyframes()), a.last_merge_ms(),
                   static_cast<unsigned long long>(a.last_merge_chunks()),
                   a.last_merge_longest_hold_ms(), a.merge_longest_hold_ms());
     }

@@ -15,6 +15,7 @@ RobotAligner::RobotAligner(const place::PlaceOptions& place, const AlignOptions&
       cache_(features ? features : own_features_.get(),
              static_cast<size_t>(place.features.cache_keyframes)),
       dense_cache_(static_cast<size_t>(place.dense.cache_keyframes)),
+      dense_refiner_(place.dense),
       images_(images),
       db_(place.vocabulary, place.query),
       gate_(place.consistency) {}
@@ -261,7 +262,7 @@ SE3d RobotAligner::RefinedDense(int64_t a_id, const place::DenseFrame* b, const 
   if (b == nullptr) return T_a_b;
   const std::shared_ptr<const place::DenseFrame> a = DenseFrameOf(a_id);
   std::optional<SE3d> refined;
-  if (a) refined = place::RefineDense(*a, *b, T_a_b, place_.dense);
+  if (a) refined = dense_refiner_.Refine(*a, *b, T_a_b);
   std::lock_guard<std::mutex> lock(stats_mu_);
   ++(!a ? stats_.dense_without_images : refined ? stats_.dense_refined : stats_.dense_refused);
   return refined.value_or(T_a_b);

@@ -291,10 +291,11 @@ class RobotAligner {
 
   place::PlaceOptions place_;
   AlignOptions options_;
-  mutable std::mutex work_mu_;  // db_, gate_, indexed_, cache_, dense_cache_
+  mutable std::mutex work_mu_;  // db_, gate_, indexed_, cache_, dense_cache_, dense_refiner_
   std::unique_ptr<place::MemoryFeatureStore> own_features_;  // when none was given
   place::FeatureCache cache_;
   place::DenseFrameCache dense_cache_;
+  place::DenseRefiner dense_refiner_;
   place::KeyframeImageSource* images_;  // may be null
   place::PlaceDatabase db_;
   place::ConsistencyGate gate_;

@@ -4,7 +4,6 @@
 #include <limits>
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
-#include <opencv2/rgbd.hpp>
 
 namespace loci::place {
 namespace {
@@ -52,15 +51,22 @@ DenseFrame MakeDenseFrame(const cv::Mat& bgr, const cv::Mat& depth_m, const Pinh
   return f;
 }
 
-std::optional<SE3d> RefineDense(const DenseFrame& a, const DenseFrame& b, const SE3d& T_a_b,
-                                const DenseOptions& o) {
+std::optional<SE3d> DenseRefiner::Refine(const DenseFrame& a, const DenseFrame& b,
+                                         const SE3d& T_a_b) {
   if (a.grey.empty() || b.grey.empty() || a.grey.size() != b.grey.size()) return std::nullopt;
-  // Coarse-to-fine: levels of the image pyramid, iterations per level (finest first).
-  const std::vector<int> iterations{7, 7, 7, 10};
-  const cv::Ptr<cv::rgbd::RgbdICPOdometry> odometry = cv::rgbd::RgbdICPOdometry::create(
-      CvK(a.camera), static_cast<float>(o.min_depth_m), static_cast<float>(o.max_depth_m),
-      static_cast<float>(o.max_depth_diff_m), /*maxPointsPart=*/0.07f,
-      std::vector<int>(iterations.begin(), iterations.begin() + o.levels));
+  const DenseOptions& o = options_;
+  const cv::Mat K = CvK(a.camera);
+  if (odometry_.empty()) {
+    // Coarse-to-fine: levels of the image pyramid, iterations per level (finest first).
+    const std::vector<int> iterations{7, 7, 7, 10};
+    odometry_ = cv::rgbd::RgbdICPOdometry::create(
+        K, static_cast<float>(o.min_depth_m), static_cast<float>(o.max_depth_m),
+        static_cast<float>(o.max_depth_diff_m), /*maxPointsPart=*/0.07f,
+        std::vector<int>(iterations.begin(), iterations.begin() + o.levels));
+  } else {
+    odometry_->setCameraMatrix(K);  // its normal estimator is rebuilt only if K changed
+  }
+  const cv::Ptr<cv::rgbd::RgbdICPOdometry>& odometry = odometry_;
   cv::Mat init, Rt;
   const Eigen::Matrix4d T = T_a_b.matrix();
   cv::eigen2cv(T, init);
@@ -81,6 +87,11 @@ std::optional<SE3d> RefineDense(const DenseFrame& a, const DenseFrame& b, const 
   // Re-orthonormalise the rotation the solver accumulated.
   out.linear() = Eigen::Quaterniond(out.linear()).normalized().toRotationMatrix();
   return out;
+}
+
+std::optional<SE3d> RefineDense(const DenseFrame& a, const DenseFrame& b, const SE3d& T_a_b,
+                                const DenseOptions& options) {
+  return DenseRefiner(options).Refine(a, b, T_a_b);
 }
 
 }  // namespace loci::place

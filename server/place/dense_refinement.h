@@ -5,13 +5,15 @@
 // the refined loop edges are closer to the ground truth (docs/results.md, session 17).
 //
 //   DenseFrame a = MakeDenseFrame(bgr_a, depth_m_a, camera, options);   // once per keyframe
-//   std::optional<SE3d> T = RefineDense(a, b, v.T_a_b, options);       // nullopt: keep v.T_a_b
+//   DenseRefiner refiner(options);                                      // once per thread
+//   std::optional<SE3d> T = refiner.Refine(a, b, v.T_a_b);              // nullopt: keep v.T_a_b
 #pragma once
 
 #include <cstdint>
 #include <memory>
 #include <optional>
 #include <opencv2/core.hpp>
+#include <opencv2/rgbd.hpp>
 
 #include "common/camera.h"
 #include "common/lru_cache.h"
@@ -34,6 +36,22 @@ DenseFrame MakeDenseFrame(const cv::Mat& bgr, const cv::Mat& depth_m, const Pinh
 
 // Refines T_a_b (p_a = T_a_b * p_b). nullopt when the solver fails or the correction exceeds
 // options.max_correction_m / max_correction_rad (the sparse estimate is then kept).
+//
+// The solver is kept between calls: OpenCV's normal estimator precomputes a 3x3 inverse per
+// pixel and pyramid level for the camera (about 40 % of a refinement's CPU at 320 x 240), and
+// keeps it while the camera and image size stay the same. Results do not depend on what was
+// refined before. Not thread-safe: one refiner per thread (RobotAligner's, under its work lock).
+class DenseRefiner {
+ public:
+  explicit DenseRefiner(const DenseOptions& options) : options_(options) {}
+  std::optional<SE3d> Refine(const DenseFrame& a, const DenseFrame& b, const SE3d& T_a_b);
+
+ private:
+  DenseOptions options_;
+  cv::Ptr<cv::rgbd::RgbdICPOdometry> odometry_;
+};
+
+// One refinement with a refiner of its own (tests, benchmarks).
 std::optional<SE3d> RefineDense(const DenseFrame& a, const DenseFrame& b, const SE3d& T_a_b,
                                 const DenseOptions& options);
 

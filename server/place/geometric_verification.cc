@@ -5,9 +5,9 @@
 #include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
-#include <opencv2/features2d.hpp>
 #include <vector>
 
+#include "server/place/binary_descriptor.h"
 #include "server/place/point_alignment.h"
 
 namespace loci::place {
@@ -27,12 +27,11 @@ std::vector<Match> RatioMatches(const KeyframeFeatures& a, const KeyframeFeature
                                 const VerifyOptions& options) {
   std::vector<Match> out;
   if (a.size() == 0 || b.size() < 2) return out;
-  std::vector<std::vector<cv::DMatch>> knn;
-  cv::BFMatcher(cv::NORM_HAMMING).knnMatch(a.descriptors, b.descriptors, knn, 2);
-  for (const auto& m : knn) {
-    if (m.size() < 2 || m[0].distance > options.max_hamming) continue;
-    if (m[0].distance < options.ratio * m[1].distance)
-      out.push_back({m[0].queryIdx, m[0].trainIdx});
+  const std::vector<TwoNearest> nearest = TwoNearestRows(a.descriptors, b.descriptors);
+  for (size_t i = 0; i < nearest.size(); ++i) {
+    const TwoNearest& n = nearest[i];
+    if (n.best > options.max_hamming) continue;
+    if (n.best < options.ratio * n.second) out.push_back({static_cast<int>(i), n.index});
   }
   return out;
 }

@@ -113,17 +113,6 @@ IncrementalVocabulary::IncrementalVocabulary(const VocabularyOptions& options)
   nodes_[0].split_at = options_.max_leaf_words;
 }
 
-// Compiled twice, with the POPCNT instruction and without, picked at load time (glibc ifunc):
-// std::popcount is one instruction with it and about ten without, and Debian's amd64 baseline
-// does not guarantee it. Not in a ThreadSanitizer build: GCC instruments the ifunc resolver
-// with __tsan_func_entry, and the resolver runs while the dynamic loader relocates the binary,
-// before the TSan runtime is set up, so every binary holding this function crashed at load
-// (docs/sanitizers.md).
-#if defined(__SANITIZE_THREAD__)
-#define LOCI_POPCNT_CLONES
-#else
-#define LOCI_POPCNT_CLONES __attribute__((target_clones("popcnt", "default")))
-#endif
 LOCI_POPCNT_CLONES WordId IncrementalVocabulary::Search(
     const Descriptor256& d, int* first_leaf) const {
   using Entry = std::pair<int, int>;  // (distance to the branch's centre, node)

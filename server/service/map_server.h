@@ -112,6 +112,7 @@ class MapServer {
   struct HeldMergeStats {
     double last_ms = 0;               // wall time, first chunk to the checkpoint after the last
     uint64_t last_chunks = 0;
+    uint64_t last_keyframes = 0;      // held keyframes it mapped
     double last_longest_hold_ms = 0;  // the longest single hold of the mapping lock
     double longest_hold_ms = 0;       // ... since start
   };

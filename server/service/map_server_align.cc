@@ -309,6 +309,7 @@ void MapServer::MapHeldKeyframes(const std::vector<HeldKeyframes>& sessions) {
   std::lock_guard<std::mutex> lock(held_merge_mu_);
   held_merge_stats_.last_ms = MsSince(start);
   held_merge_stats_.last_chunks = all.chunks;
+  held_merge_stats_.last_keyframes = all.moved;
   held_merge_stats_.last_longest_hold_ms = all.longest_hold_ms;
   held_merge_stats_.longest_hold_ms =
       std::max(held_merge_stats_.longest_hold_ms, all.longest_hold_ms);

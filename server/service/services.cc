@@ -376,6 +376,7 @@ grpc::Status QueryService::FillAlignment(const std::vector<SessionRecord>& sessi
   const MapServer::HeldMergeStats held = server_->held_merge_stats();
   a->set_last_merge_ms(held.last_ms);
   a->set_last_merge_chunks(held.last_chunks);
+  a->set_last_merge_keyframes(held.last_keyframes);
   a->set_last_merge_longest_hold_ms(held.last_longest_hold_ms);
   a->set_merge_longest_hold_ms(held.longest_hold_ms);
   a->set_place_ms_mean(st->keyframes == 0 ? 0.0 : st->place_ms_total / double(st->keyframes));

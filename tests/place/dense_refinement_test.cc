@@ -72,6 +72,33 @@ TEST(DenseRefinement, ConvergesFromCentimetresOffAndRefusesCorrectionsBeyondItsB
   EXPECT_FALSE(RefineDense(a, Dense(frames[0], half), gt, DenseOptions{}).has_value());
 }
 
+// The server keeps one refiner per aligner: what it refined before, and a camera that changed
+// in between, must not change a result.
+TEST(DenseRefinement, AKeptRefinerGivesWhatAFreshOneGives) {
+  const std::vector<SyntheticFrame> frames = NoisyRoomFrames();
+  const DenseOptions o;
+  DenseFrame wider = Dense(frames[1], o);  // the same images as if seen with another lens
+  wider.camera.fx *= 1.05;
+  wider.camera.fy *= 1.05;
+  DenseRefiner kept(o);
+  int refined = 0;
+  for (size_t i = 4; i < frames.size(); i += 3) {
+    const Verification v = VerifyPair(frames[i].features, frames[i - 4].features, VerifyOptions{});
+    if (!v.accepted) continue;
+    const DenseFrame a = Dense(frames[i], o), b = Dense(frames[i - 4], o);
+    // a twice (the second solve reuses what the first set up), then another camera.
+    for (const DenseFrame* target : std::vector<const DenseFrame*>{&a, &a, &wider}) {
+      const std::optional<SE3d> fresh = RefineDense(*target, b, v.T_a_b, o);
+      const std::optional<SE3d> again = kept.Refine(*target, b, v.T_a_b);
+      ASSERT_EQ(fresh.has_value(), again.has_value()) << "pair " << i;
+      if (!fresh) continue;
+      ++refined;
+      EXPECT_EQ(fresh->matrix(), again->matrix()) << "pair " << i;
+    }
+  }
+  EXPECT_GE(refined, 4);
+}
+
 TEST(DenseRefinement, CacheKeepsTheMostRecentlyUsed) {
   DenseFrameCache cache(2);
   auto frame = [] { return std::make_shared<const DenseFrame>(); };

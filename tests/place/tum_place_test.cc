@@ -17,9 +17,11 @@
 
 #include <algorithm>
 #include <numbers>
+#include <opencv2/features2d.hpp>
 #include <random>
 
 #include "common/config.h"
+#include "server/place/binary_descriptor.h"
 #include "server/place/geometric_verification.h"
 #include "server/place/place_database.h"
 #include "synth/renderer.h"
@@ -115,6 +117,35 @@ TEST(TumSamplePlaceTest, VerificationRecoversTheRelativeTransform) {
   EXPECT_GE(errors.size(), 20u);
   EXPECT_LE(errors.MedianT(), 0.04);
   EXPECT_LE(errors.MedianR(), 3.0);
+}
+
+// Verification's matcher finds what OpenCV's brute-force matcher finds, on real ORB features.
+TEST(TumSamplePlaceTest, TwoNearestRowsAgreeWithOpenCvsBruteForceMatcher) {
+  const auto& kfs = Sample();
+  ASSERT_EQ(kfs.size(), 60u);
+  size_t compared = 0, unique_best = 0;
+  for (size_t i = 0; i + 7 < kfs.size(); i += 7) {
+    const cv::Mat& q = kfs[i].features.descriptors;
+    const cv::Mat& t = kfs[i + 7].features.descriptors;
+    std::vector<std::vector<cv::DMatch>> knn;
+    cv::BFMatcher(cv::NORM_HAMMING).knnMatch(q, t, knn, 2);
+    const std::vector<TwoNearest> ours = TwoNearestRows(q, t);
+    ASSERT_EQ(ours.size(), knn.size());
+    for (size_t r = 0; r < ours.size(); ++r) {
+      ASSERT_EQ(knn[r].size(), 2u);
+      EXPECT_EQ(ours[r].best, static_cast<int>(knn[r][0].distance)) << i << ", row " << r;
+      EXPECT_EQ(ours[r].second, static_cast<int>(knn[r][1].distance)) << i << ", row " << r;
+      if (ours[r].best < ours[r].second) {
+        EXPECT_EQ(ours[r].index, knn[r][0].trainIdx) << i << ", row " << r;
+        ++unique_best;
+      }
+      ++compared;
+    }
+  }
+  EXPECT_GE(compared, 4000u);
+  EXPECT_GE(unique_best, compared / 2);
+  // No train rows: nothing is near.
+  EXPECT_EQ(TwoNearestRows(kfs[0].features.descriptors, cv::Mat(0, 32, CV_8UC1))[0].index, -1);
 }
 
 TEST(TumSamplePlaceTest, VerifyingAFrameWithItselfGivesTheIdentity) {

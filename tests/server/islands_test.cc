@@ -451,8 +451,11 @@ TEST_F(Islands, AnIslandIsAlignedAsAWhole) {
   const loci::v1::AlignmentStats a = Stats(r.query.get()).alignment();
   const int64_t chunk = r.server->options().align.held_chunk_keyframes;
   ASSERT_GT(chunk, 0);
+  // C may align first, ahead of its backlog, and B follow in a merge of its own.
   EXPECT_GE(a.merged_keyframes(), views_["b"].size());
-  EXPECT_GE(a.last_merge_chunks(), (a.merged_keyframes() + chunk - 1) / chunk);
+  EXPECT_GT(a.last_merge_keyframes(), 0u);
+  EXPECT_LE(a.last_merge_keyframes(), a.merged_keyframes());
+  EXPECT_GE(a.last_merge_chunks(), (a.last_merge_keyframes() + chunk - 1) / chunk);
   EXPECT_LT(a.last_merge_longest_hold_ms(), a.last_merge_ms());
   // A restart gives back the same shared map: the merge is in the checkpoint.
   r.grpc.reset();
