@@ -14,7 +14,7 @@ MapPoint* LocalMap::Point(int64_t id) {
   return it == points_.end() ? nullptr : &it->second;
 }
 
-MapPoint* LocalMap::AddPoint(const Vec3d& p_world, const OrbDescriptor& d, int octave,
+MapPoint* LocalMap::AddPoint(const Vec3d& p_world, const Descriptor256& d, int octave,
                              double depth_m) {
   const int64_t id = next_point_id_++;
   MapPoint& p = points_[id];

@@ -17,7 +17,7 @@ namespace loci {
 struct MapPoint {
   int64_t id = 0;
   Vec3d p_world;               // m
-  OrbDescriptor descriptor{};  // from its latest keyframe observation
+  Descriptor256 descriptor{};  // from its latest keyframe observation
   int octave = 0;              // pyramid level of that observation
   double ref_depth_m = 1.0;    // depth of that observation (predicts the level when seen again)
   int visible = 1;             // frames in which it projected inside the image
@@ -48,7 +48,7 @@ class LocalMap {
   void Clear();
   bool empty() const { return keyframes_.empty(); }
   MapPoint* Point(int64_t id);
-  MapPoint* AddPoint(const Vec3d& p_world, const OrbDescriptor& d, int octave, double depth_m);
+  MapPoint* AddPoint(const Vec3d& p_world, const Descriptor256& d, int octave, double depth_m);
   // Adds a keyframe (taking ownership of its record) and drops the oldest beyond the window,
   // with the points no remaining keyframe observes.
   void AddKeyframe(std::unique_ptr<KeyframeRecord> kf);

@@ -6,7 +6,7 @@
 
 namespace loci {
 
-void SearchByProjection(const OrbFrame& frame, const SE3d& T_cam_world, const PinholeCamera& cam,
+LOCI_POPCNT_CLONES void SearchByProjection(const OrbFrame& frame, const SE3d& T_cam_world, const PinholeCamera& cam,
                         const std::vector<MapPoint*>& points, const ProjectionSearchParams& p,
                         int64_t frame_index, std::vector<char>* kp_taken,
                         std::vector<PointMatch>* matches) {
@@ -30,7 +30,7 @@ void SearchByProjection(const OrbFrame& frame, const SE3d& T_cam_world, const Pi
     int best = INT_MAX, second = INT_MAX, best_kp = -1;
     for (int k : cand) {
       if ((*kp_taken)[k]) continue;
-      const int d = HammingDistance(mp->descriptor, frame.descriptors[k]);
+      const int d = Hamming(mp->descriptor, frame.descriptors[k]);
       if (d < best) {
         second = best;
         best = d;
@@ -57,7 +57,7 @@ void SearchByProjection(const OrbFrame& frame, const SE3d& T_cam_world, const Pi
   }
 }
 
-std::vector<std::pair<int, int>> MatchBruteForce(const OrbFrame& frame, const OrbFrame& keyframe,
+LOCI_POPCNT_CLONES std::vector<std::pair<int, int>> MatchBruteForce(const OrbFrame& frame, const OrbFrame& keyframe,
                                                  int max_hamming, float ratio) {
   std::vector<std::pair<int, int>> out;
   std::vector<int> best_dist_for_kf(keyframe.size(), INT_MAX);
@@ -66,7 +66,7 @@ std::vector<std::pair<int, int>> MatchBruteForce(const OrbFrame& frame, const Or
     int best = INT_MAX, second = INT_MAX, best_j = -1;
     for (size_t j = 0; j < keyframe.size(); ++j) {
       if (keyframe.depth_m[j] <= 0) continue;
-      const int d = HammingDistance(frame.descriptors[i], keyframe.descriptors[j]);
+      const int d = Hamming(frame.descriptors[i], keyframe.descriptors[j]);
       if (d < best) {
         second = best;
         best = d;

@@ -11,21 +11,15 @@
 #include <vector>
 
 #include "client/tracking/tracker_options.h"
+#include "common/hamming.h"
 
 namespace loci {
-
-using OrbDescriptor = std::array<uint64_t, 4>;  // 256-bit ORB descriptor
-
-inline int HammingDistance(const OrbDescriptor& a, const OrbDescriptor& b) {
-  return __builtin_popcountll(a[0] ^ b[0]) + __builtin_popcountll(a[1] ^ b[1]) +
-         __builtin_popcountll(a[2] ^ b[2]) + __builtin_popcountll(a[3] ^ b[3]);
-}
 
 struct OrbFrame {
   int64_t t_ns = 0;
   int width_px = 0, height_px = 0;
   std::vector<cv::KeyPoint> keypoints;     // level-0 pixel coordinates
-  std::vector<OrbDescriptor> descriptors;  // one per keypoint
+  std::vector<Descriptor256> descriptors;  // one per keypoint
   std::vector<float> depth_m;              // per keypoint, 0 = no valid depth
   std::vector<Eigen::Vector3d> p_cam;      // per keypoint, valid when depth_m > 0
   std::vector<float> class_weight;         // per keypoint: dynamic weight of its box, or -1
