@@ -2,8 +2,9 @@
 // [--config FILE]`: N robots stream synthetic keyframes (a rendered `loci synth` scene, 640x480
 // with masks) while M query clients alternate Ask and FindObjects (Q calls per second each, or
 // as fast as answered), all over loopback gRPC to an in-process loci server with the query
-// engine. The clients share the server's cores: unpaced, they take whatever the server leaves. Prints errors, the ingest rate, Ask and FindObjects p50/p99/max, and
-// the resident memory every 10 s.
+// engine. The clients share the server's cores: unpaced, they take whatever the server leaves.
+// Prints errors, the ingest rate, Ask and FindObjects p50/p99/max, the resident memory every
+// 10 s, and the keyframes still queued at the end.
 #include <grpcpp/create_channel.h>
 #include <unistd.h>
 

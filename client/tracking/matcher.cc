@@ -6,10 +6,12 @@
 
 namespace loci {
 
-LOCI_POPCNT_CLONES void SearchByProjection(const OrbFrame& frame, const SE3d& T_cam_world, const PinholeCamera& cam,
-                        const std::vector<MapPoint*>& points, const ProjectionSearchParams& p,
-                        int64_t frame_index, std::vector<char>* kp_taken,
-                        std::vector<PointMatch>* matches) {
+LOCI_POPCNT_CLONES void SearchByProjection(const OrbFrame& frame, const SE3d& T_cam_world,
+                                           const PinholeCamera& cam,
+                                           const std::vector<MapPoint*>& points,
+                                           const ProjectionSearchParams& p, int64_t frame_index,
+                                           std::vector<char>* kp_taken,
+                                           std::vector<PointMatch>* matches) {
   // Best candidate per keypoint: index into `proposals`.
   std::vector<int> best_for_kp(frame.size(), -1);
   std::vector<PointMatch> proposals;
@@ -57,8 +59,9 @@ LOCI_POPCNT_CLONES void SearchByProjection(const OrbFrame& frame, const SE3d& T_
   }
 }
 
-LOCI_POPCNT_CLONES std::vector<std::pair<int, int>> MatchBruteForce(const OrbFrame& frame, const OrbFrame& keyframe,
-                                                 int max_hamming, float ratio) {
+LOCI_POPCNT_CLONES std::vector<std::pair<int, int>> MatchBruteForce(const OrbFrame& frame,
+                                                                    const OrbFrame& keyframe,
+                                                                    int max_hamming, float ratio) {
   std::vector<std::pair<int, int>> out;
   std::vector<int> best_dist_for_kf(keyframe.size(), INT_MAX);
   std::vector<int> owner(keyframe.size(), -1);

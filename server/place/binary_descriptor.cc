@@ -2,7 +2,8 @@
 
 namespace loci::place {
 
-LOCI_POPCNT_CLONES std::vector<TwoNearest> TwoNearestRows(const cv::Mat& query, const cv::Mat& train) {
+LOCI_POPCNT_CLONES std::vector<TwoNearest> TwoNearestRows(const cv::Mat& query,
+                                                          const cv::Mat& train) {
   std::vector<Descriptor256> rows(static_cast<size_t>(train.rows));
   for (int j = 0; j < train.rows; ++j) rows[j] = DescriptorRow(train, j);
   std::vector<TwoNearest> out(static_cast<size_t>(query.rows));

@@ -66,12 +66,11 @@ std::optional<SE3d> DenseRefiner::Refine(const DenseFrame& a, const DenseFrame& 
   } else {
     odometry_->setCameraMatrix(K);  // its normal estimator is rebuilt only if K changed
   }
-  const cv::Ptr<cv::rgbd::RgbdICPOdometry>& odometry = odometry_;
   cv::Mat init, Rt;
   const Eigen::Matrix4d T = T_a_b.matrix();
   cv::eigen2cv(T, init);
   // OpenCV's Rt carries the source frame's points into the destination's: source b, target a.
-  if (!odometry->compute(b.grey, b.depth_m, cv::Mat(), a.grey, a.depth_m, cv::Mat(), Rt, init)) {
+  if (!odometry_->compute(b.grey, b.depth_m, cv::Mat(), a.grey, a.depth_m, cv::Mat(), Rt, init)) {
     return std::nullopt;
   }
   Eigen::Matrix4d refined;
