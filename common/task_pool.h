@@ -29,11 +29,17 @@ class TaskPool {
   std::future<std::invoke_result_t<F>> Submit(F f) {
     auto task = std::make_shared<std::packaged_task<std::invoke_result_t<F>()>>(std::move(f));
     std::future<std::invoke_result_t<F>> result = task->get_future();
-    boost::asio::post(pool_, [task] { (*task)(); });
+    boost::asio::post(pool_, [task] {
+      NameThisPoolThread();
+      (*task)();
+    });
     return result;
   }
 
  private:
+  // Names the pool thread running it "loci-pool", once per thread (common/thread_name.h).
+  static void NameThisPoolThread();
+
   boost::asio::thread_pool pool_;
 };
 

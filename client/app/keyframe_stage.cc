@@ -1,5 +1,6 @@
 #include "client/app/keyframe_stage.h"
 
+#include "common/thread_name.h"
 #include <spdlog/spdlog.h>
 
 #include <chrono>
@@ -15,7 +16,12 @@ KeyframeStage::KeyframeStage(std::unique_ptr<detection::Detector> detector,
       sink_(std::move(sink)),
       synchronous_(capacity == 0),
       queue_(capacity) {
-  if (!synchronous_) thread_ = std::thread([this] { Loop(); });
+  if (!synchronous_) {
+    thread_ = std::thread([this] {
+      NameThisThread("track-keyframes");
+      Loop();
+    });
+  }
 }
 
 KeyframeStage::~KeyframeStage() { (void)Finish(); }

@@ -7,6 +7,7 @@
 #include <chrono>
 
 #include "client/streaming/keyframe_encoder.h"
+#include "common/thread_name.h"
 #include "loci/v1/mapping.grpc.pb.h"
 #include "proto/convert.h"
 
@@ -262,7 +263,10 @@ StatusOr<std::unique_ptr<MapClient>> MapClient::Connect(const MapClientOptions& 
   LOCI_RETURN_IF_ERROR(impl->OpenSession(/*resume=*/false, &last_stored));
   impl->next_seq = last_stored + 1;
   Impl* raw = impl.get();
-  impl->sender = std::thread([raw] { raw->SenderLoop(); });
+  impl->sender = std::thread([raw] {
+    NameThisThread("track-send");
+    raw->SenderLoop();
+  });
   return std::unique_ptr<MapClient>(new MapClient(std::move(impl)));
 }
 

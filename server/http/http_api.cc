@@ -2,6 +2,7 @@
 
 #include <optional>
 
+#include "common/thread_name.h"
 #include "proto/json.h"
 #include "server/http/event_stream.h"
 #include "server/http/http_reply.h"
@@ -149,7 +150,10 @@ StatusOr<std::unique_ptr<HttpApi>> HttpApi::Start(QueryService* service,
   if (api->port_ <= 0) {
     return absl::UnavailableError("HTTP API cannot listen on " + listen);
   }
-  api->thread_ = std::thread([raw = api.get()] { raw->http_->listen_after_bind(); });
+  api->thread_ = std::thread([raw = api.get()] {
+    NameThisThread("loci-http");
+    raw->http_->listen_after_bind();
+  });
   return api;
 }
 

@@ -5,6 +5,7 @@
 #include <set>
 #include <unordered_map>
 
+#include "common/thread_name.h"
 #include "server/map/keyframe_products.h"
 #include "server/map/map_points.h"
 
@@ -36,8 +37,14 @@ Mapper::Mapper(const MapOptions& options)
   // it (RebuildOctomap), as does SettleFrame: read the pointer only under octo_mu_, and test
   // options_.octomap.enabled instead of the pointer.
   if (options_.octomap.enabled) {
-    octomap_thread_ = std::thread([this] { OctomapLoop(); });
-    rebuild_thread_ = std::thread([this] { RebuildLoop(); });
+    octomap_thread_ = std::thread([this] {
+      NameThisThread("loci-octomap");
+      OctomapLoop();
+    });
+    rebuild_thread_ = std::thread([this] {
+      NameThisThread("loci-rebuild");
+      RebuildLoop();
+    });
   }
 }
 

@@ -9,6 +9,7 @@
 #include <limits>
 #include <regex>
 
+#include "common/thread_name.h"
 #include "common/time.h"
 #include "server/map/keyframe_products.h"
 #include "server/map/product_codec.h"
@@ -72,7 +73,10 @@ StatusOr<std::unique_ptr<MapServer>> MapServer::OpenAsync(
     store = std::move(sqlite);
   }
   std::unique_ptr<MapServer> server(new MapServer(options, std::move(store), std::move(detector)));
-  server->loader_ = std::thread([s = server.get()] { s->LoadLoop(); });
+  server->loader_ = std::thread([s = server.get()] {
+    NameThisThread("loci-load");
+    s->LoadLoop();
+  });
   return server;
 }
 
@@ -111,8 +115,16 @@ void MapServer::LoadLoop() {
     DeclareStoredSessions();
     mapper_->SetEventListener(
         [this](const std::vector<ObjectEventOut>& events) { Publish(events); });
-    worker_ = std::thread([this] { WorkerLoop(); });
-    if (aligner_) align_thread_ = std::thread([this] { AlignLoop(); });
+    worker_ = std::thread([this] {
+      NameThisThread("loci-worker");
+      WorkerLoop();
+    });
+    if (aligner_) {
+      align_thread_ = std::thread([this] {
+        NameThisThread("loci-align");
+        AlignLoop();
+      });
+    }
   } else {
     spdlog::error("the map failed to load: {}", report.status().ToString());
   }

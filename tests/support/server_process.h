@@ -31,6 +31,7 @@ class ServerProcess {
 
   // The bound gRPC port; 0 when the server ended before listening (Stop gives its status).
   int port() const { return port_; }
+  pid_t pid() const { return pid_; }
   // The HTTP port from "http on HOST:PORT" (0 without --http).
   int http_port() const { return http_port_; }
   std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
