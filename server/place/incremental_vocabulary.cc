@@ -11,6 +11,8 @@ namespace loci::place {
 namespace {
 
 constexpr int kSplitIterations = 10;
+// Bytes of each visited leaf fetched ahead of its scan (a leaf holds up to 32 bytes per word).
+constexpr size_t kPrefetchBytes = 1024;
 
 // Index of the centre nearest d (the first of equals).
 int Nearest(const std::vector<Descriptor256>& centres, const Descriptor256& d) {
@@ -45,8 +47,8 @@ Descriptor256 Majority(const std::vector<Descriptor256>& items, const std::vecto
 
 // k-means++ seeding: each next centre drawn with probability proportional to the squared
 // distance to the nearest centre chosen so far.
-std::vector<Descriptor256> SeedCentres(const std::vector<Descriptor256>& items, int k,
-                                       std::mt19937_64& rng) {
+LOCI_POPCNT_CLONES std::vector<Descriptor256> SeedCentres(const std::vector<Descriptor256>& items,
+                                                          int k, std::mt19937_64& rng) {
   std::vector<Descriptor256> centres{items[rng() % items.size()]};
   std::vector<double> weight(items.size());
   while (static_cast<int>(centres.size()) < k) {
@@ -81,8 +83,9 @@ void CompactLabels(std::vector<int>* labels, std::vector<Descriptor256>* centres
 
 }  // namespace
 
-std::vector<int> KMajority(const std::vector<Descriptor256>& items, int k, int iterations,
-                           uint64_t seed, std::vector<Descriptor256>* centres) {
+LOCI_POPCNT_CLONES std::vector<int> KMajority(const std::vector<Descriptor256>& items, int k,
+                                              int iterations, uint64_t seed,
+                                              std::vector<Descriptor256>* centres) {
   std::vector<int> labels(items.size(), 0);
   if (items.empty()) {
     centres->clear();
@@ -110,18 +113,17 @@ std::vector<int> KMajority(const std::vector<Descriptor256>& items, int k, int i
 
 IncrementalVocabulary::IncrementalVocabulary(const VocabularyOptions& options)
     : options_(options), nodes_(1) {
+  options_.search_leaves = std::clamp(options_.search_leaves, 1, kMaxSearchLeaves);
   nodes_[0].split_at = options_.max_leaf_words;
 }
 
-LOCI_POPCNT_CLONES WordId IncrementalVocabulary::Search(
-    const Descriptor256& d, int* first_leaf) const {
+LOCI_POPCNT_CLONES void IncrementalVocabulary::CollectLeaves(const Descriptor256& d,
+                                                             LeafList* out) const {
   using Entry = std::pair<int, int>;  // (distance to the branch's centre, node)
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> branches;
   branches.emplace(0, 0);
-  WordId best = kNoWord;
-  int best_dist = options_.word_max_hamming + 1;
-  *first_leaf = -1;
-  for (int leaves = 0; leaves < options_.search_leaves && !branches.empty(); ++leaves) {
+  out->count = 0;
+  while (out->count < options_.search_leaves && !branches.empty()) {
     int n = branches.top().second;
     branches.pop();
     while (!nodes_[n].children.empty()) {  // descend, remembering the other branches
@@ -134,8 +136,22 @@ LOCI_POPCNT_CLONES WordId IncrementalVocabulary::Search(
       }
       n = node.children[nearest];
     }
-    if (*first_leaf < 0) *first_leaf = n;
-    const Node& leaf = nodes_[n];
+    out->leaves[out->count++] = n;
+    // The leaf is scanned later: start fetching its descriptors now, so that the cache misses
+    // of several leaves overlap (the hardware prefetcher follows each stream).
+    const std::vector<Descriptor256>& words = nodes_[n].descriptors;
+    const char* bytes = reinterpret_cast<const char*>(words.data());
+    const size_t size = words.size() * sizeof(Descriptor256);
+    for (size_t at = 0; at < size && at < kPrefetchBytes; at += 64) __builtin_prefetch(bytes + at);
+  }
+}
+
+LOCI_POPCNT_CLONES WordId IncrementalVocabulary::ScanLeaves(const Descriptor256& d,
+                                                            const LeafList& list) const {
+  WordId best = kNoWord;
+  int best_dist = options_.word_max_hamming + 1;
+  for (int l = 0; l < list.count; ++l) {
+    const Node& leaf = nodes_[list.leaves[l]];
     for (size_t i = 0; i < leaf.descriptors.size(); ++i) {
       const int dist = Hamming(leaf.descriptors[i], d);
       if (dist < best_dist) {
@@ -148,9 +164,11 @@ LOCI_POPCNT_CLONES WordId IncrementalVocabulary::Search(
 }
 
 WordId IncrementalVocabulary::Quantise(const Descriptor256& d, bool add_words) {
-  int leaf = 0;
-  const WordId best = Search(d, &leaf);
-  if (best != kNoWord || !add_words) return best;
+  LeafList list;
+  CollectLeaves(d, &list);
+  const WordId best = ScanLeaves(d, list);
+  if (best != kNoWord || !add_words || list.count == 0) return best;
+  const int leaf = list.leaves[0];
   const WordId id = static_cast<WordId>(words_.size());
   words_.push_back(d);
   nodes_[leaf].words.push_back(id);
@@ -172,7 +190,7 @@ std::vector<WordId> IncrementalVocabulary::Quantise(const cv::Mat& descriptors, 
   return out;
 }
 
-void IncrementalVocabulary::SplitLeaf(int leaf) {
+LOCI_POPCNT_CLONES void IncrementalVocabulary::SplitLeaf(int leaf) {
   const std::vector<Descriptor256> items = nodes_[leaf].descriptors;
   std::vector<Descriptor256> centres;
   KMajority(items, options_.branching, kSplitIterations, static_cast<uint64_t>(leaf), &centres);

@@ -51,8 +51,17 @@ class IncrementalVocabulary {
     int split_at = 0;  // leaf: split when holding more words than this
   };
 
-  // The nearest word within word_max_hamming (kNoWord if none) and the first leaf visited.
-  WordId Search(const Descriptor256& d, int* first_leaf) const;
+  // The leaves a search visits, in order.
+  struct LeafList {
+    int count = 0;
+    int leaves[kMaxSearchLeaves];
+  };
+
+  // A search in two steps: the descents to the leaves (nearest centres first), which depend
+  // only on the tree, and the scan of those leaves for the nearest word within
+  // word_max_hamming (kNoWord if none). A new word joins the first leaf of the list.
+  void CollectLeaves(const Descriptor256& d, LeafList* out) const;
+  WordId ScanLeaves(const Descriptor256& d, const LeafList& list) const;
   void SplitLeaf(int leaf);
 
   VocabularyOptions options_;

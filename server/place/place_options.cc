@@ -138,8 +138,9 @@ Status ValidateVocabulary(const VocabularyOptions& v) {
     return Bad("vocabulary.max_leaf_words in [branching, 4096]");
   }
   if (v.max_depth < 1 || v.max_depth > 64) return Bad("vocabulary.max_depth in [1, 64]");
-  if (v.search_leaves < 1 || v.search_leaves > 256)
+  if (v.search_leaves < 1 || v.search_leaves > kMaxSearchLeaves)
     return Bad("vocabulary.search_leaves in [1, 256]");
+  static_assert(kMaxSearchLeaves == 256, "the message above names the bound");
   return absl::OkStatus();
 }
 

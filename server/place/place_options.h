@@ -39,9 +39,10 @@ struct VocabularyOptions {
   int max_leaf_words = 256;  // a leaf holding more words is split by k-majority clustering (256)
   int max_depth = 16;        // leaves at this depth are no longer split (16)
   // Leaves a search visits, nearest centres first: more finds more words again across cluster
-  // borders, at a proportional cost (4).
+  // borders, at a proportional cost (4; at most kMaxSearchLeaves).
   int search_leaves = 4;
 };
+inline constexpr int kMaxSearchLeaves = 256;
 
 // Candidate retrieval (place_database.h).
 struct QueryOptions {
