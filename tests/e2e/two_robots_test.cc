@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <functional>
@@ -133,6 +134,8 @@ int CrossRobotDuplicates(const std::vector<v1::Object>& objects, double radius_m
 
 struct MappedCheck {
   PoseError start;          // B's first keyframe from A's first, against the ground truth
+  double start_yaw_deg = 0;   // ... its rotation error about the map's up (z), and
+  double start_tilt_deg = 0;  // about the horizontal axes
   double joint_ate_m = 0;   // A's and B's keyframes in one rigid alignment to the ground truth
   double a_ate_m = 0;       // A's alone
   std::optional<SE3d> T_gt_map;  // that joint alignment
@@ -151,8 +154,15 @@ MappedCheck CheckMapped(const std::string& tum, const RobotsResult& r, int64_t c
   const auto ga = InterpolatePose(*gt, a.front().t_ns + clock_offset_ns, 40'000'000);
   const auto gb = InterpolatePose(*gt, b.front().t_ns + clock_offset_ns, 40'000'000);
   if (ga.has_value() && gb.has_value()) {
-    out.start = Error(ga->inverse() * *gb,
-                      a.front().T_world_cam.inverse() * b.front().T_world_cam);
+    const SE3d truth = ga->inverse() * *gb;
+    const SE3d estimate = a.front().T_world_cam.inverse() * b.front().T_world_cam;
+    out.start = Error(truth, estimate);
+    // The error's rotation vector, in B's first camera frame, split along the map's up there.
+    const Eigen::AngleAxisd e((truth.inverse() * estimate).linear());
+    const Vec3d w_deg = e.axis() * e.angle() * 180.0 / M_PI;
+    const Vec3d up_b = b.front().T_world_cam.linear().transpose() * Vec3d::UnitZ();
+    out.start_yaw_deg = std::abs(w_deg.dot(up_b));
+    out.start_tilt_deg = (w_deg - w_deg.dot(up_b) * up_b).norm();
   }
   Trajectory joint = a;
   joint.insert(joint.end(), b.begin(), b.end());
@@ -275,7 +285,9 @@ void CheckTwoRobots(const std::string& tum, const RobotRun& a, const RobotRun& b
               static_cast<unsigned long long>(r.stats.pose_graph().merges_accepted()),
               static_cast<unsigned long long>(r.stats.pose_graph().loops_accepted()));
   std::printf("server's keyframes, ground truth at the clock offset: B's first from A's first "
-              "%.4f m, %.3f deg\n", mapped_at.start.t_m, mapped_at.start.r_deg);
+              "%.4f m, %.3f deg (%.3f deg of yaw, %.3f deg of tilt)\n",
+              mapped_at.start.t_m, mapped_at.start.r_deg, mapped_at.start_yaw_deg,
+              mapped_at.start_tilt_deg);
   EXPECT_LT(gt.t_m, max_gt_t_m);
   EXPECT_LT(gt.r_deg, max_gt_r_deg);
   EXPECT_GT(pairs, 0);
