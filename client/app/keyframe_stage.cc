@@ -1,9 +1,10 @@
 #include "client/app/keyframe_stage.h"
 
-#include "common/thread_name.h"
 #include <spdlog/spdlog.h>
 
 #include <chrono>
+
+#include "common/thread_name.h"
 
 namespace loci {
 
@@ -16,12 +17,7 @@ KeyframeStage::KeyframeStage(std::unique_ptr<detection::Detector> detector,
       sink_(std::move(sink)),
       synchronous_(capacity == 0),
       queue_(capacity) {
-  if (!synchronous_) {
-    thread_ = std::thread([this] {
-      NameThisThread("track-keyframes");
-      Loop();
-    });
-  }
+  if (!synchronous_) thread_ = NamedThread("track-keyframes", [this] { Loop(); });
 }
 
 KeyframeStage::~KeyframeStage() { (void)Finish(); }

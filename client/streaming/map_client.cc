@@ -263,10 +263,7 @@ StatusOr<std::unique_ptr<MapClient>> MapClient::Connect(const MapClientOptions& 
   LOCI_RETURN_IF_ERROR(impl->OpenSession(/*resume=*/false, &last_stored));
   impl->next_seq = last_stored + 1;
   Impl* raw = impl.get();
-  impl->sender = std::thread([raw] {
-    NameThisThread("track-send");
-    raw->SenderLoop();
-  });
+  impl->sender = NamedThread("track-send", [raw] { raw->SenderLoop(); });
   return std::unique_ptr<MapClient>(new MapClient(std::move(impl)));
 }
 

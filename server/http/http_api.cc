@@ -150,10 +150,7 @@ StatusOr<std::unique_ptr<HttpApi>> HttpApi::Start(QueryService* service,
   if (api->port_ <= 0) {
     return absl::UnavailableError("HTTP API cannot listen on " + listen);
   }
-  api->thread_ = std::thread([raw = api.get()] {
-    NameThisThread("loci-http");
-    raw->http_->listen_after_bind();
-  });
+  api->thread_ = NamedThread("loci-http", [raw = api.get()] { raw->http_->listen_after_bind(); });
   return api;
 }
 

@@ -37,14 +37,8 @@ Mapper::Mapper(const MapOptions& options)
   // it (RebuildOctomap), as does SettleFrame: read the pointer only under octo_mu_, and test
   // options_.octomap.enabled instead of the pointer.
   if (options_.octomap.enabled) {
-    octomap_thread_ = std::thread([this] {
-      NameThisThread("loci-octomap");
-      OctomapLoop();
-    });
-    rebuild_thread_ = std::thread([this] {
-      NameThisThread("loci-rebuild");
-      RebuildLoop();
-    });
+    octomap_thread_ = NamedThread("loci-octomap", [this] { OctomapLoop(); });
+    rebuild_thread_ = NamedThread("loci-rebuild", [this] { RebuildLoop(); });
   }
 }
 

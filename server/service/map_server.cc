@@ -73,10 +73,7 @@ StatusOr<std::unique_ptr<MapServer>> MapServer::OpenAsync(
     store = std::move(sqlite);
   }
   std::unique_ptr<MapServer> server(new MapServer(options, std::move(store), std::move(detector)));
-  server->loader_ = std::thread([s = server.get()] {
-    NameThisThread("loci-load");
-    s->LoadLoop();
-  });
+  server->loader_ = NamedThread("loci-load", [s = server.get()] { s->LoadLoop(); });
   return server;
 }
 
@@ -115,16 +112,8 @@ void MapServer::LoadLoop() {
     DeclareStoredSessions();
     mapper_->SetEventListener(
         [this](const std::vector<ObjectEventOut>& events) { Publish(events); });
-    worker_ = std::thread([this] {
-      NameThisThread("loci-worker");
-      WorkerLoop();
-    });
-    if (aligner_) {
-      align_thread_ = std::thread([this] {
-        NameThisThread("loci-align");
-        AlignLoop();
-      });
-    }
+    worker_ = NamedThread("loci-worker", [this] { WorkerLoop(); });
+    if (aligner_) align_thread_ = NamedThread("loci-align", [this] { AlignLoop(); });
   } else {
     spdlog::error("the map failed to load: {}", report.status().ToString());
   }
