@@ -1,7 +1,5 @@
 #include "server/service/map_server.h"
 
-#include "common/malloc_tuning.h"
-
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -9,6 +7,7 @@
 #include <limits>
 #include <regex>
 
+#include "common/malloc_tuning.h"
 #include "common/thread_name.h"
 #include "common/time.h"
 #include "server/map/keyframe_products.h"
@@ -38,12 +37,13 @@ MapServer::MapServer(const ServerOptions& options, std::shared_ptr<MapStore> sto
       store_(std::move(store)),
       detector_(std::move(detector)),
       mapper_(std::make_unique<Mapper>(options.map)),
-      features_(std::make_unique<StoreFeatureStore>(store_.get(),
-                                                    options.place.features.Fingerprint())),
+      features_(
+          std::make_unique<StoreFeatureStore>(store_.get(), options.place.features.Fingerprint())),
       images_(std::make_unique<StoreImageSource>(store_.get())),
-      aligner_(options.align.enabled ? std::make_unique<RobotAligner>(options.place, options.align,
-                                                                      features_.get(), images_.get())
-                                     : nullptr),
+      aligner_(options.align.enabled
+                   ? std::make_unique<RobotAligner>(options.place, options.align, features_.get(),
+                                                    images_.get())
+                   : nullptr),
       closer_(options.align.enabled && options.align.loops.enabled
                   ? std::make_unique<LoopCloser>(options.graph, options.align.loops)
                   : nullptr),
@@ -67,7 +67,7 @@ StatusOr<std::unique_ptr<MapServer>> MapServer::OpenAsync(
   LOCI_RETURN_IF_ERROR(options.align.Validate());
   LOCI_RETURN_IF_ERROR(options.graph.Validate());
   KeepLargeBlocksOnMmap();  // decoded images cross threads (common/malloc_tuning.h)
-  LimitHeapArenas();  // arenas created from here on (main() calls it before any thread)
+  LimitHeapArenas();        // arenas created from here on (main() calls it before any thread)
   if (!store) {
     LOCI_ASSIGN_OR_RETURN(std::unique_ptr<SqliteStore> sqlite, SqliteStore::Open(options.db_path));
     store = std::move(sqlite);
@@ -102,8 +102,7 @@ void MapServer::LoadLoop() {
         "loaded the map in {:.2f} s: checkpoint at keyframe {}, then {} keyframes from products, "
         "{} from images, {} skipped",
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
-        report->checkpoint_keyframe_id, report->from_products, report->from_raw,
-        report->skipped);
+        report->checkpoint_keyframe_id, report->from_products, report->from_raw, report->skipped);
     // A restart after many keyframes should not re-derive them again.
     if (report->keyframes() >= static_cast<uint64_t>(options_.checkpoint_keyframes)) {
       if (Status s = Checkpoint(); !s.ok()) spdlog::warn("checkpoint: {}", s.ToString());
@@ -353,9 +352,8 @@ StatusOr<SessionRecord> MapServer::FindSession(const std::string& session_id,
         absl::StrCat("unknown session '", session_id, "' (call OpenSession first)"));
   }
   if (only_robot != nullptr && found->robot_name != *only_robot) {
-    return absl::PermissionDeniedError(absl::StrCat("session '", session_id,
-                                                    "' belongs to another robot than '",
-                                                    *only_robot, "'"));
+    return absl::PermissionDeniedError(absl::StrCat(
+        "session '", session_id, "' belongs to another robot than '", *only_robot, "'"));
   }
   return *found;
 }
@@ -394,11 +392,11 @@ loci::v1::KeyframeAck MapServer::Ingest(const loci::v1::Keyframe& kf,
                                  absl::StrCat("storage failed: ", inserted.status().message())));
   }
   if (inserted->conflict) {
-    loci::v1::KeyframeAck ack = MakeAck(
-        kf.seq(), absl::AlreadyExistsError(absl::StrCat(
-                      "seq ", kf.seq(), " of ", kf.session_id(),
-                      " is already stored with a different stamp, pose or images; kept the "
-                      "stored one")));
+    loci::v1::KeyframeAck ack =
+        MakeAck(kf.seq(), absl::AlreadyExistsError(absl::StrCat(
+                              "seq ", kf.seq(), " of ", kf.session_id(),
+                              " is already stored with a different stamp, pose or images; kept the "
+                              "stored one")));
     ack.set_keyframe_id(inserted->keyframe_id);
     ack.set_duplicate(true);
     return ack;
@@ -489,8 +487,7 @@ void MapServer::WorkerLoop() {
       worker_longest_wait_ms_ = std::max(worker_longest_wait_ms_.load(), MsSince(t0));
       recognise = MapQueued(*kf);
       mapping_ms_total_.fetch_add(
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-              .count());
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
       ++mapping_count_;
       MaybeCheckpoint();
     }
@@ -568,9 +565,10 @@ double MapServer::store_ms_mean() const {
 Status MapServer::Subscribe(std::shared_ptr<ObjectEventQueue> queue) {
   std::lock_guard<std::mutex> lock(watchers_mu_);
   if (watchers_.size() >= static_cast<size_t>(options_.max_watchers)) {
-    return absl::ResourceExhaustedError(absl::StrCat(
-        "already ", watchers_.size(), " WatchObjects streams (server.max_watchers); each holds a "
-        "server thread"));
+    return absl::ResourceExhaustedError(
+        absl::StrCat("already ", watchers_.size(),
+                     " WatchObjects streams (server.max_watchers); each holds a "
+                     "server thread"));
   }
   watchers_.push_back(std::move(queue));
   return absl::OkStatus();

@@ -77,7 +77,7 @@ SE3d TrueAToB(const std::string& tum, const RobotsResult& r, int64_t clock_offse
 // B's keyframes placed by the alignment against A's keyframes of the same images (both robots
 // tracked those frames): the alignment's error without either robot's drift since its start.
 PoseError MedianSameImageError(const RobotsResult& r, const std::string& a, const std::string& b,
-                                const SE3d& T_a_b, int* pairs) {
+                               const SE3d& T_a_b, int* pairs) {
   std::vector<double> t, rot;
   for (const StampedPose& pb : r.keyframes.at(b)) {
     const Trajectory& over = r.frames.count(a) ? r.frames.at(a) : r.keyframes.at(a);
@@ -119,7 +119,8 @@ int CrossRobotDuplicates(const std::vector<v1::Object>& objects, double radius_m
       const v1::Object& x = objects[i];
       const v1::Object& y = objects[j];
       if (x.class_name() != y.class_name() || !disjoint(x, y)) continue;
-      const Vec3d d(x.centroid_m().x() - y.centroid_m().x(), x.centroid_m().y() - y.centroid_m().y(),
+      const Vec3d d(x.centroid_m().x() - y.centroid_m().x(),
+                    x.centroid_m().y() - y.centroid_m().y(),
                     x.centroid_m().z() - y.centroid_m().z());
       if (two_objects && two_objects(x, y)) continue;
       if (d.norm() < radius_m) {
@@ -133,11 +134,11 @@ int CrossRobotDuplicates(const std::vector<v1::Object>& objects, double radius_m
 }
 
 struct MappedCheck {
-  PoseError start;          // B's first keyframe from A's first, against the ground truth
-  double start_yaw_deg = 0;   // ... its rotation error about the map's up (z), and
-  double start_tilt_deg = 0;  // about the horizontal axes
-  double joint_ate_m = 0;   // A's and B's keyframes in one rigid alignment to the ground truth
-  double a_ate_m = 0;       // A's alone
+  PoseError start;               // B's first keyframe from A's first, against the ground truth
+  double start_yaw_deg = 0;      // ... its rotation error about the map's up (z), and
+  double start_tilt_deg = 0;     // about the horizontal axes
+  double joint_ate_m = 0;        // A's and B's keyframes in one rigid alignment to the ground truth
+  double a_ate_m = 0;            // A's alone
   std::optional<SE3d> T_gt_map;  // that joint alignment
 };
 
@@ -182,8 +183,7 @@ MappedCheck CheckMapped(const std::string& tum, const RobotsResult& r, int64_t c
 GtPair GroundTruthPair(const std::string& tum, const MappedCheck& mapped) {
   auto scene = ReadObjectsJson(tum + "/objects_gt.json");
   if (!scene.ok() || !mapped.T_gt_map) return nullptr;
-  return [gt = std::move(*scene), T = *mapped.T_gt_map](const v1::Object& x,
-                                                         const v1::Object& y) {
+  return [gt = std::move(*scene), T = *mapped.T_gt_map](const v1::Object& x, const v1::Object& y) {
     auto within = [&](const v1::Object& o) {  // ids of the class within 0.3 m
       const Vec3d c_gt = T * Vec3d(o.centroid_m().x(), o.centroid_m().y(), o.centroid_m().z());
       std::vector<int64_t> ids;
@@ -211,15 +211,16 @@ int64_t ImageClockOffsetNs(const std::string& tum, const RobotsResult& r) {
   if (!gt.ok() || !r.frames.count("A")) return 0;
   auto off = EstimateClockOffset(*gt, r.frames.at("A"));
   if (!off.ok()) return 0;
-  std::printf("images' clock offset to the ground truth (from A's odometry): %+.0f ms; A's "
-              "orientation residual %.2f deg at the stamps, %.2f deg at the offset\n",
-              off->offset_ns * 1e-6, off->rms_deg_at_zero, off->rms_deg);
+  std::printf(
+      "images' clock offset to the ground truth (from A's odometry): %+.0f ms; A's "
+      "orientation residual %.2f deg at the stamps, %.2f deg at the offset\n",
+      off->offset_ns * 1e-6, off->rms_deg_at_zero, off->rms_deg);
   return off->offset_ns;
 }
 
-void CheckTwoRobots(const std::string& tum, const RobotRun& a, const RobotRun& b,
-                    double max_gt_t_m, double max_gt_r_deg, double max_same_t_m,
-                    double max_same_r_deg, bool check_duplicates) {
+void CheckTwoRobots(const std::string& tum, const RobotRun& a, const RobotRun& b, double max_gt_t_m,
+                    double max_gt_r_deg, double max_same_t_m, double max_same_r_deg,
+                    bool check_duplicates) {
   const std::string dir =
       (fs::temp_directory_path() / ("loci_two_robots_" + std::to_string(getpid()))).string();
   fs::remove_all(dir);
@@ -238,8 +239,7 @@ void CheckTwoRobots(const std::string& tum, const RobotRun& a, const RobotRun& b
   EXPECT_EQ(r.stats.alignment().merges_accepted(), 1u);
   // Verified matches are refined by the dense alignment (place.dense), most of them.
   const v1::AlignmentStats& al = r.stats.alignment();
-  EXPECT_GT(al.dense_refined(), al.dense_refused() + al.dense_without_images())
-      << al.DebugString();
+  EXPECT_GT(al.dense_refined(), al.dense_refused() + al.dense_without_images()) << al.DebugString();
   for (const v1::SessionAlignment& s : r.stats.session_alignments()) {
     if (s.robot() != "B") continue;
     std::printf("B aligned after %u of its keyframes, %.2f s (capture time) after its first\n",
@@ -254,40 +254,44 @@ void CheckTwoRobots(const std::string& tum, const RobotRun& a, const RobotRun& b
   // A's own odometry at B's first image against the ground truth: what no alignment to A's map
   // can remove.
   const StampedPose* a_at_b0 =
-      r.frames.count("A")
-          ? NearestByTime<StampedPose>(r.frames.at("A"), r.keyframes.at("B").front().t_ns, 1'000'000)
-          : nullptr;
+      r.frames.count("A") ? NearestByTime<StampedPose>(r.frames.at("A"),
+                                                       r.keyframes.at("B").front().t_ns, 1'000'000)
+                          : nullptr;
   if (a_at_b0 != nullptr) {
     const PoseError drift = Error(TrueAToB(tum, r, 0), a_at_b0->T_world_cam);
     const PoseError drift_at = Error(TrueAToB(tum, r, offset_ns), a_at_b0->T_world_cam);
-    std::printf("A's odometry at B's first image: %.4f m, %.3f deg from the ground truth "
-                "(at the clock offset: %.4f m, %.3f deg)\n",
-                drift.t_m, drift.r_deg, drift_at.t_m, drift_at.r_deg);
+    std::printf(
+        "A's odometry at B's first image: %.4f m, %.3f deg from the ground truth "
+        "(at the clock offset: %.4f m, %.3f deg)\n",
+        drift.t_m, drift.r_deg, drift_at.t_m, drift_at.r_deg);
   }
-  std::printf("B aligned to A: %.4f m, %.3f deg from the ground truth's relative transform; "
-              "same-image keyframes (%d): median %.4f m, %.3f deg; place recognition %.1f ms/kf; "
-              "%llu verified, %llu rejected, %llu held keyframes merged\n",
-              gt.t_m, gt.r_deg, pairs, same.t_m, same.r_deg, r.stats.alignment().place_ms_mean(),
-              static_cast<unsigned long long>(r.stats.alignment().verified()),
-              static_cast<unsigned long long>(r.stats.alignment().rejected()),
-              static_cast<unsigned long long>(r.stats.alignment().merged_keyframes()));
+  std::printf(
+      "B aligned to A: %.4f m, %.3f deg from the ground truth's relative transform; "
+      "same-image keyframes (%d): median %.4f m, %.3f deg; place recognition %.1f ms/kf; "
+      "%llu verified, %llu rejected, %llu held keyframes merged\n",
+      gt.t_m, gt.r_deg, pairs, same.t_m, same.r_deg, r.stats.alignment().place_ms_mean(),
+      static_cast<unsigned long long>(r.stats.alignment().verified()),
+      static_cast<unsigned long long>(r.stats.alignment().rejected()),
+      static_cast<unsigned long long>(r.stats.alignment().merged_keyframes()));
   // The same from the server's keyframe poses (after its pose graph moved them): B's first
   // keyframe seen from A's first, and both robots' keyframes against the ground truth at once.
   std::printf("B aligned to A, ground truth at the clock offset: %.4f m, %.3f deg\n",
               gt_at_offset.t_m, gt_at_offset.r_deg);
   const MappedCheck mapped = CheckMapped(tum, r, 0);
   const MappedCheck mapped_at = CheckMapped(tum, r, offset_ns);
-  std::printf("server's keyframes: B's first from A's first %.4f m, %.3f deg from the ground truth; "
-              "joint keyframe ATE %.4f m (A alone %.4f m); %llu graph solves, %llu merges kept, "
-              "%llu loops kept\n",
-              mapped.start.t_m, mapped.start.r_deg, mapped.joint_ate_m, mapped.a_ate_m,
-              static_cast<unsigned long long>(r.stats.pose_graph().optimizations()),
-              static_cast<unsigned long long>(r.stats.pose_graph().merges_accepted()),
-              static_cast<unsigned long long>(r.stats.pose_graph().loops_accepted()));
-  std::printf("server's keyframes, ground truth at the clock offset: B's first from A's first "
-              "%.4f m, %.3f deg (%.3f deg of yaw, %.3f deg of tilt)\n",
-              mapped_at.start.t_m, mapped_at.start.r_deg, mapped_at.start_yaw_deg,
-              mapped_at.start_tilt_deg);
+  std::printf(
+      "server's keyframes: B's first from A's first %.4f m, %.3f deg from the ground truth; "
+      "joint keyframe ATE %.4f m (A alone %.4f m); %llu graph solves, %llu merges kept, "
+      "%llu loops kept\n",
+      mapped.start.t_m, mapped.start.r_deg, mapped.joint_ate_m, mapped.a_ate_m,
+      static_cast<unsigned long long>(r.stats.pose_graph().optimizations()),
+      static_cast<unsigned long long>(r.stats.pose_graph().merges_accepted()),
+      static_cast<unsigned long long>(r.stats.pose_graph().loops_accepted()));
+  std::printf(
+      "server's keyframes, ground truth at the clock offset: B's first from A's first "
+      "%.4f m, %.3f deg (%.3f deg of yaw, %.3f deg of tilt)\n",
+      mapped_at.start.t_m, mapped_at.start.r_deg, mapped_at.start_yaw_deg,
+      mapped_at.start_tilt_deg);
   EXPECT_LT(gt.t_m, max_gt_t_m);
   EXPECT_LT(gt.r_deg, max_gt_r_deg);
   EXPECT_GT(pairs, 0);
@@ -305,7 +309,8 @@ void CheckTwoRobots(const std::string& tum, const RobotRun& a, const RobotRun& b
 TEST(TwoRobots, RobotArrivingAfterARestartIsAligned) {
   const std::string tum = kRoot + "/tests/data/tum_fr1_rpy_sample";
   const std::string dir =
-      (fs::temp_directory_path() / ("loci_two_robots_restart_" + std::to_string(getpid()))).string();
+      (fs::temp_directory_path() / ("loci_two_robots_restart_" + std::to_string(getpid())))
+          .string();
   fs::remove_all(dir);
   fs::create_directories(dir);
   const testing::ServerProcessOptions options{.db = dir + "/loci.db",
@@ -321,8 +326,8 @@ TEST(TwoRobots, RobotArrivingAfterARestartIsAligned) {
   }
   testing::ServerProcess second(options);
   ASSERT_GT(second.port(), 0);
-  auto query = v1::Query::NewStub(
-      grpc::CreateChannel(second.address(), grpc::InsecureChannelCredentials()));
+  auto query =
+      v1::Query::NewStub(grpc::CreateChannel(second.address(), grpc::InsecureChannelCredentials()));
   // A's keyframes back in the index: the re-indexing's own figure, polled with a deadline.
   uint64_t stored = 0, indexed = 0;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
@@ -346,8 +351,8 @@ TEST(TwoRobots, RobotArrivingAfterARestartIsAligned) {
   ASSERT_EQ(std::system(TrackCommand(tum, second.address(), b).c_str()), 0);
   auto s = Stats(*query);
   ASSERT_TRUE(s.ok());
-  ASSERT_TRUE(EstimatedAToB(*s).has_value()) << "B not aligned after the restart: "
-                                              << s->DebugString();
+  ASSERT_TRUE(EstimatedAToB(*s).has_value())
+      << "B not aligned after the restart: " << s->DebugString();
   // A's images were read back from the database: B's matches to them are refined.
   EXPECT_GT(s->alignment().dense_refined(), 0u) << s->alignment().DebugString();
   EXPECT_GT(s->alignment().dense_frames_read(), 0u) << s->alignment().DebugString();
@@ -372,7 +377,11 @@ TEST(ThreeRobots, SyntheticRoomEveryRobotAlignedObjectsOnce) {
   ASSERT_EQ(std::system(synth.c_str()), 0) << synth;
   std::vector<RobotRun> robots;
   for (const auto& [name, first] : {std::pair<std::string, int>{"A", 0}, {"B", 40}, {"C", 80}}) {
-    RobotRun r{name, first, 70, dir + "/" + name + "_keyframes.txt", dir + "/" + name + "_frames.txt",
+    RobotRun r{name,
+               first,
+               70,
+               dir + "/" + name + "_keyframes.txt",
+               dir + "/" + name + "_frames.txt",
                "--detections " + scene + "/detections.jsonl"};
     robots.push_back(r);
   }
@@ -395,9 +404,10 @@ TEST(ThreeRobots, SyntheticRoomEveryRobotAlignedObjectsOnce) {
     int pairs = 0;
     const PoseError same = MedianSameImageError(
         r, over, robot, T_map_odom[over].inverse() * T_map_odom[robot], &pairs);
-    std::printf("%s aligned: %.4f m, %.3f deg from the ground truth; on %s's keyframes of the "
-                "same images (%d): median %.4f m, %.3f deg\n",
-                robot.c_str(), e.t_m, e.r_deg, over.c_str(), pairs, same.t_m, same.r_deg);
+    std::printf(
+        "%s aligned: %.4f m, %.3f deg from the ground truth; on %s's keyframes of the "
+        "same images (%d): median %.4f m, %.3f deg\n",
+        robot.c_str(), e.t_m, e.r_deg, over.c_str(), pairs, same.t_m, same.r_deg);
     EXPECT_LT(e.t_m, 0.03) << robot;
     EXPECT_LT(e.r_deg, 2.0) << robot;
     EXPECT_GT(pairs, 0) << robot;
