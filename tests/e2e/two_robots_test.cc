@@ -218,9 +218,18 @@ int64_t ImageClockOffsetNs(const std::string& tum, const RobotsResult& r) {
   return off->offset_ns;
 }
 
-void CheckTwoRobots(const std::string& tum, const RobotRun& a, const RobotRun& b, double max_gt_t_m,
-                    double max_gt_r_deg, double max_same_t_m, double max_same_r_deg,
-                    bool check_duplicates) {
+// What CheckTwoRobots asserts, each an upper bound.
+struct TwoRobotBounds {
+  double merge_t_m, merge_r_deg;  // B's T_map_odom (GetStats) against the truth, at the stamps
+  double same_t_m, same_r_deg;    // A's and B's keyframes of one image, median
+  double keyframes_t_m, keyframes_r_deg;  // server's keyframes: B's first from A's first, at the
+                                          // images' clock offset (issue 15's measure)
+  double joint_ate_m;                     // A's and B's server keyframes in one alignment
+  bool check_duplicates;
+};
+
+void CheckTwoRobots(const std::string& tum, const RobotRun& a, const RobotRun& b,
+                    const TwoRobotBounds& max) {
   const std::string dir =
       (fs::temp_directory_path() / ("loci_two_robots_" + std::to_string(getpid()))).string();
   fs::remove_all(dir);
@@ -292,12 +301,16 @@ void CheckTwoRobots(const std::string& tum, const RobotRun& a, const RobotRun& b
       "%.4f m, %.3f deg (%.3f deg of yaw, %.3f deg of tilt)\n",
       mapped_at.start.t_m, mapped_at.start.r_deg, mapped_at.start_yaw_deg,
       mapped_at.start_tilt_deg);
-  EXPECT_LT(gt.t_m, max_gt_t_m);
-  EXPECT_LT(gt.r_deg, max_gt_r_deg);
+  EXPECT_LT(gt.t_m, max.merge_t_m);
+  EXPECT_LT(gt.r_deg, max.merge_r_deg);
   EXPECT_GT(pairs, 0);
-  EXPECT_LT(same.t_m, max_same_t_m);
-  EXPECT_LT(same.r_deg, max_same_r_deg);
-  if (check_duplicates) {
+  EXPECT_LT(same.t_m, max.same_t_m);
+  EXPECT_LT(same.r_deg, max.same_r_deg);
+  EXPECT_LT(mapped_at.start.t_m, max.keyframes_t_m);
+  EXPECT_LT(mapped_at.start.r_deg, max.keyframes_r_deg);
+  EXPECT_GT(mapped.joint_ate_m, 0.0) << "no joint keyframe ATE";
+  EXPECT_LT(mapped.joint_ate_m, max.joint_ate_m);
+  if (max.check_duplicates) {
     EXPECT_EQ(CrossRobotDuplicates(r.objects, 0.25, GroundTruthPair(tum, mapped)), 0);
   }
   if (!::testing::Test::HasFailure()) fs::remove_all(dir);  // else kept, with the server's log
@@ -419,27 +432,44 @@ TEST(ThreeRobots, SyntheticRoomEveryRobotAlignedObjectsOnce) {
   if (!::testing::Test::HasFailure()) fs::remove_all(dir);
 }
 
-// The shipped sample (60 frames at 50-70 deg/s): A frames 0-39, B frames 20-59. Held to the
-// place tests' per-pair tolerance on this sample (10 cm, 7 deg; server/place/README.md).
-// Duplicates are not asserted here: in one of several runs a far "chair" (a false positive of
-// the detector) was mapped once per robot 0.20 m apart (docs/results.md, session 8).
+// The shipped sample (60 frames at 50-70 deg/s): A frames 0-39, B frames 20-59. Reached in
+// session 52 (two runs): merge 1.05-1.25 cm, 1.01-1.14 deg; same images 0.65-0.96 cm,
+// 0.20-0.35 deg; server's keyframes 0.86-1.18 cm, 0.88-1.11 deg at the clock offset; joint ATE
+// 0.0061-0.0063 m. The bounds are about twice that (CI's machine runs the two robots on other
+// timings). Duplicates are not asserted here: in one of several runs a far "chair" (a false
+// positive of the detector) was mapped once per robot 0.20 m apart (docs/results.md, session 8).
 TEST(TwoRobots, ShippedSampleSplitIsAligned) {
   CheckTwoRobots(kRoot + "/tests/data/tum_fr1_rpy_sample", {"A", 0, 40, "", ""},
-                 {"B", 20, 0, "", ""}, 0.10, 7.0, 0.10, 7.0, /*check_duplicates=*/false);
+                 {"B", 20, 0, "", ""},
+                 {.merge_t_m = 0.04,
+                  .merge_r_deg = 3.0,
+                  .same_t_m = 0.03,
+                  .same_r_deg = 1.5,
+                  .keyframes_t_m = 0.03,
+                  .keyframes_r_deg = 2.5,
+                  .joint_ate_m = 0.02,
+                  .check_duplicates = false});
 }
 
 // The issue's split of the full fr1_rpy: A frames 0-450, B frames 300-722. The issue's target
-// is 3 cm and 1 deg of the ground truth's relative transform; measured (docs/results.md,
-// session 8): 4-7 cm and 3-6 deg, of which A's own odometry drift from frame 0 to 300 is a
-// large part, and 2.5-3 cm, 1.9-3.7 deg on the same images. Session 13, five live runs:
-// 4.3-6.3 cm, 4.8-6.9 deg, and on the same images 0.5-2.7 cm, 1.9-4.6 deg (one CI run failed
-// the old 4.5 deg bound at 4.55). Session 17 (lens distortion removed, dense refinement): 4.1-4.8
-// cm, 4.2-4.9 deg in three runs. The bounds below guard what is reached, not the target.
+// is 3 cm and 1 deg of the ground truth's relative transform, measured on the server's
+// keyframes (B's first from A's first) at the images' clock offset. Reached in sessions 51-52
+// (7 runs): 1.6-2.1 cm, 0.89-1.24 deg; B's merge placement 2.0-2.5 cm, 2.2-2.9 deg at the
+// stamps; same images 0.3-0.7 cm, 0.36-0.87 deg; joint ATE 0.0131-0.0141 m. The 1 deg is not
+// held in every run, so the bound is 2 deg: it guards what is reached (with issue 15's 3 cm and
+// its 0.020 m ATE goal), not the target. Session 8 gave 4-7 cm and 3-6 deg.
 TEST(TwoRobots, Fr1RpySplitIsAlignedAndMergedOnce) {
   const std::string tum = testing::FullTumSequence("tum_fr1_rpy", {"groundtruth.txt"});
   if (tum.empty()) GTEST_SKIP() << "no tum_fr1_rpy in $LOCI_DATA or ../shared/data";
-  CheckTwoRobots(tum, {"A", 0, 451, "", ""}, {"B", 300, 0, "", ""}, 0.10, 8.0, 0.05, 6.0,
-                 /*check_duplicates=*/true);
+  CheckTwoRobots(tum, {"A", 0, 451, "", ""}, {"B", 300, 0, "", ""},
+                 {.merge_t_m = 0.04,
+                  .merge_r_deg = 4.0,
+                  .same_t_m = 0.015,
+                  .same_r_deg = 1.5,
+                  .keyframes_t_m = 0.03,
+                  .keyframes_r_deg = 2.0,
+                  .joint_ate_m = 0.02,
+                  .check_duplicates = true});
 }
 
 }  // namespace
