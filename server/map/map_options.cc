@@ -25,7 +25,7 @@ constexpr const char* kFusionKeys[] = {
     "straddle_apart_views", "straddle_pieces", "furniture_merge_containment",
     "furniture_footprint_containment",
     "top_load_reach_m", "top_load_max_gap_m", "top_load_max_sink_m", "top_load_rival_min_views",
-    "top_load_confirm_loads", "top_load_floor_classes",
+    "top_load_confirm_loads", "top_load_floor_classes", "top_load_lower_loads",
     "part_containment", "never_part_of", "stand_classes", "stand_height_m"};
 // clang-format on
 
@@ -166,6 +166,8 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
         ReadOptional(n, "top_load_confirm_loads", &fusion.top_loads.confirm_loads));
     LOCI_RETURN_IF_ERROR(
         ReadOptional(n, "top_load_floor_classes", &fusion.top_loads.floor_classes));
+    LOCI_RETURN_IF_ERROR(
+        ReadOptional(n, "top_load_lower_loads", &fusion.top_loads.lower_loads));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_centroid_m", &fusion.merge_centroid_m));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_sigmas", &fusion.merge_sigmas));
     LOCI_RETURN_IF_ERROR(ReadOptional(n, "depth_sigma_at_1m", &fusion.depth_sigma_at_1m));

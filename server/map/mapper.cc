@@ -141,13 +141,18 @@ void Mapper::AppendLoadedTables(size_t first, std::vector<ObjectEventOut>* event
     loads.push_back((*events)[i].object);
     if ((*events)[i].kind != ObjectChange::Kind::kRemoved) emitted.insert((*events)[i].object.id);
   }
-  for (MapObject& table : objects_.TablesUnder(loads)) {
-    if (!emitted.insert(table.id).second) continue;
+  const auto emit = [&](MapObject o) {
+    if (!emitted.insert(o.id).second) return;
     ObjectEventOut e;
     e.kind = ObjectChange::Kind::kUpdated;
-    e.object = std::move(table);
+    e.object = std::move(o);
     events->push_back(std::move(e));
-  }
+  };
+  std::vector<MapObject> tables = objects_.TablesUnder(loads);
+  for (const MapObject& table : tables) emit(table);
+  // Loads reach down to their tables' tops: a changed table moves them.
+  loads.insert(loads.end(), tables.begin(), tables.end());
+  for (MapObject& load : objects_.LoadsOnTables(loads)) emit(std::move(load));
 }
 
 KeyframeProducts Mapper::BuildProducts(const MapperKeyframe& kf) const {

@@ -430,7 +430,7 @@ const FusedObject* ObjectMap::Find(int64_t id) const {
   return it == objects_.end() ? nullptr : &it->second;
 }
 
-std::vector<MapObject> ObjectMap::Snapshot(bool confirmed_only) const {
+std::vector<MapObject> ObjectMap::WidenedSnapshot(bool confirmed_only) const {
   std::vector<MapObject> out;
   for (const auto& [id, object] : objects_) {
     // Unconfirmed furniture takes part in the widening of tables (TopLoadOptions).
@@ -441,6 +441,12 @@ std::vector<MapObject> ObjectMap::Snapshot(bool confirmed_only) const {
     out.push_back(object.Snapshot());
   }
   ExtendTopsUnderLoads(options_.flat_top_classes, options_.top_loads, &out);
+  return out;
+}
+
+std::vector<MapObject> ObjectMap::Snapshot(bool confirmed_only) const {
+  std::vector<MapObject> out = WidenedSnapshot(confirmed_only);
+  LowerLoadsOntoTops(options_.flat_top_classes, options_.top_loads, &out);
   if (confirmed_only) {
     const auto unconfirmed = [](const MapObject& o) { return !o.confirmed; };
     out.erase(std::remove_if(out.begin(), out.end(), unconfirmed), out.end());
@@ -452,7 +458,9 @@ std::optional<MapObject> ObjectMap::SnapshotOf(int64_t id) const {
   const FusedObject* object = Find(id);
   if (object == nullptr) return std::nullopt;
   MapObject one = object->Snapshot();
-  if (!one.confirmed || !IsFlatTopClass(options_.flat_top_classes, one.class_name)) return one;
+  // Tables widen under their loads, and loads reach down to their tables (TopLoadOptions).
+  const bool table = IsFlatTopClass(options_.flat_top_classes, one.class_name);
+  if (!one.confirmed || (!table && !options_.top_loads.lower_loads)) return one;
   for (MapObject& o : Snapshot(/*confirmed_only=*/true)) {
     if (o.id == id) return o;
   }
@@ -469,6 +477,24 @@ std::vector<MapObject> ObjectMap::TablesUnder(const std::vector<MapObject>& load
     if (std::find(ids.begin(), ids.end(), o.id) != ids.end()) tables.push_back(std::move(o));
   }
   return tables;
+}
+
+std::vector<MapObject> ObjectMap::LoadsOnTables(const std::vector<MapObject>& changed) const {
+  std::vector<MapObject> loads;
+  std::vector<int64_t> table_ids;
+  for (const MapObject& o : changed) {
+    if (IsFlatTopClass(options_.flat_top_classes, o.class_name)) table_ids.push_back(o.id);
+  }
+  if (table_ids.empty() || !options_.top_loads.lower_loads) return loads;
+  std::vector<MapObject> all = WidenedSnapshot(/*confirmed_only=*/true);
+  const std::vector<int64_t> ids =
+      LoadsLoweredOnto(table_ids, options_.flat_top_classes, options_.top_loads, all);
+  if (ids.empty()) return loads;
+  LowerLoadsOntoTops(options_.flat_top_classes, options_.top_loads, &all);
+  for (MapObject& o : all) {
+    if (std::find(ids.begin(), ids.end(), o.id) != ids.end()) loads.push_back(std::move(o));
+  }
+  return loads;
 }
 
 size_t ObjectMap::confirmed_count() const {

@@ -100,12 +100,16 @@ class ObjectMap {
   int64_t Resolve(int64_t id) const;
   const FusedObject* Find(int64_t id) const;
   // Every object (or the confirmed ones) as queries and exports see it: tables widened under
-  // what rests on them (FusionOptions::top_loads).
+  // what rests on them, and what rests on them reaching down to their tops
+  // (FusionOptions::top_loads).
   std::vector<MapObject> Snapshot(bool confirmed_only) const;
   // One object as Snapshot shows it; nullopt when there is no such object (ids not resolved).
   std::optional<MapObject> SnapshotOf(int64_t id) const;
   // The confirmed tables that one of `loads` rests on, as Snapshot shows them (TablesUnderLoads).
   std::vector<MapObject> TablesUnder(const std::vector<MapObject>& loads) const;
+  // The confirmed loads lowered onto one of the tables among `changed`, as Snapshot shows them
+  // (LoadsLoweredOnto): they move with their table's top.
+  std::vector<MapObject> LoadsOnTables(const std::vector<MapObject>& changed) const;
   size_t size() const { return objects_.size(); }
   size_t confirmed_count() const;
 
@@ -118,6 +122,8 @@ class ObjectMap {
   Status LoadState(const loci::store::v1::ObjectMapState& in);
 
  private:
+  // Snapshot before loads are lowered onto their tables (LowerLoadsOntoTops).
+  std::vector<MapObject> WidenedSnapshot(bool confirmed_only) const;
   // An empty object with the map's options.
   FusedObject NewObject(int64_t id) const;
   // The existence models of this moment: per-class detection rates of the confirmed objects.

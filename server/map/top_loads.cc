@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <utility>
 
 #include "common/footprint.h"
 #include "server/map/fused_object.h"
@@ -93,7 +94,77 @@ size_t BestTable(const MapObject& load, const std::vector<MapObject>& objects,
   return best;
 }
 
+bool IsLoad(const MapObject& o, const std::vector<std::string>& flat_top_classes,
+            const TopLoadOptions& options) {
+  const auto& floor = options.floor_classes;
+  return o.confirmed && !IsFlatTopClass(flat_top_classes, o.class_name) &&
+         std::find(floor.begin(), floor.end(), o.class_name) == floor.end();
+}
+
+// (load, table) indices into `objects` of the loads whose box bottom lies above the top of the
+// confirmed table they rest on best.
+std::vector<std::pair<size_t, size_t>> HoveringLoads(
+    const std::vector<std::string>& flat_top_classes, const TopLoadOptions& options,
+    const std::vector<MapObject>& objects) {
+  std::vector<std::pair<size_t, size_t>> out;
+  if (!options.lower_loads || options.reach_m <= 0) return out;
+  std::vector<size_t> tables;
+  for (size_t i = 0; i < objects.size(); ++i) {
+    if (IsTable(objects[i], flat_top_classes)) tables.push_back(i);
+  }
+  if (tables.empty()) return out;
+  for (size_t l = 0; l < objects.size(); ++l) {
+    const MapObject& load = objects[l];
+    if (!IsLoad(load, flat_top_classes, options)) continue;
+    const size_t t = BestTable(load, objects, tables, options);
+    if (t != objects.size() && load.aabb_min_m.z() > objects[t].top_surface_z_m) {
+      out.emplace_back(l, t);
+    }
+  }
+  return out;
+}
+
+// Extends the load's boxes down to top_z_m (LowerLoadsOntoTops).
+void LowerOnto(double top_z_m, MapObject* load) {
+  const double drop_m = load->aabb_min_m.z() - top_z_m;
+  load->aabb_min_m.z() = top_z_m;
+  load->centroid_m.z() -= 0.5 * drop_m;
+  if (std::isfinite(load->bottom_z_m) && load->bottom_z_m > top_z_m) load->bottom_z_m = top_z_m;
+  const Eigen::Matrix3d& R = load->R_map_box;
+  Eigen::Index k = 0;
+  R.row(2).cwiseAbs().maxCoeff(&k);
+  const double up = R(2, k);
+  constexpr double kCosMaxTilt = 0.9396926;  // cos(20 deg)
+  if (!(std::abs(up) >= kCosMaxTilt) || !load->obb_center_m.allFinite()) return;
+  const Eigen::Vector3d h = load->obb_half_extent_m.cwiseAbs();
+  const double obb_drop_m = load->obb_center_m.z() - R.row(2).cwiseAbs().dot(h) - top_z_m;
+  if (!(obb_drop_m > 0)) return;
+  const double along_m = obb_drop_m / std::abs(up);  // along axis k, which points up or down
+  load->obb_half_extent_m(k) = h(k) + 0.5 * along_m;
+  load->obb_center_m -= (up > 0 ? 1.0 : -1.0) * (0.5 * along_m) * R.col(k);
+}
+
 }  // namespace
+
+void LowerLoadsOntoTops(const std::vector<std::string>& flat_top_classes,
+                        const TopLoadOptions& options, std::vector<MapObject>* objects) {
+  for (const auto& [l, t] : HoveringLoads(flat_top_classes, options, *objects)) {
+    LowerOnto((*objects)[t].top_surface_z_m, &(*objects)[l]);
+  }
+}
+
+std::vector<int64_t> LoadsLoweredOnto(const std::vector<int64_t>& table_ids,
+                                      const std::vector<std::string>& flat_top_classes,
+                                      const TopLoadOptions& options,
+                                      const std::vector<MapObject>& objects) {
+  std::vector<int64_t> ids;
+  for (const auto& [l, t] : HoveringLoads(flat_top_classes, options, objects)) {
+    if (std::find(table_ids.begin(), table_ids.end(), objects[t].id) != table_ids.end()) {
+      ids.push_back(objects[l].id);
+    }
+  }
+  return ids;
+}
 
 double FootprintDistanceM(const Eigen::Vector3d& a_min, const Eigen::Vector3d& a_max,
                           const Eigen::Vector3d& b_min, const Eigen::Vector3d& b_max) {

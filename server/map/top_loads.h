@@ -49,6 +49,8 @@ struct TopLoadOptions {
   // Things that stand on the floor hold no top up: two chairs on a "table" piece of floor around
   // a kitchen table do not make it one (loads for confirm_loads only).
   std::vector<std::string> floor_classes = {"chair", "couch", "bed", "bench", "person"};
+  // A thing resting on a top reaches down to it (LowerLoadsOntoTops; false: off).
+  bool lower_loads = true;
 };
 
 // Widens the tables among `objects` (flat_top_classes, confirmed, with a top height) in place,
@@ -57,6 +59,23 @@ struct TopLoadOptions {
 // compete for the loads and are not widened.
 void ExtendTopsUnderLoads(const std::vector<std::string>& flat_top_classes,
                           const TopLoadOptions& options, std::vector<MapObject>* objects);
+
+// A thing resting on a top reaches down to it: the camera sees a monitor's panel and not its
+// stand, a cup's rim and not its foot. Each confirmed load (not furniture, not of floor_classes)
+// whose box bottom lies above the top of the confirmed table it rests on best (after
+// ExtendTopsUnderLoads) gets its boxes extended down to the top's height: the axis-aligned box,
+// the oriented box when one of its axes is within 20 deg of up, the centroid (the box centre)
+// and bottom_z_m. Loads whose boxes already reach the top are left as they are.
+void LowerLoadsOntoTops(const std::vector<std::string>& flat_top_classes,
+                        const TopLoadOptions& options, std::vector<MapObject>* objects);
+
+// Ids of the confirmed loads among `objects` (a snapshot that ExtendTopsUnderLoads widened and
+// LowerLoadsOntoTops did not lower yet) that LowerLoadsOntoTops lowers onto one of the tables
+// `table_ids`: when only a table changed, their snapshots changed too.
+std::vector<int64_t> LoadsLoweredOnto(const std::vector<int64_t>& table_ids,
+                                      const std::vector<std::string>& flat_top_classes,
+                                      const TopLoadOptions& options,
+                                      const std::vector<MapObject>& objects);
 
 // Ids of the tables among `objects` (a snapshot that ExtendTopsUnderLoads widened) that one of
 // `loads` rests on (RestsOn; a load that is gone or unconfirmed as it was last): when only a

@@ -320,5 +320,73 @@ TEST(TopLoads, ATableIsAnnouncedAgainWhenOnlyItsLoadsChanged) {
   EXPECT_TRUE(TablesUnderLoads(kFlatTops, TopLoadOptions{0.0, 0.05}, loads, objects).empty());
 }
 
+TEST(TopLoads, AThingRestingOnATopReachesDownToIt) {
+  // monitor_second's points end at its panel, 15 cm above the top; the mug's foot is hidden
+  // (1 cm); the keyboard's box reaches the top and a book's sinks under it (desk points caught).
+  std::vector<MapObject> objects = MainDesk();
+  objects[5].aabb_min_m.z() = 0.92;
+  objects[5].centroid_m.z() = 0.5 * (0.92 + 1.27);
+  objects[5].obb_center_m = objects[5].centroid_m;
+  objects[5].obb_half_extent_m.z() = 0.5 * (1.27 - 0.92);
+  objects[5].bottom_z_m = 0.93;
+  objects[1].aabb_min_m.z() = 0.74;
+  objects.push_back(Box(7, "tv", {0.40, 1.30, 1.12}, {0.50, 1.60, 1.50}));  // on the wall above
+  objects.push_back(Box(8, "cup", {0.90, 0.40, 0.80}, {0.98, 0.48, 0.90}));
+  objects.back().confirmed = false;
+  const std::vector<MapObject> before = objects;
+  ExtendTopsUnderLoads(kFlatTops, TopLoadOptions{}, &objects);
+  EXPECT_EQ(LoadsLoweredOnto({1}, kFlatTops, TopLoadOptions{}, objects),
+            (std::vector<int64_t>{4, 5, 6}));
+  EXPECT_TRUE(LoadsLoweredOnto({9}, kFlatTops, TopLoadOptions{}, objects).empty());
+  LowerLoadsOntoTops(kFlatTops, TopLoadOptions{}, &objects);
+
+  const MapObject& tv = Find(objects, 6);
+  EXPECT_DOUBLE_EQ(tv.aabb_min_m.z(), 0.77);
+  EXPECT_DOUBLE_EQ(tv.aabb_max_m.z(), 1.27);
+  EXPECT_NEAR(tv.centroid_m.z(), 1.02, 1e-9);  // objects_gt.json: 1.039 (0.809..1.269)
+  EXPECT_NEAR(tv.obb_center_m.z(), 1.02, 1e-9);
+  EXPECT_NEAR(tv.obb_half_extent_m.z(), 0.25, 1e-9);
+  EXPECT_DOUBLE_EQ(tv.bottom_z_m, 0.77);
+  EXPECT_EQ(tv.centroid_m.head<2>(), Find(before, 6).centroid_m.head<2>());
+  EXPECT_NEAR(Find(objects, 4).centroid_m.z(), 0.5 * (0.77 + 0.894), 1e-9);  // the mug
+  EXPECT_NEAR(Find(objects, 5).aabb_min_m.z(), 0.77, 1e-9);                  // the mouse
+  for (int64_t unchanged : {2, 3, 7, 8}) {  // sunk book, keyboard, wall screen, candidate
+    EXPECT_EQ(Find(objects, unchanged).aabb_min_m, Find(before, unchanged).aabb_min_m);
+    EXPECT_EQ(Find(objects, unchanged).centroid_m, Find(before, unchanged).centroid_m);
+  }
+  EXPECT_EQ(Find(objects, 1).top_surface_z_m, 0.77);  // the table's height stays
+
+  TopLoadOptions off;
+  off.lower_loads = false;
+  std::vector<MapObject> kept = before;
+  LowerLoadsOntoTops(kFlatTops, off, &kept);
+  EXPECT_EQ(Find(kept, 6).aabb_min_m, Find(before, 6).aabb_min_m);
+}
+
+TEST(TopLoads, ALoweredThingsOrientedBoxGrowsAlongItsUprightAxis) {
+  // A monitor leaning back 12 deg: its oriented box grows along its own up axis until its lowest
+  // corner is at the top; one lying at 45 deg keeps its oriented box (no axis is up).
+  for (double lean_deg : {12.0, -12.0, 45.0}) {
+    std::vector<MapObject> objects = {Table(1, {0.0, 0.0, 0.70}, {1.0, 1.0, 0.77})};
+    MapObject tv = Box(2, "tv", {0.40, 0.30, 0.90}, {0.60, 0.70, 1.30});
+    tv.R_map_box = Eigen::AngleAxisd(lean_deg * M_PI / 180, Eigen::Vector3d::UnitY()).matrix();
+    tv.obb_half_extent_m = Eigen::Vector3d(0.02, 0.20, 0.19);
+    objects.push_back(tv);
+    LowerLoadsOntoTops(kFlatTops, TopLoadOptions{}, &objects);
+    const MapObject& out = Find(objects, 2);
+    EXPECT_DOUBLE_EQ(out.aabb_min_m.z(), 0.77);
+    const double lowest_z =
+        out.obb_center_m.z() - out.R_map_box.row(2).cwiseAbs().dot(out.obb_half_extent_m);
+    if (lean_deg == 45.0) {
+      EXPECT_EQ(out.obb_center_m, tv.obb_center_m);
+      EXPECT_EQ(out.obb_half_extent_m, tv.obb_half_extent_m);
+    } else {
+      EXPECT_NEAR(lowest_z, 0.77, 1e-9) << lean_deg;
+      EXPECT_NEAR(out.obb_half_extent_m.x(), 0.02, 1e-12);
+      EXPECT_GT(out.obb_half_extent_m.z(), 0.19);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace loci::server
