@@ -7,7 +7,8 @@ the page must then hold exactly the server's objects (id and class), the cloud a
 trajectory, with no console error. A question highlights the objects of its answer and shows its
 sentence; a click on an object opens its inspection panel. Then robot 2 streams a few keyframes
 of another room while the page stays open: its new objects and trajectory must appear without a
-reload. A screenshot is saved as a test artefact.
+reload, its candidates hidden until the 'candidates' box is ticked. A screenshot is saved as a
+test artefact.
 
 Every wait polls a real signal (the server's "listening on" line, its mapped-keyframe counter,
 the page's window.lociViewer state) against a deadline. Exit code 77 (ctest: skipped) only when
@@ -265,6 +266,34 @@ def check_live_update(driver, server, bin_dir, scene2, before):
     log(f"live: new objects {[(i, now[i]) for i in new_ids]} and robot2's trajectory appeared")
 
 
+def label_displayed(driver, oid):
+    return driver.execute_script(
+        "const e = document.querySelector(`.label[data-object-id='${arguments[0]}']`);"
+        "return !!e && e.style.display !== 'none';", oid)
+
+
+def check_candidates_toggle(driver, server):
+    """Candidates (objects not confirmed yet) are hidden until the 'candidates' box is ticked.
+    Robot 2's 3 frames (0.1 s) cannot confirm anything (fusion.confirm_min_span_s 0.5 s)."""
+    confirmed = {int(o["id"]): bool(o.get("confirmed")) for o in server.get("api/objects")["objects"]}
+    candidates = sorted(i for i, c in confirmed.items() if not c)
+    if not candidates or all(not c for c in confirmed.values()):
+        fail(f"want both confirmed objects and candidates on the server: {confirmed}")
+    if viewer(driver, "showCandidates"):
+        fail("candidates are shown before the box is ticked")
+
+    def shown_is(want):
+        page = {o["id"]: o["shown"] for o in viewer(driver, "objects")}
+        return page == want and all(label_displayed(driver, i) == s for i, s in want.items())
+    wait_until(f"only the confirmed objects drawn (candidates {candidates} hidden)",
+               lambda: shown_is(confirmed), 10)
+    legend = driver.find_element("id", "legend").text
+    driver.find_element("id", "show-candidates").click()
+    wait_until("every object drawn once candidates are ticked",
+               lambda: shown_is({i: True for i in confirmed}), 10)
+    log(f"candidates {candidates} hidden until ticked, then drawn; legend before: {legend!r}")
+
+
 def run(args, chromium, chromedriver):
     shutil.rmtree(args.work, ignore_errors=True)
     os.makedirs(args.work)
@@ -289,6 +318,7 @@ def run(args, chromium, chromedriver):
         if [(r["robot"], r["poses"]) for r in robots] != [("robot1", poses)]:
             fail(f"page robots {robots}, server has robot1 with {poses} poses")
         check_live_update(driver, server, args.bin, scene2, before)
+        check_candidates_toggle(driver, server)
         objects = server.objects()
         check_click_inspects(driver, objects)
         check_question(driver, server, objects)

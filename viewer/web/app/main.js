@@ -24,7 +24,10 @@ const robots = new RobotLayer(view.scene);
 const panel = new InspectPanel($('inspect'), () => select(null));
 
 function showStatus() {
-  $('status').textContent = `${state.live}, ${objects.items.size} objects`;
+  const confirmed = [...objects.items.values()].filter((i) => i.object.confirmed).length;
+  const candidates = objects.items.size - confirmed;
+  $('status').textContent = `${state.live}, ${confirmed} objects` +
+      (candidates ? ` (+${candidates} candidates${objects.showCandidates ? '' : ', hidden'})` : '');
 }
 
 function report(where, e) {
@@ -42,7 +45,7 @@ function recolour() {
 }
 
 function updateLegend() {
-  const classes = [...new Set([...objects.items.values()].map((i) => i.object.className))].sort();
+  const classes = [...new Set(objects.shownItems().map((i) => i.object.className))].sort();
   $('legend').replaceChildren(...classes.map((c) => {
     const s = document.createElement('span');
     const i = document.createElement('i');
@@ -111,6 +114,7 @@ async function ask(question) {
   }
   box.hidden = false;
   objects.setHighlighted(state.answerIds);
+  updateLegend();
 }
 
 function select(id) {
@@ -127,6 +131,11 @@ function wireInput() {
     if (q) ask(q);
   });
   $('colour-rgb').addEventListener('change', recolour);
+  $('show-candidates').addEventListener('change', () => {
+    objects.setShowCandidates($('show-candidates').checked);
+    updateLegend();
+    showStatus();
+  });
   let down = null;
   const canvas = view.renderer.domElement;
   canvas.addEventListener('pointerdown', (ev) => { down = [ev.clientX, ev.clientY]; });
@@ -165,9 +174,11 @@ window.lociViewer = Object.freeze({
   get errors() { return [...state.errors]; },
   get objects() {
     return [...objects.items.values()].map(({ object: o }) => ({
-      id: toId(o.id), className: o.className, confidence: o.confidence, confirmed: o.confirmed }))
+      id: toId(o.id), className: o.className, confidence: o.confidence, confirmed: o.confirmed,
+      shown: objects.isShown(toId(o.id)) }))
         .sort((a, b) => a.id - b.id);
   },
+  get showCandidates() { return objects.showCandidates; },
   get highlighted() { return [...objects.highlighted].sort((a, b) => a - b); },
   get answer() { return state.answer; },
   get selected() { return state.selected; },

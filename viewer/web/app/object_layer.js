@@ -1,5 +1,7 @@
 // The map's objects: an oriented box each (its OBB in the map frame), a label with class, id and
-// confidence, highlighted when an answer names it, outlined when selected.
+// confidence, highlighted when an answer names it, outlined when selected. Candidates (objects
+// not confirmed yet) are hidden unless showCandidates is set, or an answer names them, or they
+// are selected.
 import * as THREE from './three_modules.js';
 import { HIGHLIGHT, classColour, cssColour } from './colors.js';
 import { toId } from './api.js';
@@ -12,6 +14,22 @@ export class ObjectLayer {
     this.items = new Map();  // id -> {object, box, fill, label}
     this.highlighted = new Set();
     this.selected = null;
+    this.showCandidates = false;
+  }
+
+  setShowCandidates(show) {
+    this.showCandidates = show;
+    for (const id of this.items.keys()) this.restyle(id);
+  }
+
+  isShown(id) {
+    const item = this.items.get(id);
+    return !!item && (item.object.confirmed || this.showCandidates || this.highlighted.has(id) ||
+                      id === this.selected);
+  }
+
+  shownItems() {
+    return [...this.items.entries()].filter(([id]) => this.isShown(id)).map(([, item]) => item);
   }
 
   upsert(o) {
@@ -81,10 +99,14 @@ export class ObjectLayer {
     item.fill.material.opacity = hl ? 0.35 : (id === this.selected ? 0.25 : 0.1);
     item.label.element.classList.toggle('highlight', hl);
     item.label.element.classList.toggle('selected', id === this.selected);
+    const shown = this.isShown(id);
+    item.holder.visible = shown;
+    item.label.visible = shown;
+    if (!shown) item.label.element.style.display = 'none';  // until the next frame renders it
   }
 
   pickables() {
-    return [...this.items.values()].map((i) => i.fill);
+    return this.shownItems().map((i) => i.fill);
   }
 
   classOf(id) {
@@ -94,7 +116,7 @@ export class ObjectLayer {
 
   bounds() {
     const box = new THREE.Box3();
-    for (const item of this.items.values()) box.expandByObject(item.holder);
+    for (const item of this.shownItems()) box.expandByObject(item.holder);
     return box.isEmpty() ? null : box;
   }
 }
