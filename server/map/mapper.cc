@@ -175,8 +175,7 @@ void Mapper::FixFirstFrame(const MapperKeyframe& kf, const std::optional<Vec3d>&
   have_frame_ = true;
 }
 
-void Mapper::CollectFrameEvidence(const MapperKeyframe& kf,
-                                  const std::optional<Vec3d>& gravity_cam,
+void Mapper::CollectFrameEvidence(const MapperKeyframe& kf, const std::optional<Vec3d>& gravity_cam,
                                   const KeyframeProducts& products) {
   if (gravity_cam) {
     evidence_.gravity_sum_base += kf.T_base_kf.linear() * *gravity_cam;
@@ -221,17 +220,14 @@ StageTimes Mapper::Integrate(const MapperKeyframe& kf, const KeyframeProducts& p
 }
 
 std::vector<Mapper::KeyframePose>::iterator Mapper::KeyframePoseAfter(int64_t keyframe_id) {
-  return std::upper_bound(
-      keyframe_poses_.begin(), keyframe_poses_.end(), keyframe_id,
-      [](int64_t id, const KeyframePose& k) { return id < k.keyframe_id; });
+  return std::upper_bound(keyframe_poses_.begin(), keyframe_poses_.end(), keyframe_id,
+                          [](int64_t id, const KeyframePose& k) { return id < k.keyframe_id; });
 }
 
 std::vector<Mapper::KeyframePose>::iterator Mapper::FindKeyframePose(int64_t keyframe_id) {
-  auto it = std::lower_bound(
-      keyframe_poses_.begin(), keyframe_poses_.end(), keyframe_id,
-      [](const KeyframePose& k, int64_t id) { return k.keyframe_id < id; });
-  return it != keyframe_poses_.end() && it->keyframe_id == keyframe_id ? it
-                                                                        : keyframe_poses_.end();
+  auto it = std::lower_bound(keyframe_poses_.begin(), keyframe_poses_.end(), keyframe_id,
+                             [](const KeyframePose& k, int64_t id) { return k.keyframe_id < id; });
+  return it != keyframe_poses_.end() && it->keyframe_id == keyframe_id ? it : keyframe_poses_.end();
 }
 
 void Mapper::SettleFrame(std::vector<ObjectEventOut>* events) {
@@ -470,9 +466,9 @@ size_t Mapper::KeyframeCount() const {
 
 bool Mapper::HasKeyframe(int64_t keyframe_id) const {
   std::lock_guard<std::mutex> lock(mu_);
-  const auto it = std::lower_bound(
-      keyframe_poses_.begin(), keyframe_poses_.end(), keyframe_id,
-      [](const KeyframePose& k, int64_t id) { return k.keyframe_id < id; });
+  const auto it =
+      std::lower_bound(keyframe_poses_.begin(), keyframe_poses_.end(), keyframe_id,
+                       [](const KeyframePose& k, int64_t id) { return k.keyframe_id < id; });
   return it != keyframe_poses_.end() && it->keyframe_id == keyframe_id;
 }
 

@@ -193,9 +193,8 @@ bool RestsOn(const MapObject& load, const MapObject& table, const TopLoadOptions
   const double load_area = PolygonArea(load_fp);
   const bool oriented = load_area > 1e-9 && PolygonArea(table_fp) > 1e-9;
   const double shared = oriented ? ConvexOverlapArea(load_fp, table_fp) : 0.0;
-  const double distance =
-      oriented ? (shared > 0 ? 0.0 : ConvexDistanceM(load_fp, table_fp))
-               : FootprintDistanceM(a0, a1, b0, b1);
+  const double distance = oriented ? (shared > 0 ? 0.0 : ConvexDistanceM(load_fp, table_fp))
+                                   : FootprintDistanceM(a0, a1, b0, b1);
   if (distance > options.reach_m) return false;
   if (distance_m != nullptr) *distance_m = distance;
   if (overlap != nullptr) {

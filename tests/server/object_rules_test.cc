@@ -189,8 +189,8 @@ std::string TableAfterAHalfOnPiece(double furniture_merge_containment) {
   std::vector<ObjectChange> changes;
   int64_t table = 0;
   for (int64_t kf = 1; kf <= 3; ++kf) {
-    table = map.Integrate({Rect("dining table", 0.4, 1, kf, 0.0, 1.0, 0.0, 1.0, 0.77)},
-                          &changes)[0];
+    table =
+        map.Integrate({Rect("dining table", 0.4, 1, kf, 0.0, 1.0, 0.0, 1.0, 0.77)}, &changes)[0];
   }
   map.Integrate({Rect("dining table", 0.4, 0, 4, 0.45, 1.45, 0.0, 1.0, 0.77)}, &changes);
   return std::to_string(map.size()) + " objects, the table seen " +
@@ -217,8 +217,8 @@ std::string ConfirmedTablesWithAPieceAcross(bool straddle_pieces, int piece_view
   std::vector<ObjectChange> changes;
   int64_t piece = 0;
   for (int64_t kf = 1; kf <= piece_views; ++kf) {
-    piece = map.Integrate({Rect("dining table", 0.4, 3, kf, -0.45, 0.75, 0.1, 0.9, 0.80)},
-                          &changes)[0];
+    piece =
+        map.Integrate({Rect("dining table", 0.4, 3, kf, -0.45, 0.75, 0.1, 0.9, 0.80)}, &changes)[0];
   }
   const bool confirmed_alone = map.Find(piece)->confirmed();
   changes.clear();
@@ -279,9 +279,9 @@ TEST(ObjectRules, ADeskSeenAtTwoHeightsIsOnePieceByItsFootprint) {
 }
 
 // The near end (y 0-1.0) and the far end (x 0.21-0.8, y 0.4-1.5) of one desk, 4 cm apart in
-// height: 55 % of the smaller piece's footprint lies under the other. On fr1_rpy the main desk came out as two
-// such pieces (55 %) in the demo's run, and the book on its near end stood on the wrong one
-// (docs/results.md, session 35). Physically two tops cannot share floor at one height, so the
+// height: 55 % of the smaller piece's footprint lies under the other. On fr1_rpy the main desk came
+// out as two such pieces (55 %) in the demo's run, and the book on its near end stood on the wrong
+// one (docs/results.md, session 35). Physically two tops cannot share floor at one height, so the
 // majority (config/server.yaml: 0.5) joins them; the back-to-back desk shares none.
 TEST(ObjectRules, TheTwoEndsOfOneDeskJoinWhenMostOfOneLiesUnderTheOther) {
   EXPECT_EQ(DeskPieces(0.6, 1.0, 0.4), 3u);
@@ -323,8 +323,8 @@ bool TvConfirmed(double thickness_m, bool prior) {
   std::vector<ObjectChange> changes;
   int64_t id = 0;
   for (int64_t kf = 1; kf <= 6; ++kf) {
-    const MapObservation view = Grid("tv", 1, kf, {1.0, 0.0, 0.8},
-                                     {1.0 + thickness_m, 0.5, 1.2}, {0.02, 0.02, 0.02});
+    const MapObservation view =
+        Grid("tv", 1, kf, {1.0, 0.0, 0.8}, {1.0 + thickness_m, 0.5, 1.2}, {0.02, 0.02, 0.02});
     id = map.Integrate({view}, &changes)[0];
   }
   const FusedObject* tv = map.Find(map.Resolve(id));
@@ -351,10 +351,10 @@ TEST(ObjectRules, LaptopViewsOverAKeyboardAndAMonitorDoNotMergeThem) {
   const Eigen::Vector3d step(0.02, 0.02, 0.02);
   int64_t keyboard = 0, tv = 0;
   for (int64_t kf = 1; kf <= 6; ++kf) {
-    const std::vector<int64_t> ids = map.Integrate(
-        {Grid("keyboard", 1, kf, {0.5, 0.0, 0.76}, {0.95, 0.16, 0.8}, step),
-         Grid("tv", 2, kf, {0.5, 0.36, 0.86}, {0.95, 0.42, 1.2}, step)},
-        &changes);
+    const std::vector<int64_t> ids =
+        map.Integrate({Grid("keyboard", 1, kf, {0.5, 0.0, 0.76}, {0.95, 0.16, 0.8}, step),
+                       Grid("tv", 2, kf, {0.5, 0.36, 0.86}, {0.95, 0.42, 1.2}, step)},
+                      &changes);
     keyboard = ids[0];
     tv = ids[1];
   }
@@ -416,8 +416,8 @@ TEST(ObjectRules, DesksSetDiagonallyAreNotMergedByTheirBoxes) {
     map.Integrate({DeskTop(2, 2, piece, 0.25, 0.2, yaw, 0.74, 0.45)}, &changes);
     return map.size();
   };
-  EXPECT_EQ(tables({}), 1u);                 // boxes of any class: merged by box containment
-  EXPECT_EQ(tables({"dining table"}), 2u);   // tables: their boxes are no solids
+  EXPECT_EQ(tables({}), 1u);                // boxes of any class: merged by box containment
+  EXPECT_EQ(tables({"dining table"}), 2u);  // tables: their boxes are no solids
 }
 
 TEST(ObjectRules, SameClassBoxesThatOverlapAreOneObject) {
@@ -464,10 +464,10 @@ size_t CupsAt(double range_m, double merge_sigmas, double second_range_m = -1) {
 }
 
 TEST(ObjectRules, FarObjectsMergeWithinTheirRangeUncertainty) {
-  EXPECT_EQ(CupsAt(3.2, 1.0), 1u);  // gate sqrt(2) * s(3.2 m) = 0.19 m
-  EXPECT_EQ(CupsAt(0.9, 1.0), 2u);  // gate 0.1 m (merge_centroid_m): s(0.9 m) = 0.024 m
-  EXPECT_EQ(CupsAt(3.2, 0.0), 2u);  // off
-  EXPECT_EQ(CupsAt(0.0, 1.0), 2u);  // range unknown
+  EXPECT_EQ(CupsAt(3.2, 1.0), 1u);       // gate sqrt(2) * s(3.2 m) = 0.19 m
+  EXPECT_EQ(CupsAt(0.9, 1.0), 2u);       // gate 0.1 m (merge_centroid_m): s(0.9 m) = 0.024 m
+  EXPECT_EQ(CupsAt(3.2, 0.0), 2u);       // off
+  EXPECT_EQ(CupsAt(0.0, 1.0), 2u);       // range unknown
   EXPECT_EQ(CupsAt(0.9, 1.0, 3.2), 2u);  // a near object does not take in a far view's blob
 }
 
@@ -584,7 +584,8 @@ TEST(ObjectRules, AMonitorsPanelReachesDownToTheDeskItStandsOn) {
     tv = ids[1];
   }
   const auto find = [](const std::vector<MapObject>& all, int64_t id) {
-    const auto it = std::find_if(all.begin(), all.end(), [&](const MapObject& o) { return o.id == id; });
+    const auto it =
+        std::find_if(all.begin(), all.end(), [&](const MapObject& o) { return o.id == id; });
     return it == all.end() ? MapObject{} : *it;
   };
   const std::vector<MapObject> all = map.Snapshot(/*confirmed_only=*/true);

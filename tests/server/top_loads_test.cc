@@ -86,7 +86,7 @@ TEST(TopLoads, AMonitorOnItsStandWidensTheDeskUnderIt) {
   TopLoadOptions no_stand;
   no_stand.stand_m.clear();
   ExtendTopsUnderLoads(kFlatTops, no_stand, &without);
-  EXPECT_NEAR(Find(without, 1).aabb_max_m.y(), 1.29, 1e-9);     // ends at the mouse
+  EXPECT_NEAR(Find(without, 1).aabb_max_m.y(), 1.29, 1e-9);  // ends at the mouse
   // A screen on the wall 35 cm over the desk does not stand on it.
   std::vector<MapObject> wall = MainDesk();
   wall.back().aabb_min_m.z() = 1.12;
@@ -121,10 +121,9 @@ TEST(TopLoads, DesksTurnedToTheMapAxesTakeWhatLiesOnThemByTheirOrientedFootprint
   // Two desks back to back at u = 0, turned 40 deg to the map's axes: the lower one (top 0.74)
   // seen whole, of the other (top 0.77) a strip 0.35 m past the seam; a book on the higher desk
   // between the seam and the strip, 3 cm from the strip and 8 cm from the lower desk.
-  const std::vector<MapObject> scene = {
-      Turned(1, "dining table", -0.9, 0.0, 0.0, 1.5, 0.70, 0.74),
-      Turned(2, "dining table", 0.35, 0.8, 0.0, 1.5, 0.73, 0.77),
-      Turned(3, "book", 0.08, 0.32, 1.2, 1.45, 0.77, 0.81)};
+  const std::vector<MapObject> scene = {Turned(1, "dining table", -0.9, 0.0, 0.0, 1.5, 0.70, 0.74),
+                                        Turned(2, "dining table", 0.35, 0.8, 0.0, 1.5, 0.73, 0.77),
+                                        Turned(3, "book", 0.08, 0.32, 1.2, 1.45, 0.77, 0.81)};
   double distance = 0, overlap = 0;
   ASSERT_TRUE(RestsOn(scene[2], scene[0], TopLoadOptions{}, &distance, &overlap));
   EXPECT_NEAR(distance, 0.08, 1e-9);
@@ -269,7 +268,8 @@ TEST(TopLoads, APieceHoldsTheLoadsThatRestOnItBetterThanOnAnyOther) {
     main_desk.observation_count = candidate_views;
     MapObject mouse = Box(4, "mouse", {-0.43, -0.89, 0.72}, {-0.28, -0.70, 0.82});
     mouse.confirmed = false;  // a candidate holds no table up
-    return std::vector<MapObject>{Table(1, {0.27, -1.69, 0.72}, {1.39, -0.70, 0.77}), main_desk,
+    return std::vector<MapObject>{Table(1, {0.27, -1.69, 0.72}, {1.39, -0.70, 0.77}),
+                                  main_desk,
                                   Box(3, "keyboard", {-0.40, -0.80, 0.75}, {0.15, -0.35, 0.83}),
                                   mouse,
                                   Box(5, "cup", {0.11, -0.70, 0.75}, {0.24, -0.54, 0.92}),
@@ -292,8 +292,7 @@ TEST(TopLoads, ChairsHoldNoPieceOfFloorUp) {
   MapObject floor = Table(1, {0.0, 0.0, 0.0}, {1.2, 0.8, 0.02});
   floor.confirmed = false;
   floor.observation_count = 4;
-  std::vector<MapObject> objects = {floor,
-                                    Box(2, "chair", {0.1, 0.1, 0.02}, {0.6, 0.6, 0.95}),
+  std::vector<MapObject> objects = {floor, Box(2, "chair", {0.1, 0.1, 0.02}, {0.6, 0.6, 0.95}),
                                     Box(3, "chair", {0.7, 0.1, 0.02}, {1.1, 0.6, 0.95})};
   EXPECT_TRUE(RestsOn(objects[1], objects[0], TopLoadOptions{}, nullptr, nullptr));
   EXPECT_EQ(LoadsHeldBy(1, kFlatTops, TopLoadOptions{}, objects), 0);
