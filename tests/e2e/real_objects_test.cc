@@ -52,10 +52,13 @@ TEST(RealObjects, Fr1RpyAgainstHandMadeGroundTruth) {
   // out): 0.769, 10 of 13; since session 35 (the main desk's two ends one table): 0.833, 10 of 12.
   // The count error is the missed objects less the false positives: YOLOX-Nano never boxes 5 of
   // the 15, so every false positive less raises it (13.3 % -> 20 % in session 35).
+  // Recall 0.600-0.667 in every run since session 33 (YOLOX-Nano's cap: 10 of 15); the mean
+  // centroid error 0.080 m here in session 53 (loads reach down to their tops), 0.046-0.096 m
+  // over the 8 start frames of scripts/eval-runs.sh.
   EXPECT_GE(m.precision, 0.75);
-  EXPECT_GE(m.recall, 0.4);
+  EXPECT_GE(m.recall, 0.6);
   EXPECT_LE(m.count_error, 0.27);
-  EXPECT_LE(m.mean_centroid_error_m, 0.15);
+  EXPECT_LE(m.mean_centroid_error_m, 0.11);
   // The two desks back to back are two tables, so answers can name the right one (5 of 10 by
   // the orientations' alignment in session 25, 0 while they fused into one table between them),
   // and the main desk's top runs on under what stands on it (6 of 10 by either alignment,
