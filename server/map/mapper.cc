@@ -115,6 +115,12 @@ MapObservation ToMap(const ObjectObservation& o, const MapperKeyframe& kf,
 void Mapper::AppendEvents(const std::vector<ObjectChange>& changes,
                           std::vector<ObjectEventOut>* events) const {
   const size_t first = events->size();
+  std::vector<int64_t> ids;
+  for (const ObjectChange& c : changes) {
+    if (c.kind != ObjectChange::Kind::kRemoved) ids.push_back(objects_.Resolve(c.object_id));
+  }
+  std::vector<std::optional<MapObject>> snapshots = objects_.SnapshotsOf(ids);
+  size_t next = 0;
   for (const ObjectChange& c : changes) {
     ObjectEventOut e;
     e.kind = c.kind;
@@ -125,9 +131,7 @@ void Mapper::AppendEvents(const std::vector<ObjectChange>& changes,
       events->push_back(std::move(e));
       continue;
     }
-    if (auto snapshot = objects_.SnapshotOf(objects_.Resolve(c.object_id))) {
-      e.object = std::move(*snapshot);
-    }
+    if (std::optional<MapObject>& snapshot = snapshots[next++]) e.object = std::move(*snapshot);
     e.object.id = objects_.Resolve(c.object_id);
     events->push_back(std::move(e));
   }

@@ -455,16 +455,29 @@ std::vector<MapObject> ObjectMap::Snapshot(bool confirmed_only) const {
 }
 
 std::optional<MapObject> ObjectMap::SnapshotOf(int64_t id) const {
-  const FusedObject* object = Find(id);
-  if (object == nullptr) return std::nullopt;
-  MapObject one = object->Snapshot();
-  // Tables widen under their loads, and loads reach down to their tables (TopLoadOptions).
-  const bool table = IsFlatTopClass(options_.flat_top_classes, one.class_name);
-  if (!one.confirmed || (!table && !options_.top_loads.lower_loads)) return one;
-  for (MapObject& o : Snapshot(/*confirmed_only=*/true)) {
-    if (o.id == id) return o;
+  std::vector<std::optional<MapObject>> one = SnapshotsOf({id});
+  return std::move(one[0]);
+}
+
+std::vector<std::optional<MapObject>> ObjectMap::SnapshotsOf(
+    const std::vector<int64_t>& ids) const {
+  std::vector<std::optional<MapObject>> out(ids.size());
+  bool whole_map = false;  // tables widen under their loads, loads reach down to their tables
+  for (size_t i = 0; i < ids.size(); ++i) {
+    const FusedObject* object = Find(ids[i]);
+    if (object == nullptr) continue;
+    out[i] = object->Snapshot();
+    const bool table = IsFlatTopClass(options_.flat_top_classes, out[i]->class_name);
+    whole_map |= out[i]->confirmed && (table || options_.top_loads.lower_loads);
   }
-  return one;
+  if (!whole_map) return out;
+  std::unordered_map<int64_t, MapObject> shown;
+  for (MapObject& o : Snapshot(/*confirmed_only=*/true)) shown.emplace(o.id, std::move(o));
+  for (size_t i = 0; i < ids.size(); ++i) {
+    const auto it = out[i] ? shown.find(ids[i]) : shown.end();
+    if (it != shown.end()) out[i] = it->second;
+  }
+  return out;
 }
 
 std::vector<MapObject> ObjectMap::TablesUnder(const std::vector<MapObject>& loads) const {

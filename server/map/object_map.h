@@ -105,6 +105,8 @@ class ObjectMap {
   std::vector<MapObject> Snapshot(bool confirmed_only) const;
   // One object as Snapshot shows it; nullopt when there is no such object (ids not resolved).
   std::optional<MapObject> SnapshotOf(int64_t id) const;
+  // Several objects as Snapshot shows them, from one snapshot of the map (an event batch).
+  std::vector<std::optional<MapObject>> SnapshotsOf(const std::vector<int64_t>& ids) const;
   // The confirmed tables that one of `loads` rests on, as Snapshot shows them (TablesUnderLoads).
   std::vector<MapObject> TablesUnder(const std::vector<MapObject>& loads) const;
   // The confirmed loads lowered onto one of the tables among `changed`, as Snapshot shows them

@@ -7,7 +7,11 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
+
+#include "server/map/object_map.h"
+#include "tests/server/object_observations.h"
 
 namespace loci::server {
 namespace {
@@ -385,6 +389,44 @@ TEST(TopLoads, ALoweredThingsOrientedBoxGrowsAlongItsUprightAxis) {
       EXPECT_GT(out.obb_half_extent_m.z(), 0.19);
     }
   }
+}
+
+TEST(TopLoads, AMonitorsPanelReachesDownToTheDeskItStandsOnInTheObjectMap) {
+  // The depth of a monitor ends at its panel (15 cm over the desk, its stand left out): as
+  // queries, exports and events see it, it reaches down to the desk's top.
+  FusionOptions options = testing::WithSizes(1.5);
+  options.flat_top_classes = kFlatTops;
+  ObjectMap map(options, 0.01);
+  std::vector<ObjectChange> changes;
+  int64_t desk = 0, tv = 0;
+  for (int64_t kf = 1; kf <= 3; ++kf) {
+    const std::vector<int64_t> ids = map.Integrate(
+        {testing::Rect("dining table", 0.6, 1, kf, 0.0, 1.0, 0.0, 0.6, 0.77),
+         testing::Grid("tv", 2, kf, {0.45, 0.10, 0.92}, {0.47, 0.50, 1.27}, {0.01, 0.01, 0.01})},
+        &changes);
+    desk = ids[0];
+    tv = ids[1];
+  }
+  const auto find = [](const std::vector<MapObject>& all, int64_t id) {
+    const auto it =
+        std::find_if(all.begin(), all.end(), [&](const MapObject& o) { return o.id == id; });
+    return it == all.end() ? MapObject{} : *it;
+  };
+  const std::vector<MapObject> all = map.Snapshot(/*confirmed_only=*/true);
+  const MapObject shown = find(all, tv);
+  ASSERT_EQ(shown.id, tv);
+  ASSERT_EQ(find(all, desk).id, desk);
+  EXPECT_NEAR(find(all, desk).top_surface_z_m, 0.77, 0.006);
+  EXPECT_NEAR(shown.aabb_min_m.z(), find(all, desk).top_surface_z_m, 1e-9);
+  EXPECT_NEAR(shown.centroid_m.z(), 0.5 * (0.77 + 1.27), 0.01);
+  EXPECT_NEAR(map.Find(tv)->Snapshot().centroid_m.z(), 0.5 * (0.92 + 1.27), 0.01);  // its points
+  // One object, and the loads on a changed desk, as Snapshot shows them.
+  EXPECT_EQ(map.SnapshotOf(tv)->centroid_m, shown.centroid_m);
+  const std::vector<MapObject> on_desk = map.LoadsOnTables({find(all, desk)});
+  ASSERT_EQ(on_desk.size(), 1u);
+  EXPECT_EQ(on_desk[0].id, tv);
+  EXPECT_EQ(on_desk[0].aabb_min_m, shown.aabb_min_m);
+  EXPECT_TRUE(map.LoadsOnTables({shown}).empty());  // a tv is no table
 }
 
 }  // namespace
