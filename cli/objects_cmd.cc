@@ -9,17 +9,9 @@
 
 #include "cli/commands.h"
 #include "cli/query_client.h"
-#include "proto/json.h"
 
 namespace loci::cli {
 namespace {
-
-struct ServerArgs {
-  std::string server = "127.0.0.1:50051";
-  bool json = false;
-  double timeout_s = 10.0;
-  ChannelSecurity security;
-};
 
 struct ObjectsArgs : ServerArgs {
   std::vector<std::string> classes;
@@ -39,24 +31,14 @@ std::string Stamp(int64_t t_ns) {
 }
 
 int RunObjects(const ObjectsArgs& a) {
-  auto stub = ConnectQuery(a.server, a.security);
-  if (!stub.ok()) {
-    std::fprintf(stderr, "error: %s\n", std::string(stub.status().message()).c_str());
-    return 2;
-  }
-  grpc::ClientContext ctx;
-  SetDeadline(&ctx, a.timeout_s);
   loci::v1::FindObjectsRequest req;
   for (const std::string& c : a.classes) req.add_classes(c);
   req.set_min_confidence(a.min_confidence);
   req.set_confirmed_only(a.confirmed_only);
   req.set_include_islands(true);
   loci::v1::FindObjectsResponse resp;
-  const grpc::Status s = (*stub)->FindObjects(&ctx, req, &resp);
-  if (!s.ok()) return ReportFailure(a.server, s, a.json);
-  if (a.json) {
-    std::printf("%s\n", ProtoToJson(resp).c_str());
-    return 0;
+  if (std::optional<int> done = CallQuery(a, &loci::v1::Query::Stub::FindObjects, req, &resp)) {
+    return *done;
   }
   std::printf("%6s  %-16s %5s  %-22s %-18s %-19s %s\n", "id", "class", "conf", "centroid (m)",
               "extent (m)", "last seen (UTC)", "robots");
@@ -171,19 +153,10 @@ void PrintAlignment(const loci::v1::GetStatsResponse& resp) {
 }
 
 int RunStats(const ServerArgs& a) {
-  auto stub = ConnectQuery(a.server, a.security);
-  if (!stub.ok()) {
-    std::fprintf(stderr, "error: %s\n", std::string(stub.status().message()).c_str());
-    return 2;
-  }
-  grpc::ClientContext ctx;
-  SetDeadline(&ctx, a.timeout_s);
   loci::v1::GetStatsResponse resp;
-  const grpc::Status s = (*stub)->GetStats(&ctx, loci::v1::GetStatsRequest(), &resp);
-  if (!s.ok()) return ReportFailure(a.server, s, a.json);
-  if (a.json) {
-    std::printf("%s\n", ProtoToJson(resp).c_str());
-    return 0;
+  if (std::optional<int> done =
+          CallQuery(a, &loci::v1::Query::Stub::GetStats, loci::v1::GetStatsRequest(), &resp)) {
+    return *done;
   }
   std::printf("sessions           %llu\n", static_cast<unsigned long long>(resp.sessions()));
   std::printf("keyframes          %llu\n", static_cast<unsigned long long>(resp.keyframes()));
@@ -210,13 +183,6 @@ int RunStats(const ServerArgs& a) {
               resp.ingest_ms_mean(), resp.worker_longest_wait_ms());
   PrintAlignment(resp);
   return 0;
-}
-
-void AddServerOptions(CLI::App* c, ServerArgs* a) {
-  c->add_option("--server", a->server, "gRPC address HOST:PORT")->capture_default_str();
-  c->add_flag("--json", a->json, "print the response as proto JSON");
-  c->add_option("--timeout", a->timeout_s, "seconds to wait")->capture_default_str();
-  AddSecurityOptions(c, &a->security);
 }
 
 }  // namespace

@@ -26,6 +26,16 @@ void SetDeadline(grpc::ClientContext* ctx, double timeout_s) {
                     std::chrono::milliseconds(static_cast<int64_t>(timeout_s * 1e3)));
 }
 
+int ReportNoChannel(const Status& status) {
+  std::fprintf(stderr, "error: %s\n", std::string(status.message()).c_str());
+  return 2;
+}
+
+int PrintJson(const google::protobuf::Message& message) {
+  std::printf("%s\n", ProtoToJson(message).c_str());
+  return 0;
+}
+
 int ReportFailure(const std::string& server, const grpc::Status& s, bool json) {
   if (json) {
     const absl::Status status(static_cast<absl::StatusCode>(s.error_code()), s.error_message());
@@ -38,6 +48,13 @@ int ReportFailure(const std::string& server, const grpc::Status& s, bool json) {
     std::fprintf(stderr, "error: %s\n", s.error_message().c_str());
   }
   return 1;
+}
+
+void AddServerOptions(CLI::App* c, ServerArgs* a) {
+  c->add_option("--server", a->server, "gRPC address HOST:PORT")->capture_default_str();
+  c->add_flag("--json", a->json, "print the response as proto JSON");
+  c->add_option("--timeout", a->timeout_s, "seconds to wait")->capture_default_str();
+  AddSecurityOptions(c, &a->security);
 }
 
 }  // namespace loci::cli

@@ -142,9 +142,15 @@ Status MapServer::CheckReady() const {
     return absl::UnavailableError(
         absl::StrCat("loci-server could not load its map: ", load_status_.message()));
   }
-  return absl::UnavailableError(absl::StrCat(
-      "loci-server is loading its map (", load_done_.load(), " of ", load_total_.load(),
-      " keyframes); retry when the gRPC health service reports SERVING"));
+  // Progress comes once the checkpoint is restored and the keyframes counted (replay.cc).
+  const std::string progress =
+      load_total_.load() == 0
+          ? std::string("reading the stored map")
+          : absl::StrCat(load_done_.load(), " keyframes replayed after the checkpoint, ",
+                         load_total_.load(), " stored");
+  return absl::UnavailableError(absl::StrCat("loci-server is loading its map (", progress,
+                                             "); retry when the gRPC health service reports "
+                                             "SERVING"));
 }
 
 Status MapServer::WaitReady() {

@@ -164,6 +164,7 @@ StatusOr<LoadReport> LoadMap(MapStore& store, std::unique_ptr<Mapper>* mapper,
   scan.products_fingerprint = (*mapper)->options().ProductsFingerprint();
   MapStore* product_store = options.store_products ? &store : nullptr;
   uint64_t seen = 0;
+  if (options.progress) options.progress(seen, total);
   LOCI_RETURN_IF_ERROR(store.ForEachKeyframe(
       after_id,
       [&](KeyframeRecord rec) -> Status {

@@ -54,7 +54,8 @@ bool LoadKeyframe(const KeyframeRecord& rec, const SessionRecord& session, Mappe
 struct LoadOptions {
   bool use_checkpoint = true;
   bool store_products = true;  // products made from raw keyframes are written back
-  // Called every 200 keyframes and at the end with (keyframes mapped so far, keyframes stored).
+  // Called once the checkpoint is restored, every 200 keyframes and at the end with (keyframes
+  // mapped after the checkpoint so far, keyframes stored).
   std::function<void(uint64_t, uint64_t)> progress;
   // When set and true, the load stops with CANCELLED (server shutting down while loading).
   const std::atomic<bool>* stop = nullptr;
