@@ -104,16 +104,8 @@ namespace {
 constexpr int kNoDepth = -1;
 constexpr int kBackground = -2;
 
-}  // namespace
-
-cv::Mat SegmentObjectDepth(const cv::Mat& depth, const cv::Rect2f& box_px, const MaskOptions& o,
-                           const MaskContext& context) {
-  if (depth.empty() || depth.channels() != 1 ||
-      (depth.depth() != CV_16U && depth.depth() != CV_32F)) {
-    return {};
-  }
-  const cv::Rect roi = MaskRect(box_px, depth.cols, depth.rows);
-  if (roi.width <= 0 || roi.height <= 0) return {};
+// The box's depth in metres (CV_32F); 0 = no usable reading.
+cv::Mat RoiDepthM(const cv::Mat& depth, const cv::Rect& roi, const MaskOptions& o) {
   cv::Mat depth_m;
   if (depth.depth() == CV_16U) {
     depth(roi).convertTo(depth_m, CV_32F, 1.0 / o.depth_scale);
@@ -121,23 +113,12 @@ cv::Mat SegmentObjectDepth(const cv::Mat& depth, const cv::Rect2f& box_px, const
     depth_m = depth(roi).clone();
     cv::patchNaNs(depth_m, 0.0);
   }
-  // 0 = no usable reading, from here on.
   depth_m.setTo(0.f, (depth_m < o.min_depth_m) | (depth_m > o.max_depth_m));
-  cv::Mat mask = cv::Mat::zeros(roi.size(), CV_8UC1);
+  return depth_m;
+}
 
-  // Centre-weighted histogram over log-depth bins.
-  const double log_min = std::log(o.min_depth_m);
-  const double log_step = std::log1p(o.bin_width_rel);
-  const int num_bins =
-      static_cast<int>(std::ceil((std::log(o.max_depth_m) - log_min) / log_step)) + 1;
-  std::vector<double> hist(num_bins, 0.0);
-  cv::Mat bin_of(roi.size(), CV_32S, cv::Scalar(kNoDepth));
-  BackgroundPlanes planes;
-  if (o.remove_support_plane) planes = BackgroundPlaneMask(depth, roi, depth_m, o, context);
-  if (planes.bare_support) return mask;
-  const cv::Mat background =
-      planes.mask.empty() ? cv::Mat(cv::Mat::zeros(roi.size(), CV_8UC1)) : planes.mask;
-  cv::Mat weight(roi.size(), CV_32F);
+// Gaussian weight of each roi pixel around the box centre (sigma centre_sigma_rel of the box).
+cv::Mat CentreWeights(const cv::Rect2f& box_px, const cv::Rect& roi, const MaskOptions& o) {
   const double cx = box_px.x + box_px.width * 0.5 - roi.x;
   const double cy = box_px.y + box_px.height * 0.5 - roi.y;
   const double sx = std::max(1.0, double{o.centre_sigma_rel} * box_px.width);
@@ -148,40 +129,68 @@ cv::Mat SegmentObjectDepth(const cv::Mat& depth, const cv::Rect2f& box_px, const
     const double dx = (u + 0.5 - cx) / sx;
     wx[u] = static_cast<float>(std::exp(-0.5 * dx * dx));
   }
-  int valid = 0;
+  cv::Mat weight(roi.size(), CV_32F);
   for (int v = 0; v < roi.height; ++v) {
-    const float* d = depth_m.ptr<float>(v);
-    int* b = bin_of.ptr<int>(v);
-    float* w = weight.ptr<float>(v);
-    const uint8_t* bg = background.ptr<uint8_t>(v);
     const double dy = (v + 0.5 - cy) / sy;
     const float wy = static_cast<float>(std::exp(-0.5 * dy * dy));
-    for (int u = 0; u < roi.width; ++u) {
-      w[u] = wx[u] * wy;
+    float* w = weight.ptr<float>(v);
+    for (int u = 0; u < roi.width; ++u) w[u] = wx[u] * wy;
+  }
+  return weight;
+}
+
+// Log-depth bins of the box: each pixel's bin (kNoDepth, kBackground) and the centre-weighted
+// histogram of the bins.
+struct DepthBins {
+  cv::Mat bin_of;  // CV_32S
+  std::vector<double> hist;
+  int valid = 0;  // pixels with a usable reading, background ones included
+};
+
+DepthBins BinDepths(const cv::Mat& depth_m, const cv::Mat& background, const cv::Mat& weight,
+                    const MaskOptions& o) {
+  const double log_min = std::log(o.min_depth_m);
+  const double log_step = std::log1p(o.bin_width_rel);
+  const int num_bins =
+      static_cast<int>(std::ceil((std::log(o.max_depth_m) - log_min) / log_step)) + 1;
+  DepthBins out;
+  out.hist.assign(num_bins, 0.0);
+  out.bin_of = cv::Mat(depth_m.size(), CV_32S, cv::Scalar(kNoDepth));
+  for (int v = 0; v < depth_m.rows; ++v) {
+    const float* d = depth_m.ptr<float>(v);
+    int* b = out.bin_of.ptr<int>(v);
+    const float* w = weight.ptr<float>(v);
+    const uint8_t* bg = background.ptr<uint8_t>(v);
+    for (int u = 0; u < depth_m.cols; ++u) {
       if (!(d[u] >= o.min_depth_m && d[u] <= o.max_depth_m)) continue;
-      ++valid;
+      ++out.valid;
       if (bg[u]) {
         b[u] = kBackground;
         continue;
       }
       b[u] = std::clamp(static_cast<int>((std::log(d[u]) - log_min) / log_step), 0, num_bins - 1);
-      hist[b[u]] += w[u];
+      out.hist[b[u]] += w[u];
     }
   }
-  if (valid < o.min_pixels) return mask;
+  return out;
+}
 
-  // Smooth with [1 2 1] so a surface straddling two bins is not split.
+struct DepthCluster {
+  int lo, hi;  // bins
+  double weight;
+};
+
+// Depth clusters: runs of bins above a floor (min_bin_fraction of the [1 2 1]-smoothed peak, so a
+// surface straddling two bins is not split), bridging at most max_gap_bins weaker ones; the three
+// heaviest.
+std::vector<DepthCluster> DepthClusters(const std::vector<double>& hist, const MaskOptions& o) {
+  const int num_bins = static_cast<int>(hist.size());
   std::vector<double> smooth(num_bins, 0.0);
   for (int i = 0; i < num_bins; ++i) {
     smooth[i] = 2 * hist[i] + (i > 0 ? hist[i - 1] : 0.0) + (i + 1 < num_bins ? hist[i + 1] : 0.0);
   }
-  // Depth clusters: runs of bins above floor_weight, bridging at most max_gap_bins weaker ones.
   const double floor_weight = o.min_bin_fraction * *std::max_element(smooth.begin(), smooth.end());
-  struct Cluster {
-    int lo, hi;
-    double weight;
-  };
-  std::vector<Cluster> clusters;
+  std::vector<DepthCluster> clusters;
   for (int i = 0, gap = 0; i < num_bins; ++i) {
     if (hist[i] <= floor_weight) {
       ++gap;
@@ -193,8 +202,85 @@ cv::Mat SegmentObjectDepth(const cv::Mat& depth, const cv::Rect2f& box_px, const
     gap = 0;
   }
   std::sort(clusters.begin(), clusters.end(),
-            [](const Cluster& a, const Cluster& b) { return a.weight > b.weight; });
+            [](const DepthCluster& a, const DepthCluster& b) { return a.weight > b.weight; });
   if (clusters.size() > 3) clusters.resize(3);
+  return clusters;
+}
+
+// The pixels of one cluster, opened with the kernel, as their best connected component (or all
+// of them, without largest_component); *score: centre weight times the share of the box the
+// result spans. Empty when nothing is left.
+cv::Mat ClusterMask(const DepthCluster& c, const cv::Mat& bin_of, const cv::Mat& weight, int kernel,
+                    const MaskOptions& o, double* score_out) {
+  cv::Mat m(bin_of.size(), CV_8UC1);
+  for (int v = 0; v < bin_of.rows; ++v) {
+    const int* b = bin_of.ptr<int>(v);
+    uint8_t* row = m.ptr<uint8_t>(v);
+    for (int u = 0; u < bin_of.cols; ++u) row[u] = (b[u] >= c.lo && b[u] <= c.hi) ? 255 : 0;
+  }
+  if (kernel > 1) {
+    cv::morphologyEx(m, m, cv::MORPH_OPEN,
+                     cv::getStructuringElement(cv::MORPH_RECT, cv::Size(kernel, kernel)));
+  }
+  cv::Mat labels;
+  const int n = cv::connectedComponents(m, labels, 8, CV_32S);
+  if (n < 2) return {};
+  std::vector<double> score(n, 0.0);
+  for (int v = 0; v < labels.rows; ++v) {
+    const int* l = labels.ptr<int>(v);
+    const float* w = weight.ptr<float>(v);
+    for (int u = 0; u < labels.cols; ++u) score[l[u]] += l[u] > 0 ? w[u] : 0.0;
+  }
+  if (o.largest_component && n > 2) {
+    const int best =
+        static_cast<int>(std::max_element(score.begin() + 1, score.end()) - score.begin());
+    m = (labels == best);
+    score[1] = score[best];
+  } else {
+    for (int k = 2; k < n; ++k) score[1] += score[k];
+  }
+  const cv::Rect extent = cv::boundingRect(m);
+  const double span =
+      (static_cast<double>(extent.width) / m.cols) * (static_cast<double>(extent.height) / m.rows);
+  *score_out = score[1] * span;
+  return m;
+}
+
+// Close fills pinholes of missing depth inside the object, never pixels of other depth.
+void FillDepthHoles(const cv::Mat& bin_of, int kernel, cv::Mat* mask) {
+  const cv::Mat k = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(kernel, kernel));
+  cv::Mat closed;
+  cv::morphologyEx(*mask, closed, cv::MORPH_CLOSE, k);
+  for (int v = 0; v < bin_of.rows; ++v) {
+    const int* b = bin_of.ptr<int>(v);
+    const uint8_t* c = closed.ptr<uint8_t>(v);
+    uint8_t* m = mask->ptr<uint8_t>(v);
+    for (int u = 0; u < bin_of.cols; ++u) {
+      if (c[u] && b[u] == kNoDepth) m[u] = 255;
+    }
+  }
+}
+
+}  // namespace
+
+cv::Mat SegmentObjectDepth(const cv::Mat& depth, const cv::Rect2f& box_px, const MaskOptions& o,
+                           const MaskContext& context) {
+  if (depth.empty() || depth.channels() != 1 ||
+      (depth.depth() != CV_16U && depth.depth() != CV_32F)) {
+    return {};
+  }
+  const cv::Rect roi = MaskRect(box_px, depth.cols, depth.rows);
+  if (roi.width <= 0 || roi.height <= 0) return {};
+  const cv::Mat depth_m = RoiDepthM(depth, roi, o);
+  cv::Mat mask = cv::Mat::zeros(roi.size(), CV_8UC1);
+  BackgroundPlanes planes;
+  if (o.remove_support_plane) planes = BackgroundPlaneMask(depth, roi, depth_m, o, context);
+  if (planes.bare_support) return mask;
+  const cv::Mat background =
+      planes.mask.empty() ? cv::Mat(cv::Mat::zeros(roi.size(), CV_8UC1)) : planes.mask;
+  const cv::Mat weight = CentreWeights(box_px, roi, o);
+  const DepthBins bins = BinDepths(depth_m, background, weight, o);
+  if (bins.valid < o.min_pixels) return mask;
 
   // Small boxes (thin objects) lose too much to morphology.
   const int kernel =
@@ -203,56 +289,15 @@ cv::Mat SegmentObjectDepth(const cv::Mat& depth, const cv::Rect2f& box_px, const
   // much of the box it spans (a detector's box is tight on the object's visible pixels, while
   // an occluder in front or a patch of background rarely spans it).
   double best_score = -1.0;
-  for (const Cluster& c : clusters) {
-    cv::Mat m(roi.size(), CV_8UC1);
-    for (int v = 0; v < roi.height; ++v) {
-      const int* b = bin_of.ptr<int>(v);
-      uint8_t* row = m.ptr<uint8_t>(v);
-      for (int u = 0; u < roi.width; ++u) row[u] = (b[u] >= c.lo && b[u] <= c.hi) ? 255 : 0;
-    }
-    if (kernel > 1) {
-      cv::morphologyEx(m, m, cv::MORPH_OPEN,
-                       cv::getStructuringElement(cv::MORPH_RECT, cv::Size(kernel, kernel)));
-    }
-    cv::Mat labels;
-    const int n = cv::connectedComponents(m, labels, 8, CV_32S);
-    if (n < 2) continue;
-    std::vector<double> score(n, 0.0);
-    for (int v = 0; v < roi.height; ++v) {
-      const int* l = labels.ptr<int>(v);
-      const float* w = weight.ptr<float>(v);
-      for (int u = 0; u < roi.width; ++u) score[l[u]] += l[u] > 0 ? w[u] : 0.0;
-    }
-    if (o.largest_component && n > 2) {
-      const int best =
-          static_cast<int>(std::max_element(score.begin() + 1, score.end()) - score.begin());
-      m = (labels == best);
-      score[1] = score[best];
-    } else {
-      for (int k = 2; k < n; ++k) score[1] += score[k];
-    }
-    const cv::Rect extent = cv::boundingRect(m);
-    const double span = (static_cast<double>(extent.width) / roi.width) *
-                        (static_cast<double>(extent.height) / roi.height);
-    if (score[1] * span > best_score) {
-      best_score = score[1] * span;
+  for (const DepthCluster& c : DepthClusters(bins.hist, o)) {
+    double score = 0;
+    cv::Mat m = ClusterMask(c, bins.bin_of, weight, kernel, o, &score);
+    if (!m.empty() && score > best_score) {
+      best_score = score;
       mask = m;
     }
   }
-  if (kernel > 1) {
-    const cv::Mat k = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(kernel, kernel));
-    // Close fills pinholes of missing depth inside the object, never pixels of other depth.
-    cv::Mat closed;
-    cv::morphologyEx(mask, closed, cv::MORPH_CLOSE, k);
-    for (int v = 0; v < roi.height; ++v) {
-      const int* b = bin_of.ptr<int>(v);
-      const uint8_t* c = closed.ptr<uint8_t>(v);
-      uint8_t* m = mask.ptr<uint8_t>(v);
-      for (int u = 0; u < roi.width; ++u) {
-        if (c[u] && b[u] == kNoDepth) m[u] = 255;
-      }
-    }
-  }
+  if (kernel > 1) FillDepthHoles(bins.bin_of, kernel, &mask);
   return mask;
 }
 

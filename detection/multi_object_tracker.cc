@@ -108,95 +108,115 @@ void MultiObjectTracker::Update(const cv::Mat& bgr, std::vector<Detection2D>* de
     ++t.age;
     ++t.time_since_update;
   }
-  const bool use_appearance = !bgr.empty() && bgr.type() == CV_8UC3;
-  std::vector<cv::Mat> features(dets.size());
-  if (use_appearance) {
+  Frame f{&dets, {}, std::vector<cv::Mat>(dets.size()), !bgr.empty() && bgr.type() == CV_8UC3};
+  if (f.use_appearance) {
     for (size_t i = 0; i < dets.size(); ++i) {
-      features[i] = HsvHistogram(bgr, dets[i].box_px, dets[i].mask, options_.appearance);
+      f.features[i] = HsvHistogram(bgr, dets[i].box_px, dets[i].mask, options_.appearance);
     }
   }
-  std::vector<cv::Rect2f> predicted(tracks_.size());
-  for (size_t i = 0; i < tracks_.size(); ++i) predicted[i] = tracks_[i].kf.Box();
+  f.predicted.resize(tracks_.size());
+  for (size_t i = 0; i < tracks_.size(); ++i) f.predicted[i] = tracks_[i].kf.Box();
 
-  // Stage 1: matching cascade over confirmed tracks, most recently seen first.
-  auto cascade_cost = [&](int ti, int di) {
-    const Track& t = tracks_[ti];
-    const Detection2D& d = dets[di];
-    if (t.class_id != d.class_id || t.class_name != d.class_name) return kForbidden;
-    const double iou = BoxIou(predicted[ti], d.box_px);
-    const double maha = t.kf.MahalanobisSq(d.box_px);
-    if (iou < options_.min_iou && maha > options_.mahalanobis_gate) return kForbidden;
-    const double motion = std::min(1.0 - iou, maha / options_.mahalanobis_gate);
-    double cost = motion;
-    if (use_appearance && !t.feature.empty() && !features[di].empty()) {
-      const double app = HistogramDistance(t.feature, features[di]);
-      if (app > options_.max_appearance_distance) return kForbidden;
-      cost = options_.motion_weight * motion + (1.0 - options_.motion_weight) * app;
-    }
-    return cost <= options_.max_cascade_cost ? cost : kForbidden;
-  };
   std::vector<int> unmatched_dets(dets.size());
   for (size_t i = 0; i < dets.size(); ++i) unmatched_dets[i] = static_cast<int>(i);
   std::vector<std::pair<int, int>> matches;
   std::vector<char> matched_track(tracks_.size(), false);
-  for (int level = 1; level <= options_.max_age + 1 && !unmatched_dets.empty(); ++level) {
+  Associate(f, &unmatched_dets, &matches, &matched_track);
+  UpdateMatched(f, matches, &dets);
+  DropStaleTracks(matched_track);
+  StartTracks(f, unmatched_dets, &dets);
+}
+
+double MultiObjectTracker::CascadeCost(const Frame& f, int ti, int di) const {
+  const Track& t = tracks_[ti];
+  const Detection2D& d = (*f.dets)[di];
+  if (t.class_id != d.class_id || t.class_name != d.class_name) return kForbidden;
+  const double iou = BoxIou(f.predicted[ti], d.box_px);
+  const double maha = t.kf.MahalanobisSq(d.box_px);
+  if (iou < options_.min_iou && maha > options_.mahalanobis_gate) return kForbidden;
+  const double motion = std::min(1.0 - iou, maha / options_.mahalanobis_gate);
+  double cost = motion;
+  if (f.use_appearance && !t.feature.empty() && !f.features[di].empty()) {
+    const double app = HistogramDistance(t.feature, f.features[di]);
+    if (app > options_.max_appearance_distance) return kForbidden;
+    cost = options_.motion_weight * motion + (1.0 - options_.motion_weight) * app;
+  }
+  return cost <= options_.max_cascade_cost ? cost : kForbidden;
+}
+
+double MultiObjectTracker::IouCost(const Frame& f, int ti, int di) const {
+  const Track& t = tracks_[ti];
+  const Detection2D& d = (*f.dets)[di];
+  if (t.class_id != d.class_id || t.class_name != d.class_name) return kForbidden;
+  const double dist = 1.0 - BoxIou(f.predicted[ti], d.box_px);
+  if (dist <= options_.max_iou_distance) return dist;
+  // A young track has no velocity yet: fall back to the cascade cost (Mahalanobis-gated,
+  // with appearance), offset so IoU matches are preferred.
+  const double c = CascadeCost(f, ti, di);
+  return c < kForbidden ? 1.0 + c : kForbidden;
+}
+
+void MultiObjectTracker::Associate(const Frame& f, std::vector<int>* unmatched_dets,
+                                   std::vector<std::pair<int, int>>* matches,
+                                   std::vector<char>* matched_track) {
+  // Stage 1: matching cascade over confirmed tracks, most recently seen first.
+  const auto cascade_cost = [&](int ti, int di) { return CascadeCost(f, ti, di); };
+  for (int level = 1; level <= options_.max_age + 1 && !unmatched_dets->empty(); ++level) {
     std::vector<int> level_tracks;
     for (size_t i = 0; i < tracks_.size(); ++i) {
       if (tracks_[i].state == Track::State::kConfirmed && tracks_[i].time_since_update == level) {
         level_tracks.push_back(static_cast<int>(i));
       }
     }
-    Match(level_tracks, &unmatched_dets, cascade_cost, &matches);
+    Match(level_tracks, unmatched_dets, cascade_cost, matches);
   }
-  for (const auto& [ti, di] : matches) matched_track[ti] = true;
+  for (const auto& [ti, di] : *matches) (*matched_track)[ti] = true;
 
   // Stage 2: IoU matching for tentative tracks and confirmed tracks missed only this update.
   std::vector<int> iou_tracks;
   for (size_t i = 0; i < tracks_.size(); ++i) {
-    if (matched_track[i]) continue;
+    if ((*matched_track)[i]) continue;
     if (tracks_[i].state == Track::State::kTentative || tracks_[i].time_since_update == 1) {
       iou_tracks.push_back(static_cast<int>(i));
     }
   }
-  auto iou_cost = [&](int ti, int di) {
-    const Track& t = tracks_[ti];
-    if (t.class_id != dets[di].class_id || t.class_name != dets[di].class_name) return kForbidden;
-    const double dist = 1.0 - BoxIou(predicted[ti], dets[di].box_px);
-    if (dist <= options_.max_iou_distance) return dist;
-    // A young track has no velocity yet: fall back to the cascade cost (Mahalanobis-gated,
-    // with appearance), offset so IoU matches are preferred.
-    const double c = cascade_cost(ti, di);
-    return c < kForbidden ? 1.0 + c : kForbidden;
-  };
-  const size_t first_stage = matches.size();
-  Match(iou_tracks, &unmatched_dets, iou_cost, &matches);
-  for (size_t k = first_stage; k < matches.size(); ++k) matched_track[matches[k].first] = true;
+  const size_t first_stage = matches->size();
+  Match(
+      iou_tracks, unmatched_dets, [&](int ti, int di) { return IouCost(f, ti, di); }, matches);
+  for (size_t k = first_stage; k < matches->size(); ++k)
+    (*matched_track)[(*matches)[k].first] = true;
+}
 
-  // Update matched tracks.
-  for (Detection2D& d : dets) d.track_id = 0;
+void MultiObjectTracker::UpdateMatched(const Frame& f,
+                                       const std::vector<std::pair<int, int>>& matches,
+                                       std::vector<Detection2D>* dets) {
+  for (Detection2D& d : *dets) d.track_id = 0;
   for (const auto& [ti, di] : matches) {
     Track& t = tracks_[ti];
-    t.kf.Update(dets[di].box_px);
+    t.kf.Update((*dets)[di].box_px);
     ++t.hits;
     t.time_since_update = 0;
-    if (!features[di].empty()) {
+    const cv::Mat& feature = f.features[di];
+    if (!feature.empty()) {
       if (t.feature.empty()) {
-        t.feature = features[di].clone();
+        t.feature = feature.clone();
       } else {
         t.feature = options_.appearance_momentum * t.feature +
-                    (1.0 - options_.appearance_momentum) * features[di];
+                    (1.0 - options_.appearance_momentum) * feature;
       }
     }
     if (t.state == Track::State::kTentative && t.hits >= options_.n_init) {
       t.state = Track::State::kConfirmed;
       t.id = next_id_++;
     }
-    if (t.state == Track::State::kConfirmed) dets[di].track_id = t.id;
+    if (t.state == Track::State::kConfirmed) (*dets)[di].track_id = t.id;
   }
+}
 
-  // Delete tentative tracks that missed and confirmed tracks older than max_age.
+void MultiObjectTracker::DropStaleTracks(const std::vector<char>& matched_track) {
+  // Tentative tracks that missed and confirmed tracks older than max_age go.
   std::vector<Track> kept;
-  kept.reserve(tracks_.size() + unmatched_dets.size());
+  kept.reserve(tracks_.size());
   for (size_t i = 0; i < tracks_.size(); ++i) {
     Track& t = tracks_[i];
     if (!matched_track[i] &&
@@ -206,22 +226,25 @@ void MultiObjectTracker::Update(const cv::Mat& bgr, std::vector<Detection2D>* de
     kept.push_back(std::move(t));
   }
   tracks_ = std::move(kept);
+}
 
-  // New tentative tracks from the leftover detections.
+void MultiObjectTracker::StartTracks(const Frame& f, const std::vector<int>& unmatched_dets,
+                                     std::vector<Detection2D>* dets) {
   for (int di : unmatched_dets) {
-    Track t{.kf = KalmanBoxFilter(dets[di].box_px, options_.std_weight_position,
+    Detection2D& d = (*dets)[di];
+    Track t{.kf = KalmanBoxFilter(d.box_px, options_.std_weight_position,
                                   options_.std_weight_velocity, options_.min_position_std_px,
                                   options_.min_velocity_std_px)};
-    t.class_id = dets[di].class_id;
-    t.class_name = dets[di].class_name;
+    t.class_id = d.class_id;
+    t.class_name = d.class_name;
     t.hits = 1;
     t.age = 1;
-    t.feature = features[di];
+    t.feature = f.features[di];
     t.internal_id = next_internal_id_++;
     if (options_.n_init <= 1) {
       t.state = Track::State::kConfirmed;
       t.id = next_id_++;
-      dets[di].track_id = t.id;
+      d.track_id = t.id;
     }
     tracks_.push_back(std::move(t));
   }

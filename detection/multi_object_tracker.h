@@ -87,6 +87,29 @@ class MultiObjectTracker {
   void Match(const std::vector<int>& track_idx, std::vector<int>* det_idx, CostFn cost,
              std::vector<std::pair<int, int>>* matches);
 
+  // One update's detections with what association needs of them and of the tracks.
+  struct Frame {
+    const std::vector<Detection2D>* dets = nullptr;
+    std::vector<cv::Rect2f> predicted;  // each track's predicted box
+    std::vector<cv::Mat> features;      // each detection's appearance (empty without images)
+    bool use_appearance = false;
+  };
+  // Cost of track ti for detection di in the matching cascade (motion, appearance; gated).
+  double CascadeCost(const Frame& f, int ti, int di) const;
+  // ... in the IoU stage (1 - IoU, else 1 + the cascade cost).
+  double IouCost(const Frame& f, int ti, int di) const;
+  // Both stages: appends (track, detection) pairs, marks matched tracks, leaves the unmatched
+  // detections in unmatched_dets.
+  void Associate(const Frame& f, std::vector<int>* unmatched_dets,
+                 std::vector<std::pair<int, int>>* matches, std::vector<char>* matched_track);
+  // Kalman update, appearance EMA and confirmation of matched tracks; sets track_id.
+  void UpdateMatched(const Frame& f, const std::vector<std::pair<int, int>>& matches,
+                     std::vector<Detection2D>* dets);
+  void DropStaleTracks(const std::vector<char>& matched_track);
+  // New tentative (n_init <= 1: confirmed) tracks from the unmatched detections.
+  void StartTracks(const Frame& f, const std::vector<int>& unmatched_dets,
+                   std::vector<Detection2D>* dets);
+
   TrackerOptions options_;
   std::vector<Track> tracks_;
   int64_t next_id_ = 1;

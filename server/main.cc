@@ -46,132 +46,139 @@ std::string ViewerDir(const std::string& flag) {
   return "";
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  loci::LimitHeapArenas();  // before any thread (common/malloc_tuning.h)
-  CLI::App app{"loci-server: semantic map server for robot fleets"};
+// The command line.
+struct Flags {
   std::string config_path, listen, db, http, query_config, viewer_dir, log_level = "info";
   bool strict_config = false;
   std::string token_file;
   loci::server::TlsFiles tls;
-  app.add_option("--config", config_path, "YAML config (see config/server.yaml)")
-      ->check(CLI::ExistingFile);
-  app.add_option("--listen", listen, "gRPC address HOST:PORT [127.0.0.1:50051]");
-  app.add_option("--db", db, "SQLite database file [./loci.db]");
-  app.add_option("--http", http, "HTTP/JSON API address HOST:PORT or off [off]");
-  app.add_option("--viewer-dir", viewer_dir,
-                 "web viewer files served at http://HOST:PORT/ (off = none) [$LOCI_HOME/viewer, "
-                 "else ../share/loci/viewer beside this binary]");
-  app.add_option("--query-config", query_config,
-                 "query engine YAML (see config/query.yaml) [built-in defaults]")
-      ->check(CLI::ExistingFile);
-  app.add_option("--token-file", token_file,
-                 "bearer tokens, one `TOKEN ROLE` per line (roles: admin, query, robot:NAME); "
-                 "without it only loopback addresses are served")
-      ->check(CLI::ExistingFile);
-  app.add_option("--tls-cert", tls.cert_file, "TLS certificate chain (PEM) for gRPC and HTTP")
-      ->check(CLI::ExistingFile);
-  app.add_option("--tls-key", tls.key_file, "TLS private key (PEM)")->check(CLI::ExistingFile);
-  app.add_option("--tls-client-ca", tls.client_ca_file,
-                 "require client certificates signed by this CA (mutual TLS)")
-      ->check(CLI::ExistingFile);
-  app.add_flag("--strict-config", strict_config,
-               "unknown keys in the YAML files are errors (default: warnings)");
-  app.add_option("--log-level", log_level, "trace|debug|info|warn|error")->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
-  loci::SetStrictConfig(strict_config);
-  // Logs go to stderr: stdout carries only the "listening on HOST:PORT" line for scripts.
-  spdlog::set_default_logger(spdlog::stderr_color_mt("loci-server"));
-  spdlog::set_level(spdlog::level::from_str(log_level));
+};
 
+void AddFlags(CLI::App* app, Flags* f) {
+  app->add_option("--config", f->config_path, "YAML config (see config/server.yaml)")
+      ->check(CLI::ExistingFile);
+  app->add_option("--listen", f->listen, "gRPC address HOST:PORT [127.0.0.1:50051]");
+  app->add_option("--db", f->db, "SQLite database file [./loci.db]");
+  app->add_option("--http", f->http, "HTTP/JSON API address HOST:PORT or off [off]");
+  app->add_option("--viewer-dir", f->viewer_dir,
+                  "web viewer files served at http://HOST:PORT/ (off = none) [$LOCI_HOME/viewer, "
+                  "else ../share/loci/viewer beside this binary]");
+  app->add_option("--query-config", f->query_config,
+                  "query engine YAML (see config/query.yaml) [built-in defaults]")
+      ->check(CLI::ExistingFile);
+  app->add_option("--token-file", f->token_file,
+                  "bearer tokens, one `TOKEN ROLE` per line (roles: admin, query, robot:NAME); "
+                  "without it only loopback addresses are served")
+      ->check(CLI::ExistingFile);
+  app->add_option("--tls-cert", f->tls.cert_file, "TLS certificate chain (PEM) for gRPC and HTTP")
+      ->check(CLI::ExistingFile);
+  app->add_option("--tls-key", f->tls.key_file, "TLS private key (PEM)")->check(CLI::ExistingFile);
+  app->add_option("--tls-client-ca", f->tls.client_ca_file,
+                  "require client certificates signed by this CA (mutual TLS)")
+      ->check(CLI::ExistingFile);
+  app->add_flag("--strict-config", f->strict_config,
+                "unknown keys in the YAML files are errors (default: warnings)");
+  app->add_option("--log-level", f->log_level, "trace|debug|info|warn|error")
+      ->capture_default_str();
+}
+
+// What the flags and the config files say the server is.
+struct Setup {
   loci::server::ServerOptions options;
-  loci::Status st = config_path.empty() ? options.LoadClasses() : options.FromYamlFile(config_path);
-  if (!st.ok()) {
-    std::cerr << "error: " << st.message() << "\n";
-    return 2;
-  }
-  if (!listen.empty()) options.listen = listen;
-  if (!db.empty()) options.db_path = db;
-  if (!http.empty()) options.http = http;
-  if (tls.cert_file.empty() != tls.key_file.empty()) {
-    std::cerr << "error: --tls-cert and --tls-key go together\n";
-    return 2;
-  }
   loci::server::Authorizer auth;
-  if (!token_file.empty()) {
-    auto a = loci::server::Authorizer::FromFile(token_file);
-    if (!a.ok()) {
-      std::cerr << "error: " << a.status().message() << "\n";
-      return 2;
-    }
-    auth = std::move(*a);
-  }
-  if (loci::Status exposure = CheckExposure(options, auth); !exposure.ok()) {
-    std::cerr << "error: " << exposure.message() << "\n";
-    return 2;
-  }
   loci::server::QueryAdapterOptions query_options;
-  if (!query_config.empty()) {
-    auto q = loci::query::LoadQueryOptions(query_config);
-    if (!q.ok()) {
-      std::cerr << "error: " << q.status().message() << "\n";
-      return 2;
-    }
-    query_options.query = std::move(*q);
-  }
-  loci::server::UseMapClassPriors(options.map, &query_options);
+};
 
-  // SIGINT/SIGTERM are handled by sigwait below; block them before any thread starts.
+loci::StatusOr<Setup> ReadSetup(const Flags& f) {
+  Setup s;
+  LOCI_RETURN_IF_ERROR(f.config_path.empty() ? s.options.LoadClasses()
+                                             : s.options.FromYamlFile(f.config_path));
+  if (!f.listen.empty()) s.options.listen = f.listen;
+  if (!f.db.empty()) s.options.db_path = f.db;
+  if (!f.http.empty()) s.options.http = f.http;
+  if (f.tls.cert_file.empty() != f.tls.key_file.empty()) {
+    return absl::InvalidArgumentError("--tls-cert and --tls-key go together");
+  }
+  if (!f.token_file.empty()) {
+    LOCI_ASSIGN_OR_RETURN(s.auth, loci::server::Authorizer::FromFile(f.token_file));
+  }
+  LOCI_RETURN_IF_ERROR(CheckExposure(s.options, s.auth));
+  if (!f.query_config.empty()) {
+    LOCI_ASSIGN_OR_RETURN(s.query_options.query, loci::query::LoadQueryOptions(f.query_config));
+  }
+  loci::server::UseMapClassPriors(s.options.map, &s.query_options);
+  return s;
+}
+
+// SIGINT and SIGTERM, blocked in every thread (block them before any starts) for sigwait.
+sigset_t BlockShutdownSignals() {
   sigset_t signals;
   sigemptyset(&signals);
   sigaddset(&signals, SIGINT);
   sigaddset(&signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  return signals;
+}
 
-  auto detector = loci::server::MakeServerDetector(options, config_path);
-  if (!detector.ok()) {
-    std::cerr << "error: " << detector.status().message() << "\n";
-    return 2;
+int Fail(const loci::Status& status, int code) {
+  std::cerr << "error: " << status.message() << "\n";
+  return code;
+}
+
+// Prints the bound ports on stdout (scripts and tests start the server on port 0).
+void AnnounceAddresses(const loci::server::ServerOptions& options, int grpc_port,
+                       const loci::server::HttpApi* http_api, const std::string& viewer_served) {
+  const std::string host = options.listen.substr(0, options.listen.rfind(':'));
+  std::cout << "listening on " << host << ":" << grpc_port << std::endl;
+  if (http_api == nullptr) return;
+  const std::string http_host = options.http.substr(0, options.http.rfind(':'));
+  std::cout << "http on " << http_host << ":" << http_api->port() << std::endl;
+  if (!viewer_served.empty()) {
+    spdlog::info("web viewer: http://{}:{}/ (files from {})", http_host, http_api->port(),
+                 viewer_served);
   }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  loci::LimitHeapArenas();  // before any thread (common/malloc_tuning.h)
+  CLI::App app{"loci-server: semantic map server for robot fleets"};
+  Flags flags;
+  AddFlags(&app, &flags);
+  CLI11_PARSE(app, argc, argv);
+  loci::SetStrictConfig(flags.strict_config);
+  // Logs go to stderr: stdout carries only the "listening on HOST:PORT" line for scripts.
+  spdlog::set_default_logger(spdlog::stderr_color_mt("loci-server"));
+  spdlog::set_level(spdlog::level::from_str(flags.log_level));
+
+  loci::StatusOr<Setup> setup = ReadSetup(flags);
+  if (!setup.ok()) return Fail(setup.status(), 2);
+  const loci::server::ServerOptions& options = setup->options;
+  const sigset_t signals = BlockShutdownSignals();
+
+  auto detector = loci::server::MakeServerDetector(options, flags.config_path);
+  if (!detector.ok()) return Fail(detector.status(), 2);
   // The port opens at once; the map loads behind it (health NOT_SERVING until it is in).
   auto server = loci::server::MapServer::OpenAsync(options, nullptr, *detector);
-  if (!server.ok()) {
-    std::cerr << "error: " << server.status().message() << "\n";
-    return 1;
-  }
+  if (!server.ok()) return Fail(server.status(), 1);
   auto grpc = loci::server::GrpcServer::Start(
       server->get(), options.listen, options.max_message_mb,
-      std::make_shared<loci::server::QueryAdapter>(std::move(query_options)), auth, tls);
-  if (!grpc.ok()) {
-    std::cerr << "error: " << grpc.status().message() << "\n";
-    return 1;
-  }
+      std::make_shared<loci::server::QueryAdapter>(std::move(setup->query_options)), setup->auth,
+      flags.tls);
+  if (!grpc.ok()) return Fail(grpc.status(), 1);
   std::unique_ptr<loci::server::HttpApi> http_api;
   std::string viewer_served;
   if (options.http != "off") {
-    const loci::server::HttpOptions http_options{
-        .viewer_dir = ViewerDir(viewer_dir), .max_event_clients = options.max_event_clients};
+    const loci::server::HttpOptions http_options{.viewer_dir = ViewerDir(flags.viewer_dir),
+                                                 .max_event_clients = options.max_event_clients};
     viewer_served = http_options.viewer_dir;
-    auto h = loci::server::HttpApi::Start(&(*grpc)->query_service(), options.http,
-                                          &(*grpc)->auth(), tls, http_options);
-    if (!h.ok()) {
-      std::cerr << "error: " << h.status().message() << "\n";
-      return 1;
-    }
+    auto h = loci::server::HttpApi::Start(&(*grpc)->query_service(), options.http, &(*grpc)->auth(),
+                                          flags.tls, http_options);
+    if (!h.ok()) return Fail(h.status(), 1);
     http_api = std::move(*h);
   }
-  const std::string host = options.listen.substr(0, options.listen.rfind(':'));
-  // The bound port on stdout lets scripts and tests start the server on port 0.
-  std::cout << "listening on " << host << ":" << (*grpc)->port() << std::endl;
-  if (http_api) {
-    const std::string http_host = options.http.substr(0, options.http.rfind(':'));
-    std::cout << "http on " << http_host << ":" << http_api->port() << std::endl;
-    if (!viewer_served.empty()) {
-      spdlog::info("web viewer: http://{}:{}/ (files from {})", http_host, http_api->port(),
-                   viewer_served);
-    }
-  }
+  AnnounceAddresses(options, (*grpc)->port(), http_api.get(), viewer_served);
   spdlog::info("loci-server: db {}; loading the map", options.db_path);
 
   int sig = 0;

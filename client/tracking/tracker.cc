@@ -96,10 +96,9 @@ StatusOr<std::unique_ptr<Tracker>> Tracker::Create(const TrackerOptions& options
   return std::unique_ptr<Tracker>(new Tracker(options));
 }
 
-StatusOr<FrameResult> Tracker::Track(const cv::Mat& image, const cv::Mat& depth_u16, int64_t t_ns,
-                                     const std::vector<Detection2D>* detections) {
-  const auto t0 = std::chrono::steady_clock::now();
-  const PinholeCamera& cam = opt_.camera;
+namespace {
+
+Status CheckTrackInput(const PinholeCamera& cam, const cv::Mat& image, const cv::Mat& depth_u16) {
   if (image.empty() || (image.type() != CV_8UC3 && image.type() != CV_8UC1)) {
     return absl::InvalidArgumentError("Track: image must be CV_8UC3 or CV_8UC1");
   }
@@ -111,6 +110,15 @@ StatusOr<FrameResult> Tracker::Track(const cv::Mat& image, const cv::Mat& depth_
   if (depth_u16.type() != CV_16UC1 || depth_u16.size() != image.size()) {
     return absl::InvalidArgumentError("Track: depth must be CV_16UC1 of the image size");
   }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+StatusOr<FrameResult> Tracker::Track(const cv::Mat& image, const cv::Mat& depth_u16, int64_t t_ns,
+                                     const std::vector<Detection2D>* detections) {
+  const auto t0 = std::chrono::steady_clock::now();
+  LOCI_RETURN_IF_ERROR(CheckTrackInput(opt_.camera, image, depth_u16));
   cv::Mat gray;
   if (image.channels() == 3) {
     cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
@@ -135,33 +143,16 @@ StatusOr<FrameResult> Tracker::Track(const cv::Mat& image, const cv::Mat& depth_
 
   if (map_.empty()) {
     // First frame of a segment: the map starts here, at the last known pose.
-    CreateKeyframe(std::move(frame), T_cw_last_, {});
-    have_velocity_ = false;
-    last_t_ns_ = t_ns;
-    lost_count_ = 0;
-    last_kf_frame_ = frame_index_;
+    StartSegment(std::move(frame), t_ns, &r);
     r.state = segment_ == 0 ? TrackState::kInitialised : TrackState::kNewSegment;
-    r.tracked = true;
-    r.keyframe = true;
-    r.T_odom_cam = T_cw_last_.inverse();
     return finish();
   }
 
   const SE3d T_cw_pred = have_velocity_ ? velocity_ * T_cw_last_ : T_cw_last_;
   SE3d T_cw = T_cw_pred;
   std::vector<PointMatch> matches;
-  int inliers = TrackLocalMap(frame, T_cw_pred, &T_cw, &matches);
   r.state = TrackState::kTracking;
-  if (inliers < opt_.min_inliers) {
-    SE3d T_reloc = T_cw_last_;
-    matches.clear();
-    inliers = 0;
-    if (Relocalise(frame, &T_reloc)) {
-      inliers = TrackLocalMap(frame, T_reloc, &T_cw, &matches);
-      r.state = TrackState::kRelocalised;
-      have_velocity_ = false;
-    }
-  }
+  const int inliers = TrackOrRelocalise(frame, T_cw_pred, &T_cw, &matches, &r.state);
   if (inliers < opt_.min_inliers) {
     ++lost_count_;
     if (lost_count_ >= opt_.lost_frames_before_reset) {
@@ -169,16 +160,9 @@ StatusOr<FrameResult> Tracker::Track(const cv::Mat& image, const cv::Mat& depth_
       // the server is told through FrameResult::segment that it is unrelated).
       ++segment_;
       map_.Clear();
-      CreateKeyframe(std::move(frame), T_cw_last_, {});
-      last_kf_frame_ = frame_index_;
-      lost_count_ = 0;
-      have_velocity_ = false;
-      last_t_ns_ = t_ns;
+      StartSegment(std::move(frame), t_ns, &r);
       r.state = TrackState::kNewSegment;
       r.segment = segment_;
-      r.tracked = true;
-      r.keyframe = true;
-      r.T_odom_cam = T_cw_last_.inverse();
       return finish();
     }
     r.state = TrackState::kLost;
@@ -190,8 +174,51 @@ StatusOr<FrameResult> Tracker::Track(const cv::Mat& image, const cv::Mat& depth_
   r.tracked = true;
   r.num_matches = static_cast<int>(matches.size());
   r.num_inliers = inliers;
+  r.num_dynamic = MarkMatchedPoints(frame, T_cw, matches);
+  UpdateVelocity(T_cw, t_ns);
+  T_cw_last_ = T_cw;
+  last_t_ns_ = t_ns;
+  r.T_odom_cam = T_cw.inverse();
+  if (NeedKeyframe(frame, T_cw, matches, inliers)) {
+    CreateKeyframe(std::move(frame), T_cw, matches);
+    last_kf_frame_ = frame_index_;
+    r.keyframe = true;
+    AdjustNewKeyframe(&r);
+  }
+  return finish();
+}
+
+void Tracker::StartSegment(OrbFrame frame, int64_t t_ns, FrameResult* r) {
+  CreateKeyframe(std::move(frame), T_cw_last_, {});
+  have_velocity_ = false;
+  last_t_ns_ = t_ns;
+  lost_count_ = 0;
+  last_kf_frame_ = frame_index_;
+  r->tracked = true;
+  r->keyframe = true;
+  r->T_odom_cam = T_cw_last_.inverse();
+}
+
+int Tracker::TrackOrRelocalise(const OrbFrame& frame, const SE3d& T_cw_pred, SE3d* T_cw,
+                               std::vector<PointMatch>* matches, TrackState* state) {
+  int inliers = TrackLocalMap(frame, T_cw_pred, T_cw, matches);
+  if (inliers >= opt_.min_inliers) return inliers;
+  SE3d T_reloc = T_cw_last_;
+  matches->clear();
+  inliers = 0;
+  if (Relocalise(frame, &T_reloc)) {
+    inliers = TrackLocalMap(frame, T_reloc, T_cw, matches);
+    *state = TrackState::kRelocalised;
+    have_velocity_ = false;
+  }
+  return inliers;
+}
+
+int Tracker::MarkMatchedPoints(const OrbFrame& frame, const SE3d& T_cw,
+                               const std::vector<PointMatch>& matches) {
+  int dynamic = 0;
   for (const PointMatch& m : matches) {
-    r.num_dynamic += m.dynamic;
+    dynamic += m.dynamic;
     if (m.inlier && !m.dynamic) {
       ++m.point->found;
       m.point->last_uv_px =
@@ -201,31 +228,24 @@ StatusOr<FrameResult> Tracker::Track(const cv::Mat& image, const cv::Mat& depth_
     }
     if (m.dynamic) ++m.point->dynamic_votes;
   }
-  UpdateVelocity(T_cw, t_ns);
-  T_cw_last_ = T_cw;
-  last_t_ns_ = t_ns;
-  r.T_odom_cam = T_cw.inverse();
-  if (NeedKeyframe(frame, T_cw, matches, inliers)) {
-    CreateKeyframe(std::move(frame), T_cw, matches);
-    last_kf_frame_ = frame_index_;
-    r.keyframe = true;
-    if (opt_.local_ba_keyframes > 0) {
-      LocalBaOptions ba;
-      ba.num_optimised_keyframes = opt_.local_ba_keyframes;
-      ba.max_iterations = opt_.local_ba_iterations;
-      ba.bf_px = opt_.camera.fx * opt_.virtual_baseline_m;
-      std::vector<float> inv_sigma2(opt_.orb.num_levels);
-      for (int l = 0; l < opt_.orb.num_levels; ++l) {
-        inv_sigma2[l] = 1.f / (extractor_.LevelScale(l) * extractor_.LevelScale(l));
-      }
-      if (LocalBundleAdjust(opt_.camera, ba, inv_sigma2, &map_)) {
-        // The new keyframe is this frame: continue from its adjusted pose.
-        T_cw_last_ = map_.LastKeyframe()->T_world_cam.inverse();
-        r.T_odom_cam = map_.LastKeyframe()->T_world_cam;
-      }
-    }
+  return dynamic;
+}
+
+void Tracker::AdjustNewKeyframe(FrameResult* r) {
+  if (opt_.local_ba_keyframes <= 0) return;
+  LocalBaOptions ba;
+  ba.num_optimised_keyframes = opt_.local_ba_keyframes;
+  ba.max_iterations = opt_.local_ba_iterations;
+  ba.bf_px = opt_.camera.fx * opt_.virtual_baseline_m;
+  std::vector<float> inv_sigma2(opt_.orb.num_levels);
+  for (int l = 0; l < opt_.orb.num_levels; ++l) {
+    inv_sigma2[l] = 1.f / (extractor_.LevelScale(l) * extractor_.LevelScale(l));
   }
-  return finish();
+  if (LocalBundleAdjust(opt_.camera, ba, inv_sigma2, &map_)) {
+    // The new keyframe is this frame: continue from its adjusted pose.
+    T_cw_last_ = map_.LastKeyframe()->T_world_cam.inverse();
+    r->T_odom_cam = map_.LastKeyframe()->T_world_cam;
+  }
 }
 
 void Tracker::UpdateVelocity(const SE3d& T_cw, int64_t t_ns) {

@@ -85,6 +85,17 @@ class Tracker {
   bool NeedKeyframe(const OrbFrame& frame, const SE3d& T_cw, const std::vector<PointMatch>& matches,
                     int num_inliers) const;
   void CreateKeyframe(OrbFrame frame, const SE3d& T_cw, const std::vector<PointMatch>& matches);
+  // A segment's first keyframe, at the last known pose: no velocity; r says tracked, keyframe.
+  void StartSegment(OrbFrame frame, int64_t t_ns, FrameResult* r);
+  // TrackLocalMap from the prediction, else from a relocalisation (state kRelocalised then).
+  // Returns the inliers (0 when relocalisation failed).
+  int TrackOrRelocalise(const OrbFrame& frame, const SE3d& T_cw_pred, SE3d* T_cw,
+                        std::vector<PointMatch>* matches, TrackState* state);
+  // Counts the tracked frame on its matched map points; returns the dynamic matches.
+  int MarkMatchedPoints(const OrbFrame& frame, const SE3d& T_cw,
+                        const std::vector<PointMatch>& matches);
+  // Local bundle adjustment after a new keyframe; the tracker and r continue from its pose.
+  void AdjustNewKeyframe(FrameResult* r);
   // Starts the constant-velocity model from the step last -> T_cw at t_ns.
   void UpdateVelocity(const SE3d& T_cw, int64_t t_ns);
 
