@@ -143,11 +143,11 @@ Status MapServer::CheckReady() const {
         absl::StrCat("loci-server could not load its map: ", load_status_.message()));
   }
   // Progress comes once the checkpoint is restored and the keyframes counted (replay.cc).
+  const uint64_t total = load_total_.load();
   const std::string progress =
-      load_total_.load() == 0
-          ? std::string("reading the stored map")
-          : absl::StrCat(load_done_.load(), " keyframes replayed after the checkpoint, ",
-                         load_total_.load(), " stored");
+      total == 0 ? std::string("reading the stored map")
+                 : absl::StrCat(load_done_.load(), " keyframes replayed after the checkpoint, ",
+                                total, " stored");
   return absl::UnavailableError(absl::StrCat("loci-server is loading its map (", progress,
                                              "); retry when the gRPC health service reports "
                                              "SERVING"));
