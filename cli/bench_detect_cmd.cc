@@ -8,6 +8,7 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "cli/bench_stats.h"
 #include "cli/commands.h"
 #include "common/config.h"
 #include "common/tum_io.h"
@@ -21,12 +22,6 @@ struct BenchDetectArgs {
   int frames = 60;
   std::string config;
 };
-
-double Quantile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
-}
 
 double ElapsedMs(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -100,7 +95,7 @@ int RunBenchDetect(const BenchDetectArgs& a) {
       double mean = 0.0;
       for (double v : ms) mean += v / ms.size();
       std::printf("%-22s %7d %10.1f %10.1f %10.1f %9.2f\n", (*det)->Name().c_str(), threads,
-                  Quantile(ms, 0.5), Quantile(ms, 0.95), mean, static_cast<double>(total) / n);
+                  Percentile(ms, 0.5), Percentile(ms, 0.95), mean, static_cast<double>(total) / n);
       if (std::string(m.type) == "yolox" && threads == 1) yolox_dets = std::move(all);
     }
   }
@@ -121,9 +116,9 @@ int RunBenchDetect(const BenchDetectArgs& a) {
     track_us.push_back(ElapsedMs(t0) * 1e3);
   }
   std::printf("depth masks (yolox boxes): median %.2f ms, p95 %.2f ms per frame, %zu masks\n",
-              Quantile(mask_ms, 0.5), Quantile(mask_ms, 0.95), masks);
+              Percentile(mask_ms, 0.5), Percentile(mask_ms, 0.95), masks);
   std::printf("tracker (with HSV appearance): median %.0f us, p95 %.0f us per frame, %lld ids\n",
-              Quantile(track_us, 0.5), Quantile(track_us, 0.95),
+              Percentile(track_us, 0.5), Percentile(track_us, 0.95),
               static_cast<long long>(tracker.num_confirmed_ids()));
   return 0;
 }

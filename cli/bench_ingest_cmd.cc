@@ -110,6 +110,137 @@ struct IngestMemory {
   }
 };
 
+// The server under test: in process, on loopback gRPC, with one open session.
+struct BenchServer {
+  std::unique_ptr<server::MapServer> srv;
+  std::unique_ptr<server::GrpcServer> grpc;
+  std::unique_ptr<loci::v1::Mapping::Stub> stub;
+  loci::v1::OpenSessionResponse session;
+};
+
+// Opens the server on a fresh database in `dir`; the exit code on failure (message printed).
+int OpenBenchServer(const BenchIngestArgs& a, const std::string& dir, double depth_scale,
+                    BenchServer* b) {
+  server::ServerOptions options;
+  if (Status cs = a.config.empty() ? options.LoadClasses() : options.FromYamlFile(a.config);
+      !cs.ok()) {
+    std::cerr << "error: " << cs.message() << "\n";
+    return 2;
+  }
+  options.db_path = dir + "/bench.db";
+  for (const char* s : {"", "-wal", "-shm"}) std::filesystem::remove(options.db_path + s);
+  auto srv = server::MapServer::Open(options);
+  if (!srv.ok()) {
+    std::cerr << "error: " << srv.status().message() << "\n";
+    return 1;
+  }
+  b->srv = std::move(*srv);
+  auto grpc_server = server::GrpcServer::Start(b->srv.get(), "127.0.0.1:0", options.max_message_mb);
+  if (!grpc_server.ok()) {
+    std::cerr << "error: " << grpc_server.status().message() << "\n";
+    return 1;
+  }
+  b->grpc = std::move(*grpc_server);
+  b->stub = loci::v1::Mapping::NewStub(grpc::CreateChannel(
+      absl::StrCat("127.0.0.1:", b->grpc->port()), grpc::InsecureChannelCredentials()));
+  grpc::ClientContext open_ctx;
+  if (!b->stub->OpenSession(&open_ctx, BenchOpenRequest("bench", depth_scale), &b->session).ok()) {
+    std::cerr << "error: OpenSession failed\n";
+    return 1;
+  }
+  return 0;
+}
+
+// How the stream went: wall seconds without the pauses, rejected keyframes, the final status.
+struct StreamResult {
+  double wall_s = 0;
+  int failed = 0;
+  grpc::Status status;
+  int pauses[2] = {0, 0};  // keyframes written at each pause
+};
+
+// Streams a.keyframes keyframes, pausing twice, a tenth of the run after each point the memory
+// is sampled: the queues and the solves drain there, and the heap's free pages go back (what the
+// server does after a solve).
+StreamResult StreamKeyframes(const BenchIngestArgs& a, const std::vector<loci::v1::Keyframe>& views,
+                             BenchServer* b, IngestMemory* mem) {
+  StreamResult r;
+  const int tenth = std::max(1, a.keyframes / 10);
+  const auto t0 = std::chrono::steady_clock::now();
+  grpc::ClientContext ctx;
+  auto stream = b->stub->StreamKeyframes(&ctx);
+  AckCounter acks;
+  std::thread reader([&] {
+    loci::v1::KeyframeAck ack;
+    while (stream->Read(&ack)) mem->Sample(acks.Add(ack.status().code() != 0), a.keyframes);
+  });
+  r.pauses[0] = a.keyframes / 3 + tenth;
+  r.pauses[1] = 2 * a.keyframes / 3 + tenth;
+  double paused_s = 0;
+  for (int i = 0; i < a.keyframes; ++i) {
+    if (!stream->Write(NthKeyframe(views, i, b->session.session_id()))) break;
+    for (int p = 0; p < 2; ++p) {
+      if (i + 1 != r.pauses[p]) continue;
+      const auto pause0 = std::chrono::steady_clock::now();
+      acks.WaitFor(i + 1);
+      b->srv->Flush();
+      b->srv->mapper().FlushOctomap();
+      ReleaseFreeHeapPages();
+      mem->drained[p] = RssMb();
+      mem->live_heap[p] = LiveHeapMb();
+      paused_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - pause0).count();
+    }
+  }
+  stream->WritesDone();
+  reader.join();
+  r.failed = acks.failed();
+  r.status = stream->Finish();
+  b->srv->Flush();
+  r.wall_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() - paused_s;
+  return r;
+}
+
+void PrintIngest(const BenchIngestArgs& a, size_t det_total, size_t view_count,
+                 const StreamResult& r, server::MapServer& srv) {
+  const auto stats = srv.mapper().Stats();
+  const double n = static_cast<double>(std::max<uint64_t>(1, stats.keyframes));
+  std::printf(
+      "loci bench ingest: %d keyframes (640x480, %.1f detections/keyframe, %zu views), "
+      "gRPC loopback, %u cores\n",
+      a.keyframes, static_cast<double>(det_total) / view_count, view_count,
+      std::thread::hardware_concurrency());
+  std::printf("  throughput      %.1f keyframes/s (%.2f s wall, stream %s, %d rejected)\n",
+              a.keyframes / r.wall_s, r.wall_s,
+              r.status.ok() ? "ok" : r.status.error_message().c_str(), r.failed);
+  std::printf("  handler stages  validate+decode %.2f ms, store %.2f ms (gRPC thread)\n",
+              srv.validate_ms_mean(), srv.store_ms_mean());
+  std::printf(
+      "  mapping stages  products %.2f ms, fusion %.2f ms, cloud %.2f ms, octomap %.2f ms "
+      "(worker thread CPU; wall incl. waits %.2f ms)\n",
+      stats.total.products_ms / n, stats.total.fusion_ms / n, stats.total.cloud_ms / n,
+      stats.total.octomap_ms / n, srv.ingest_ms_mean());
+  std::printf(
+      "  products detail labels %.2f, object clouds %.2f, back-projection %.2f, voxel "
+      "%.2f, outliers %.2f ms (CPU)\n",
+      stats.total.labels_ms / n, stats.total.objects_ms / n, stats.total.backproject_ms / n,
+      stats.total.voxel_ms / n, stats.total.outlier_ms / n);
+}
+
+void PrintMap(const BenchIngestArgs& a, server::MapServer& srv) {
+  const auto stats = srv.mapper().Stats();
+  const uint64_t db_bytes = srv.store().DbBytes();
+  std::printf("  database        %.1f KB per keyframe (%.1f MB total, WAL included)\n",
+              db_bytes / 1024.0 / a.keyframes, db_bytes / (1024.0 * 1024.0));
+  std::printf(
+      "  map             %llu objects (%llu confirmed), %llu cloud points, %llu octomap "
+      "nodes\n",
+      static_cast<unsigned long long>(stats.objects),
+      static_cast<unsigned long long>(stats.confirmed_objects),
+      static_cast<unsigned long long>(stats.cloud_points),
+      static_cast<unsigned long long>(stats.octomap_nodes));
+}
+
 int RunBenchIngest(const BenchIngestArgs& a) {
   const std::string dir = a.keep_dir.empty() ? (std::filesystem::temp_directory_path() /
                                                 ("loci_bench_ingest_" + std::to_string(getpid())))
@@ -130,109 +261,20 @@ int RunBenchIngest(const BenchIngestArgs& a) {
   }
   size_t det_total = 0;
   for (const auto& v : *views) det_total += v.detections_size();
-
-  server::ServerOptions options;
-  if (Status cs = a.config.empty() ? options.LoadClasses() : options.FromYamlFile(a.config);
-      !cs.ok()) {
-    std::cerr << "error: " << cs.message() << "\n";
-    return 2;
-  }
-  options.db_path = dir + "/bench.db";
-  for (const char* s : {"", "-wal", "-shm"}) std::filesystem::remove(options.db_path + s);
   const double rss0 = RssMb();
-  auto srv = server::MapServer::Open(options);
-  if (!srv.ok()) {
-    std::cerr << "error: " << srv.status().message() << "\n";
-    return 1;
-  }
-  auto grpc_server = server::GrpcServer::Start(srv->get(), "127.0.0.1:0", options.max_message_mb);
-  if (!grpc_server.ok()) {
-    std::cerr << "error: " << grpc_server.status().message() << "\n";
-    return 1;
-  }
-  auto stub = loci::v1::Mapping::NewStub(grpc::CreateChannel(
-      absl::StrCat("127.0.0.1:", (*grpc_server)->port()), grpc::InsecureChannelCredentials()));
-  grpc::ClientContext open_ctx;
-  loci::v1::OpenSessionResponse session;
-  if (!stub->OpenSession(&open_ctx, BenchOpenRequest("bench", so.depth_scale), &session).ok()) {
-    std::cerr << "error: OpenSession failed\n";
-    return 1;
-  }
-
+  BenchServer b;
+  if (const int rc = OpenBenchServer(a, dir, so.depth_scale, &b); rc != 0) return rc;
   IngestMemory mem;
-  const int tenth = std::max(1, a.keyframes / 10);
-  const auto t0 = std::chrono::steady_clock::now();
-  grpc::ClientContext ctx;
-  auto stream = stub->StreamKeyframes(&ctx);
-  AckCounter acks;
-  std::thread reader([&] {
-    loci::v1::KeyframeAck ack;
-    while (stream->Read(&ack)) mem.Sample(acks.Add(ack.status().code() != 0), a.keyframes);
-  });
-  // Two pauses, a tenth of the run after each point the stream samples: the queues and the
-  // solves drain there, and the heap's free pages go back (what the server does after a solve).
-  const int pauses[2] = {a.keyframes / 3 + tenth, 2 * a.keyframes / 3 + tenth};
-  double paused_s = 0;
-  for (int i = 0; i < a.keyframes; ++i) {
-    if (!stream->Write(NthKeyframe(*views, i, session.session_id()))) break;
-    for (int p = 0; p < 2; ++p) {
-      if (i + 1 != pauses[p]) continue;
-      const auto pause0 = std::chrono::steady_clock::now();
-      acks.WaitFor(i + 1);
-      (*srv)->Flush();
-      (*srv)->mapper().FlushOctomap();
-      ReleaseFreeHeapPages();
-      mem.drained[p] = RssMb();
-      mem.live_heap[p] = LiveHeapMb();
-      paused_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - pause0).count();
-    }
-  }
-  stream->WritesDone();
-  reader.join();
-  const int failed = acks.failed();
-  const grpc::Status st = stream->Finish();
-  (*srv)->Flush();
-  const double wall_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() - paused_s;
+  const StreamResult r = StreamKeyframes(a, *views, &b, &mem);
   const double rss1 = RssMb();
-
-  (*srv)->mapper().FlushOctomap();
-  const auto stats = (*srv)->mapper().Stats();
-  const double n = static_cast<double>(std::max<uint64_t>(1, stats.keyframes));
-  const uint64_t db_bytes = (*srv)->store().DbBytes();
-  std::printf(
-      "loci bench ingest: %d keyframes (640x480, %.1f detections/keyframe, %zu views), "
-      "gRPC loopback, %u cores\n",
-      a.keyframes, static_cast<double>(det_total) / views->size(), views->size(),
-      std::thread::hardware_concurrency());
-  std::printf("  throughput      %.1f keyframes/s (%.2f s wall, stream %s, %d rejected)\n",
-              a.keyframes / wall_s, wall_s, st.ok() ? "ok" : st.error_message().c_str(), failed);
-  std::printf("  handler stages  validate+decode %.2f ms, store %.2f ms (gRPC thread)\n",
-              (*srv)->validate_ms_mean(), (*srv)->store_ms_mean());
-  std::printf(
-      "  mapping stages  products %.2f ms, fusion %.2f ms, cloud %.2f ms, octomap %.2f ms "
-      "(worker thread CPU; wall incl. waits %.2f ms)\n",
-      stats.total.products_ms / n, stats.total.fusion_ms / n, stats.total.cloud_ms / n,
-      stats.total.octomap_ms / n, (*srv)->ingest_ms_mean());
-  std::printf(
-      "  products detail labels %.2f, object clouds %.2f, back-projection %.2f, voxel "
-      "%.2f, outliers %.2f ms (CPU)\n",
-      stats.total.labels_ms / n, stats.total.objects_ms / n, stats.total.backproject_ms / n,
-      stats.total.voxel_ms / n, stats.total.outlier_ms / n);
-  mem.Print(a.keyframes, pauses[1] - pauses[0], rss1 - rss0);
-  std::printf("  database        %.1f KB per keyframe (%.1f MB total, WAL included)\n",
-              db_bytes / 1024.0 / a.keyframes, db_bytes / (1024.0 * 1024.0));
-  std::printf(
-      "  map             %llu objects (%llu confirmed), %llu cloud points, %llu octomap "
-      "nodes\n",
-      static_cast<unsigned long long>(stats.objects),
-      static_cast<unsigned long long>(stats.confirmed_objects),
-      static_cast<unsigned long long>(stats.cloud_points),
-      static_cast<unsigned long long>(stats.octomap_nodes));
-  grpc_server->reset();
-  srv->reset();
+  b.srv->mapper().FlushOctomap();
+  PrintIngest(a, det_total, views->size(), r, *b.srv);
+  mem.Print(a.keyframes, r.pauses[1] - r.pauses[0], rss1 - rss0);
+  PrintMap(a, *b.srv);
+  b.grpc.reset();
+  b.srv.reset();
   if (a.keep_dir.empty()) std::filesystem::remove_all(dir);
-  return failed == 0 && st.ok() ? 0 : 1;
+  return r.failed == 0 && r.status.ok() ? 0 : 1;
 }
 
 }  // namespace

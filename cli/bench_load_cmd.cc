@@ -18,6 +18,7 @@
 #include <thread>
 
 #include "absl/strings/str_format.h"
+#include "cli/bench_stats.h"
 #include "cli/bench_views.h"
 #include "cli/commands.h"
 #include "common/config.h"
@@ -48,12 +49,6 @@ struct Latencies {
   std::vector<double> ask_ms, find_ms;
   std::atomic<uint64_t> errors{0};
 };
-
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())))];
-}
 
 // One robot: a session and one stream, paced at robot_hz, until `stop`.
 void RobotLoop(const std::shared_ptr<grpc::Channel>& channel, int index,

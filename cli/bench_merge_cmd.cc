@@ -41,11 +41,11 @@ using Clock = std::chrono::steady_clock;
 struct BenchMergeArgs {
   int views = 60;
   int objects = 8;
-  int start = 30;         // B's first view
-  double robot_hz = 5.0;  // B's keyframes per second (0 = as fast as acknowledged)
-  std::string config;  // "" = config/server.yaml
-  uint64_t other_room = 0;  // B streams a room rendered with this seed instead (0 = A's room)
-  int held = 0;             // B's keyframes in another room before it enters A's
+  int start = 30;                // B's first view
+  double robot_hz = 5.0;         // B's keyframes per second (0 = as fast as acknowledged)
+  std::string config;            // "" = config/server.yaml
+  uint64_t other_room = 0;       // B streams a room rendered with this seed instead (0 = A's room)
+  int held = 0;                  // B's keyframes in another room before it enters A's
   int query_ahead_backlog = -1;  // align.query_ahead_backlog (-1: the config's)
 };
 
@@ -107,10 +107,11 @@ const loci::v1::SessionAlignment* SessionOf(const loci::v1::GetStatsResponse& st
 void PrintFigures(const loci::v1::GetStatsResponse& stats, const SE3d& T_map_odomB_true) {
   const loci::v1::SessionAlignment* b = SessionOf(stats, "B");
   if (b == nullptr || !b->aligned()) {
-    std::printf("  B was NOT aligned (%llu keyframes stored); its island map holds %llu confirmed "
-                "objects\n",
-                b ? static_cast<unsigned long long>(b->keyframes()) : 0ULL,
-                b ? static_cast<unsigned long long>(b->island_objects()) : 0ULL);
+    std::printf(
+        "  B was NOT aligned (%llu keyframes stored); its island map holds %llu confirmed "
+        "objects\n",
+        b ? static_cast<unsigned long long>(b->keyframes()) : 0ULL,
+        b ? static_cast<unsigned long long>(b->island_objects()) : 0ULL);
   } else {
     const SE3d T_err = T_map_odomB_true.inverse() * PoseFromProto(b->t_map_odom());
     std::printf("  server: aligned after %u keyframes of B, %.2f s of capture time\n",
@@ -120,21 +121,21 @@ void PrintFigures(const loci::v1::GetStatsResponse& stats, const SE3d& T_map_odo
   }
   const auto& a = stats.alignment();
   std::printf("  mapping worker: %.1f ms per keyframe\n", stats.ingest_ms_mean());
-  std::printf("  place recognition: %.1f ms per keyframe, %llu keyframes indexed; %llu verified, "
-              "%llu rejected candidates; %llu merges accepted (%llu of them ahead of the "
-              "backlog, %llu keyframes queried ahead)\n",
-              a.place_ms_mean(), static_cast<unsigned long long>(a.keyframes_indexed()),
-              static_cast<unsigned long long>(a.verified()),
-              static_cast<unsigned long long>(a.rejected()),
-              static_cast<unsigned long long>(a.merges_accepted()),
-              static_cast<unsigned long long>(a.merges_ahead()),
-              static_cast<unsigned long long>(a.queries_ahead()));
+  std::printf(
+      "  place recognition: %.1f ms per keyframe, %llu keyframes indexed; %llu verified, "
+      "%llu rejected candidates; %llu merges accepted (%llu of them ahead of the "
+      "backlog, %llu keyframes queried ahead)\n",
+      a.place_ms_mean(), static_cast<unsigned long long>(a.keyframes_indexed()),
+      static_cast<unsigned long long>(a.verified()), static_cast<unsigned long long>(a.rejected()),
+      static_cast<unsigned long long>(a.merges_accepted()),
+      static_cast<unsigned long long>(a.merges_ahead()),
+      static_cast<unsigned long long>(a.queries_ahead()));
   const auto& g = stats.pose_graph();
-  std::printf("  pose graph: %llu solves, last %.0f ms over %llu keyframes, %llu unconnected "
-              "parts\n",
-              static_cast<unsigned long long>(g.optimizations()), g.last_solve_ms(),
-              static_cast<unsigned long long>(g.nodes()),
-              static_cast<unsigned long long>(g.islands()));
+  std::printf(
+      "  pose graph: %llu solves, last %.0f ms over %llu keyframes, %llu unconnected "
+      "parts\n",
+      static_cast<unsigned long long>(g.optimizations()), g.last_solve_ms(),
+      static_cast<unsigned long long>(g.nodes()), static_cast<unsigned long long>(g.islands()));
 }
 
 // B's keyframes in B's odometry frame (identity at view `start` of A's room): `held` views of
@@ -163,26 +164,36 @@ std::vector<loci::v1::Keyframe> RobotBViews(const std::vector<loci::v1::Keyframe
 
 void PrintHeldFigures(const loci::v1::GetStatsResponse& stats) {
   const auto& a = stats.alignment();
-  std::printf("  held keyframes mapped on the alignment: %llu in %.0f ms, %llu chunks; the mapping "
-              "lock was held at most %.0f ms at a time\n",
-              static_cast<unsigned long long>(a.merged_keyframes()), a.last_merge_ms(),
-              static_cast<unsigned long long>(a.last_merge_chunks()), a.merge_longest_hold_ms());
+  std::printf(
+      "  held keyframes mapped on the alignment: %llu in %.0f ms, %llu chunks; the mapping "
+      "lock was held at most %.0f ms at a time\n",
+      static_cast<unsigned long long>(a.merged_keyframes()), a.last_merge_ms(),
+      static_cast<unsigned long long>(a.last_merge_chunks()), a.merge_longest_hold_ms());
   std::printf("  the mapping worker waited at most %.0f ms for the mapping lock\n",
               stats.worker_longest_wait_ms());
 }
 
-Status RunMerge(const BenchMergeArgs& a, const std::string& dir) {
+// A's views of the room, the views B's room is taken from (A's, or another room's), and B's
+// keyframes in B's odometry frame.
+struct MergeViews {
+  std::vector<loci::v1::Keyframe> a;
+  std::vector<loci::v1::Keyframe> b_room;
+  std::vector<loci::v1::Keyframe> b;
+};
+
+StatusOr<MergeViews> RenderMergeViews(const BenchMergeArgs& a, const std::string& dir) {
+  MergeViews v;
   synth::SceneOptions so;
   so.num_frames = a.views;
   so.num_objects = a.objects;
   so.seed = 7;
-  LOCI_ASSIGN_OR_RETURN(auto views, RenderViews(so, dir + "/a"));
-  auto views_b = views;
+  LOCI_ASSIGN_OR_RETURN(v.a, RenderViews(so, dir + "/a"));
+  v.b_room = v.a;
   if (a.other_room != 0) {
     so.seed = a.other_room;
-    LOCI_ASSIGN_OR_RETURN(views_b, RenderViews(so, dir + "/b"));
+    LOCI_ASSIGN_OR_RETURN(v.b_room, RenderViews(so, dir + "/b"));
   }
-  if (a.start < 0 || static_cast<size_t>(a.start) + 3 > views.size()) {
+  if (a.start < 0 || static_cast<size_t>(a.start) + 3 > v.a.size()) {
     return absl::InvalidArgumentError("--start must leave B at least 3 views");
   }
   if (a.held < 0) return absl::InvalidArgumentError("--held must be >= 0");
@@ -191,87 +202,124 @@ Status RunMerge(const BenchMergeArgs& a, const std::string& dir) {
     so.seed = a.other_room != 0 ? a.other_room + 1 : 8;
     LOCI_ASSIGN_OR_RETURN(elsewhere, RenderViews(so, dir + "/elsewhere"));
   }
-  const std::vector<loci::v1::Keyframe> b_views =
-      RobotBViews(views_b, elsewhere, static_cast<size_t>(a.start), a.held);
+  v.b = RobotBViews(v.b_room, elsewhere, static_cast<size_t>(a.start), a.held);
+  return v;
+}
+
+// The server under test, in process on loopback, with a mapping and a query stub.
+struct MergeServer {
+  std::unique_ptr<server::MapServer> srv;
+  std::unique_ptr<server::GrpcServer> grpc;
+  std::unique_ptr<loci::v1::Mapping::Stub> mapping;
+  std::unique_ptr<loci::v1::Query::Stub> query;
+};
+
+StatusOr<MergeServer> StartMergeServer(const BenchMergeArgs& a, const std::string& dir) {
   server::ServerOptions options;  // the server's own config by default
-  LOCI_RETURN_IF_ERROR(options.FromYamlFile(
-      a.config.empty() ? SourceDir() + "/config/server.yaml" : a.config));
+  LOCI_RETURN_IF_ERROR(
+      options.FromYamlFile(a.config.empty() ? SourceDir() + "/config/server.yaml" : a.config));
   options.db_path = dir + "/merge.db";
   if (a.query_ahead_backlog >= 0) options.align.query_ahead_backlog = a.query_ahead_backlog;
-  LOCI_ASSIGN_OR_RETURN(auto srv, server::MapServer::Open(options));
-  LOCI_ASSIGN_OR_RETURN(
-      auto grpc_server,
-      server::GrpcServer::Start(srv.get(), "127.0.0.1:0", options.max_message_mb,
-                                std::make_shared<server::QueryAdapter>(
-                                    server::QueryAdapterOptions{})));
+  MergeServer m;
+  LOCI_ASSIGN_OR_RETURN(m.srv, server::MapServer::Open(options));
+  LOCI_ASSIGN_OR_RETURN(m.grpc,
+                        server::GrpcServer::Start(
+                            m.srv.get(), "127.0.0.1:0", options.max_message_mb,
+                            std::make_shared<server::QueryAdapter>(server::QueryAdapterOptions{})));
   grpc::ChannelArguments args;
   args.SetMaxSendMessageSize(64 << 20);
   args.SetMaxReceiveMessageSize(-1);
-  auto channel = grpc::CreateCustomChannel("127.0.0.1:" + std::to_string(grpc_server->port()),
+  auto channel = grpc::CreateCustomChannel("127.0.0.1:" + std::to_string(m.grpc->port()),
                                            grpc::InsecureChannelCredentials(), args);
-  auto mapping = loci::v1::Mapping::NewStub(channel);
-  auto query = loci::v1::Query::NewStub(channel);
-  std::printf("loci bench merge: %zu synthetic views; A streams all, then B streams %d keyframes "
-              "of a room elsewhere and views %d-%zu of %s at %.1f keyframes/s with its own "
-              "odometry\n",
-              views.size(), a.held, a.start, views.size() - 1,
-              a.other_room != 0 ? "ANOTHER room (a different place: B must stay an island)"
-                                : "the same room",
-              a.robot_hz);
+  m.mapping = loci::v1::Mapping::NewStub(channel);
+  m.query = loci::v1::Query::NewStub(channel);
+  return m;
+}
 
-  LOCI_RETURN_IF_ERROR(Stream(*mapping, "A", 0, 0, views, [](size_t) {}).status());
-  srv->Flush();
-
+// When B was aligned, as the benchmark's poll of GetStats saw it.
+struct AlignmentTiming {
   Clock::time_point first_sent, aligned_at;
+  size_t sent_at_alignment = 0;   // 0: never aligned
+  int64_t queue_at_overlap = -1;  // GetStats.queue_depth at the first poll after B's first
+                                  // keyframe in A's room was written
+};
+
+// Streams B on its own thread and polls GetStats until B is aligned or has sent everything.
+StatusOr<AlignmentTiming> StreamB(const BenchMergeArgs& a, const MergeViews& v, MergeServer* m) {
+  AlignmentTiming t;
   std::atomic<size_t> sent{0};
   std::atomic<bool> streaming{true};
   std::thread b([&] {
-    auto id = Stream(*mapping, "B", a.robot_hz, static_cast<size_t>(a.held), b_views, [&](size_t i) {
-      if (i == static_cast<size_t>(a.held)) first_sent = Clock::now();  // first in A's room
+    auto id = Stream(*m->mapping, "B", a.robot_hz, static_cast<size_t>(a.held), v.b, [&](size_t i) {
+      if (i == static_cast<size_t>(a.held)) t.first_sent = Clock::now();  // first in A's room
       sent = i + 1;
     });
     if (!id.ok()) std::cerr << "error: B: " << id.status().message() << "\n";
     streaming = false;
   });
-  size_t sent_at_alignment = 0;
-  int64_t queue_at_overlap = -1;  // GetStats.queue_depth at the first poll after B's first
-                                  // keyframe in A's room was written
+  Status status = absl::OkStatus();
   for (bool done = false; !done;) {
     const bool overlapping = sent > static_cast<size_t>(a.held);
     const bool last_round = !streaming;
-    if (last_round) srv->Flush();  // B has sent everything: wait until it is all processed
-    LOCI_ASSIGN_OR_RETURN(loci::v1::GetStatsResponse stats, GetStats(*query));
-    if (overlapping && queue_at_overlap < 0) {
-      queue_at_overlap = static_cast<int64_t>(stats.queue_depth());
+    if (last_round) m->srv->Flush();  // B has sent everything: wait until it is all processed
+    auto stats = GetStats(*m->query);
+    if (!stats.ok()) {
+      status = stats.status();
+      break;
     }
-    const loci::v1::SessionAlignment* s = SessionOf(stats, "B");
+    if (overlapping && t.queue_at_overlap < 0) {
+      t.queue_at_overlap = static_cast<int64_t>(stats->queue_depth());
+    }
+    const loci::v1::SessionAlignment* s = SessionOf(*stats, "B");
     if (s != nullptr && s->aligned()) {
-      aligned_at = Clock::now();
-      sent_at_alignment = sent;
+      t.aligned_at = Clock::now();
+      t.sent_at_alignment = sent;
       done = true;
     }
     done |= last_round;
     if (!done) std::this_thread::sleep_for(std::chrono::milliseconds(10));  // poll period
   }
   b.join();
-  srv->Flush();
-  LOCI_ASSIGN_OR_RETURN(loci::v1::GetStatsResponse stats, GetStats(*query));
-  if (sent_at_alignment > 0) {
-    std::printf("  wall time from B's first keyframe in A's room to aligned: %.2f s (B had sent "
-                "%zu keyframes)\n",
-                std::chrono::duration<double>(aligned_at - first_sent).count(),
-                sent_at_alignment);
-    std::printf("  keyframes waiting for the mapping worker or place recognition when it was "
-                "sent: %lld\n",
-                static_cast<long long>(queue_at_overlap));
-  }
+  LOCI_RETURN_IF_ERROR(status);
+  return t;
+}
+
+void PrintAlignmentTime(const AlignmentTiming& t) {
+  if (t.sent_at_alignment == 0) return;
+  std::printf(
+      "  wall time from B's first keyframe in A's room to aligned: %.2f s (B had sent "
+      "%zu keyframes)\n",
+      std::chrono::duration<double>(t.aligned_at - t.first_sent).count(), t.sent_at_alignment);
+  std::printf(
+      "  keyframes waiting for the mapping worker or place recognition when it was "
+      "sent: %lld\n",
+      static_cast<long long>(t.queue_at_overlap));
+}
+
+Status RunMerge(const BenchMergeArgs& a, const std::string& dir) {
+  LOCI_ASSIGN_OR_RETURN(const MergeViews v, RenderMergeViews(a, dir));
+  LOCI_ASSIGN_OR_RETURN(MergeServer m, StartMergeServer(a, dir));
+  std::printf(
+      "loci bench merge: %zu synthetic views; A streams all, then B streams %d keyframes "
+      "of a room elsewhere and views %d-%zu of %s at %.1f keyframes/s with its own "
+      "odometry\n",
+      v.a.size(), a.held, a.start, v.a.size() - 1,
+      a.other_room != 0 ? "ANOTHER room (a different place: B must stay an island)"
+                        : "the same room",
+      a.robot_hz);
+  LOCI_RETURN_IF_ERROR(Stream(*m.mapping, "A", 0, 0, v.a, [](size_t) {}).status());
+  m.srv->Flush();
+  LOCI_ASSIGN_OR_RETURN(const AlignmentTiming timing, StreamB(a, v, &m));
+  m.srv->Flush();
+  LOCI_ASSIGN_OR_RETURN(loci::v1::GetStatsResponse stats, GetStats(*m.query));
+  PrintAlignmentTime(timing);
   const loci::v1::SessionAlignment* sa = SessionOf(stats, "A");
   const SE3d T_map_odomA = sa != nullptr ? PoseFromProto(sa->t_map_odom()) : SE3d::Identity();
   PrintFigures(stats,
-               T_map_odomA * PoseFromProto(views_b[static_cast<size_t>(a.start)].t_odom_cam()));
+               T_map_odomA * PoseFromProto(v.b_room[static_cast<size_t>(a.start)].t_odom_cam()));
   PrintHeldFigures(stats);
-  grpc_server.reset();
-  srv.reset();
+  m.grpc.reset();
+  m.srv.reset();
   return absl::OkStatus();
 }
 

@@ -21,6 +21,7 @@
 #include <span>
 #include <sstream>
 
+#include "cli/bench_stats.h"
 #include "cli/commands.h"
 #include "common/config.h"
 #include "common/image_codec.h"
@@ -52,9 +53,8 @@ struct Stats {
 Stats Summarise(std::vector<double> v) {
   Stats s;
   if (v.empty()) return s;
-  std::sort(v.begin(), v.end());
-  s.median = v[v.size() / 2];
-  s.p95 = v[std::min(v.size() - 1, static_cast<size_t>(0.95 * (v.size() - 1) + 0.5))];
+  s.median = Percentile(v, 0.5);
+  s.p95 = Percentile(v, 0.95);
   for (const double x : v) s.mean += x / static_cast<double>(v.size());
   return s;
 }

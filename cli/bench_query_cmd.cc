@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "cli/bench_query_grpc.h"
+#include "cli/bench_stats.h"
 #include "cli/commands.h"
 #include "common/config.h"
 #include "common/time.h"
@@ -34,16 +35,6 @@ struct BenchQueryArgs {
   std::string config;
   size_t grpc_queries = 5000;  // questions asked over gRPC (0 = skip)
 };
-
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
-}
-
-double MsSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 // Question forms of the mix; "%d" is replaced by a random object id of the named class.
 struct Form {
@@ -66,41 +57,30 @@ constexpr Form kForms[] = {
 };
 constexpr size_t kNumForms = sizeof(kForms) / sizeof(kForms[0]);
 
-int RunBenchQuery(const BenchQueryArgs& a) {
-  query::QueryOptions options = query::QueryOptions::Defaults();
-  if (!a.config.empty()) {
-    auto o = query::LoadQueryOptions(a.config);
-    if (!o.ok()) {
-      std::fprintf(stderr, "error: %s\n", std::string(o.status().message()).c_str());
-      return 1;
-    }
-    options = *o;
-  }
-  if (a.objects == 0 || a.queries == 0 || a.threads < 1) {
-    std::fprintf(stderr, "error: --objects, --queries and --threads must be > 0\n");
-    return 1;
-  }
-  const query::QueryEngine engine(options);
+// The synthetic office map and the one viewpoint every question is asked from.
+struct BenchMap {
+  int64_t now_ns = 2'000'000'000'000'000'000;
+  std::vector<MapObject> objects;
+  query::Viewpoint view;
+};
+
+BenchMap MakeBenchMap(const BenchQueryArgs& a) {
+  BenchMap m;
   query::SyntheticMapOptions so;
   so.object_count = a.objects;
   so.seed = a.seed;
-  const int64_t now_ns = 2'000'000'000'000'000'000;
-  std::vector<MapObject> objects = query::MapObjectsFromGroundTruth(
-      query::MakeSyntheticOffice(so), now_ns - 30'000'000'000, "robot-a");
+  m.objects = query::MapObjectsFromGroundTruth(query::MakeSyntheticOffice(so),
+                                               m.now_ns - 30'000'000'000, "robot-a");
   // A viewpoint in the middle of the first room, level, looking along +y.
-  query::Viewpoint view{"robot-a", SE3d::Identity(), now_ns};
-  view.T_map_cam.linear() << 1, 0, 0, 0, 0, 1, 0, -1, 0;
-  view.T_map_cam.translation() = Vec3d(1.5, 3.0, 1.2);
+  m.view = query::Viewpoint{"robot-a", SE3d::Identity(), m.now_ns};
+  m.view.T_map_cam.linear() << 1, 0, 0, 0, 0, 1, 0, -1, 0;
+  m.view.T_map_cam.translation() = Vec3d(1.5, 3.0, 1.2);
+  return m;
+}
 
-  std::vector<double> index_ms;
-  std::shared_ptr<const query::MapIndex> index;
-  for (int k = 0; k < 5; ++k) {
-    const auto t0 = Clock::now();
-    index = engine.Index(objects, std::nullopt, {view});
-    index_ms.push_back(MsSince(t0));
-  }
-
-  // The question list, drawn once so every run asks the same.
+// The question list (form index, text), drawn once so every run asks the same.
+std::vector<std::pair<size_t, std::string>> DrawQuestions(const BenchQueryArgs& a,
+                                                          const std::vector<MapObject>& objects) {
   std::mt19937_64 rng(a.seed);
   std::vector<std::vector<int64_t>> ids_of(kNumForms);
   for (size_t f = 0; f < kNumForms; ++f) {
@@ -119,55 +99,76 @@ int RunBenchQuery(const BenchQueryArgs& a) {
     }
     questions.push_back({f, text});
   }
+  return questions;
+}
 
-  // Single thread: latency per form.
-  std::vector<std::vector<double>> ms_by_form(kNumForms);
+// Wall and thread-CPU milliseconds of each Ask, per form and over all, on one thread.
+struct SingleThreadRun {
+  std::vector<std::vector<double>> ms_by_form = std::vector<std::vector<double>>(kNumForms);
+  std::vector<std::vector<double>> cpu_by_form = std::vector<std::vector<double>>(kNumForms);
   std::vector<double> all_ms;
-  std::vector<std::vector<double>> cpu_by_form(kNumForms);
   std::vector<double> all_cpu_ms;
   size_t failures = 0;
+  double wall_s = 0;
+};
+
+SingleThreadRun AskOneByOne(const query::QueryEngine& engine, const query::MapIndex& index,
+                            const std::vector<std::pair<size_t, std::string>>& questions,
+                            int64_t now_ns) {
+  SingleThreadRun run;
   const auto t_all = Clock::now();
   for (const auto& [f, text] : questions) {
     const auto t0 = Clock::now();
     const double c0 = ThreadCpuMs();
-    const query::AskResult r = engine.Ask(text, *index, query::AskContext{now_ns, ""});
+    const query::AskResult r = engine.Ask(text, index, query::AskContext{now_ns, ""});
     const double cpu_ms = ThreadCpuMs() - c0;
     const double ms = MsSince(t0);
-    cpu_by_form[f].push_back(cpu_ms);
-    all_cpu_ms.push_back(cpu_ms);
-    failures += !r.status.ok();
-    ms_by_form[f].push_back(ms);
-    all_ms.push_back(ms);
+    run.cpu_by_form[f].push_back(cpu_ms);
+    run.all_cpu_ms.push_back(cpu_ms);
+    run.failures += !r.status.ok();
+    run.ms_by_form[f].push_back(ms);
+    run.all_ms.push_back(ms);
   }
-  const double single_s = MsSince(t_all) * 1e-3;
+  run.wall_s = MsSince(t_all) * 1e-3;
+  return run;
+}
 
-  // Several threads sharing the index: throughput.
+// Seconds for `threads` threads sharing the index to ask every question once.
+double AskOnThreads(const query::QueryEngine& engine, const query::MapIndex& index,
+                    const std::vector<std::pair<size_t, std::string>>& questions, int64_t now_ns,
+                    int threads) {
   std::atomic<size_t> next{0};
   const auto t_mt = Clock::now();
   std::vector<std::thread> workers;
-  for (int t = 0; t < a.threads; ++t) {
+  for (int t = 0; t < threads; ++t) {
     workers.emplace_back([&] {
       for (size_t i; (i = next.fetch_add(1)) < questions.size();) {
-        (void)engine.Ask(questions[i].second, *index, query::AskContext{now_ns, ""});
+        (void)engine.Ask(questions[i].second, index, query::AskContext{now_ns, ""});
       }
     });
   }
   for (std::thread& w : workers) w.join();
-  const double mt_s = MsSince(t_mt) * 1e-3;
+  return MsSince(t_mt) * 1e-3;
+}
 
-  // A one-off Ask that indexes the snapshot itself (MapView path).
+// Milliseconds of a one-off Ask that indexes the snapshot itself (the MapView path).
+double AskOnMapView(const query::QueryEngine& engine, const BenchMap& m) {
   const auto t_view = Clock::now();
   query::MapView mv;
-  mv.objects = objects;
-  mv.viewpoints = {view};
-  mv.now_ns = now_ns;
+  mv.objects = m.objects;
+  mv.viewpoints = {m.view};
+  mv.now_ns = m.now_ns;
   (void)engine.Ask(kForms[0].text, mv);
-  const double view_ms = MsSince(t_view);
+  return MsSince(t_view);
+}
 
+void PrintInProcess(const BenchQueryArgs& a, size_t objects, size_t questions,
+                    const std::vector<double>& index_ms, double view_ms, const SingleThreadRun& run,
+                    double mt_s) {
   double load[3] = {0, 0, 0};
   const bool have_load = getloadavg(load, 3) == 3;
-  std::printf("loci bench query: %zu objects, %zu questions (%zu forms), in-process\n",
-              objects.size(), questions.size(), kNumForms);
+  std::printf("loci bench query: %zu objects, %zu questions (%zu forms), in-process\n", objects,
+              questions, kNumForms);
   if (have_load) {
     std::printf(
         "  machine load average %.2f (%u hardware threads): tail latencies include "
@@ -180,45 +181,82 @@ int RunBenchQuery(const BenchQueryArgs& a) {
               "max", "cpu p50", "cpu p99");
   for (size_t f = 0; f < kNumForms; ++f) {
     std::printf("  %-40s %8.3f %8.3f %8.3f %8.3f %8.3f\n", kForms[f].text,
-                Percentile(ms_by_form[f], 0.5), Percentile(ms_by_form[f], 0.99),
-                Percentile(ms_by_form[f], 1.0), Percentile(cpu_by_form[f], 0.5),
-                Percentile(cpu_by_form[f], 0.99));
+                Percentile(run.ms_by_form[f], 0.5), Percentile(run.ms_by_form[f], 0.99),
+                Percentile(run.ms_by_form[f], 1.0), Percentile(run.cpu_by_form[f], 0.5),
+                Percentile(run.cpu_by_form[f], 0.99));
   }
-  std::printf("  %-40s %8.3f %8.3f %8.3f %8.3f %8.3f\n", "all", Percentile(all_ms, 0.5),
-              Percentile(all_ms, 0.99), Percentile(all_ms, 1.0), Percentile(all_cpu_ms, 0.5),
-              Percentile(all_cpu_ms, 0.99));
+  std::printf("  %-40s %8.3f %8.3f %8.3f %8.3f %8.3f\n", "all", Percentile(run.all_ms, 0.5),
+              Percentile(run.all_ms, 0.99), Percentile(run.all_ms, 1.0),
+              Percentile(run.all_cpu_ms, 0.5), Percentile(run.all_cpu_ms, 0.99));
   double cpu_total_ms = 0;
-  for (double c : all_cpu_ms) cpu_total_ms += c;
+  for (double c : run.all_cpu_ms) cpu_total_ms += c;
   std::printf("  CPU cost per Ask (mean) %.3f ms -> %.0f Ask/s per core\n",
-              cpu_total_ms / all_cpu_ms.size(), 1e3 * all_cpu_ms.size() / cpu_total_ms);
-  std::printf("  throughput 1 thread  %.0f Ask/s\n", questions.size() / single_s);
-  std::printf("  throughput %d threads %.0f Ask/s\n", a.threads, questions.size() / mt_s);
-  if (failures > 0) std::printf("  %zu questions failed to parse\n", failures);
+              cpu_total_ms / run.all_cpu_ms.size(), 1e3 * run.all_cpu_ms.size() / cpu_total_ms);
+  std::printf("  throughput 1 thread  %.0f Ask/s\n", questions / run.wall_s);
+  std::printf("  throughput %d threads %.0f Ask/s\n", a.threads, questions / mt_s);
+  if (run.failures > 0) std::printf("  %zu questions failed to parse\n", run.failures);
+}
 
-  if (a.grpc_queries > 0) {
-    std::vector<std::string> texts;
-    for (size_t i = 0; i < std::min(a.grpc_queries, questions.size()); ++i) {
-      texts.push_back(questions[i].second);
-    }
-    auto g = RunGrpcAskBench(objects, view, now_ns, texts, a.threads);
-    if (!g.ok()) {
-      std::fprintf(stderr, "error: gRPC bench: %s\n", std::string(g.status().message()).c_str());
+// The gRPC part: failed asks, or -1 when the benchmark could not run.
+int64_t RunGrpcPart(const BenchQueryArgs& a, const BenchMap& m,
+                    const std::vector<std::pair<size_t, std::string>>& questions) {
+  std::vector<std::string> texts;
+  for (size_t i = 0; i < std::min(a.grpc_queries, questions.size()); ++i) {
+    texts.push_back(questions[i].second);
+  }
+  auto g = RunGrpcAskBench(m.objects, m.view, m.now_ns, texts, a.threads);
+  if (!g.ok()) {
+    std::fprintf(stderr, "error: gRPC bench: %s\n", std::string(g.status().message()).c_str());
+    return -1;
+  }
+  std::printf(
+      "loci bench query: gRPC Ask on loopback (in-process server, same map), %zu "
+      "questions\n",
+      texts.size());
+  std::printf("  latency (wall ms, 1 client)  p50 %.3f  p99 %.3f  max %.3f\n", g->p50_ms, g->p99_ms,
+              g->max_ms);
+  std::printf("  throughput 1 client   %.0f Ask/s\n", g->qps_1);
+  std::printf("  throughput %d clients %.0f Ask/s\n", a.threads, g->qps_n);
+  if (g->failures > 0) std::printf("  %zu gRPC asks failed\n", g->failures);
+  return static_cast<int64_t>(g->failures);
+}
+
+int RunBenchQuery(const BenchQueryArgs& a) {
+  query::QueryOptions options = query::QueryOptions::Defaults();
+  if (!a.config.empty()) {
+    auto o = query::LoadQueryOptions(a.config);
+    if (!o.ok()) {
+      std::fprintf(stderr, "error: %s\n", std::string(o.status().message()).c_str());
       return 1;
     }
-    std::printf(
-        "loci bench query: gRPC Ask on loopback (in-process server, same map), %zu "
-        "questions\n",
-        texts.size());
-    std::printf("  latency (wall ms, 1 client)  p50 %.3f  p99 %.3f  max %.3f\n", g->p50_ms,
-                g->p99_ms, g->max_ms);
-    std::printf("  throughput 1 client   %.0f Ask/s\n", g->qps_1);
-    std::printf("  throughput %d clients %.0f Ask/s\n", a.threads, g->qps_n);
-    if (g->failures > 0) std::printf("  %zu gRPC asks failed\n", g->failures);
-    failures += g->failures;
+    options = *o;
+  }
+  if (a.objects == 0 || a.queries == 0 || a.threads < 1) {
+    std::fprintf(stderr, "error: --objects, --queries and --threads must be > 0\n");
+    return 1;
+  }
+  const query::QueryEngine engine(options);
+  const BenchMap m = MakeBenchMap(a);
+  std::vector<double> index_ms;
+  std::shared_ptr<const query::MapIndex> index;
+  for (int k = 0; k < 5; ++k) {
+    const auto t0 = Clock::now();
+    index = engine.Index(m.objects, std::nullopt, {m.view});
+    index_ms.push_back(MsSince(t0));
+  }
+  const auto questions = DrawQuestions(a, m.objects);
+  const SingleThreadRun run = AskOneByOne(engine, *index, questions, m.now_ns);
+  const double mt_s = AskOnThreads(engine, *index, questions, m.now_ns, a.threads);
+  const double view_ms = AskOnMapView(engine, m);
+  PrintInProcess(a, m.objects.size(), questions.size(), index_ms, view_ms, run, mt_s);
+  size_t failures = run.failures;
+  if (a.grpc_queries > 0) {
+    const int64_t grpc_failures = RunGrpcPart(a, m, questions);
+    if (grpc_failures < 0) return 1;
+    failures += static_cast<size_t>(grpc_failures);
   }
   return failures > 0 ? 1 : 0;
 }
-
 }  // namespace
 
 void RegisterBenchQueryCommand(CLI::App& app) {

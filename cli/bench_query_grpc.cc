@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <thread>
 
+#include "cli/bench_stats.h"
 #include "loci/v1/query.grpc.pb.h"
 #include "server/service/grpc_server.h"
 #include "server/service/map_server.h"
@@ -56,12 +57,6 @@ class FixedMapEngine final : public server::QueryEngine {
   FixedSource source_;
   server::QueryAdapter adapter_;
 };
-
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
-}
 
 }  // namespace
 

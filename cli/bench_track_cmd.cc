@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "cli/bench_stats.h"
 #include "cli/commands.h"
 #include "client/app/track_pipeline.h"
 #include "client/tracking/depth_time_warp.h"
@@ -35,13 +36,6 @@ struct BenchTrackArgs {
   bool no_dynamic = false;
   bool verbose = false;
 };
-
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const size_t i = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5));
-  return v[i];
-}
 
 int RunBenchTrack(const BenchTrackArgs& a) {
   cv::setNumThreads(a.threads);

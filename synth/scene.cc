@@ -133,19 +133,17 @@ Status SceneOptions::Validate() const {
   return absl::OkStatus();
 }
 
-StatusOr<Scene> MakeScene(const SceneOptions& options) {
-  LOCI_RETURN_IF_ERROR(options.Validate());
-  Scene s;
-  s.options = options;
+namespace {
+
+// The fr1 camera scaled to the options' image size.
+PinholeCamera SceneCamera(const SceneOptions& options) {
   const PinholeCamera fr1 = PinholeCamera::TumFr1();
   const double kx = options.width_px / 640.0, ky = options.height_px / 480.0;
-  s.camera = {
-      fr1.fx * kx,      fr1.fy * ky,      (fr1.cx + 0.5) * kx - 0.5, (fr1.cy + 0.5) * ky - 0.5,
-      options.width_px, options.height_px};
-  Rng rng(Rng::Mix(options.seed, 0x5CE7E));
-  AddRoom(&s, rng);
-  const double hue0 = rng.Uniform(0, 360);
+  return {fr1.fx * kx,      fr1.fy * ky,      (fr1.cx + 0.5) * kx - 0.5, (fr1.cy + 0.5) * ky - 0.5,
+          options.width_px, options.height_px};
+}
 
+SceneObject MakeTable(Scene* s, Rng& rng) {
   SceneObject table;
   table.id = 1;
   table.class_name = "dining table";
@@ -153,9 +151,11 @@ StatusOr<Scene> MakeScene(const SceneOptions& options) {
   const Vec3d table_size(rng.Uniform(1.4, 1.8), rng.Uniform(0.8, 0.95), rng.Uniform(0.72, 0.78));
   table.parts = BuildTable(table_size);
   table.T_world_obj = PoseXYYaw(rng.Uniform(-0.3, 0.3), rng.Uniform(0.1, 0.3), 0, 0);
-  Texturize(&s, &table, TextureStyle::kWood, HueColor(rng.Uniform(15, 40), 0.6, 0.55), rng);
-  s.objects.push_back(table);
+  Texturize(s, &table, TextureStyle::kWood, HueColor(rng.Uniform(15, 40), 0.6, 0.55), rng);
+  return table;
+}
 
+SceneObject MakeShelf(Scene* s, Rng& rng) {
   SceneObject shelf;
   shelf.id = 2;
   shelf.class_name = "shelf";
@@ -163,31 +163,84 @@ StatusOr<Scene> MakeScene(const SceneOptions& options) {
   shelf.parts = BuildShelf(shelf_size);
   shelf.T_world_obj =
       PoseXYYaw(rng.Uniform(-1.2, 1.2), kRoomMax.y() - shelf_size.y() / 2 - 0.02, 0, 0);
-  Texturize(&s, &shelf, TextureStyle::kWood, HueColor(rng.Uniform(0, 360), 0.4, 0.7), rng);
-  s.objects.push_back(shelf);
+  Texturize(s, &shelf, TextureStyle::kWood, HueColor(rng.Uniform(0, 360), 0.4, 0.7), rng);
+  return shelf;
+}
 
+// Where objects go: the table top, the shelf top and the floor, and what each already holds.
+struct Supports {
+  int table_id = 0, shelf_id = 0;
+  double table_z = 0, shelf_z = 0;
+  Rect2 table_area{}, shelf_area{}, floor_area{};
+  std::vector<Rect2> floor_forbidden;
+  std::vector<Rect2> taken_table, taken_shelf, taken_floor;
+};
+
+Supports MakeSupports(const SceneObject& table, const SceneObject& shelf) {
+  Supports u;
   Vec3d table_lo, table_hi, shelf_lo, shelf_hi;
   ObjectAabb(table, table.T_world_obj, &table_lo, &table_hi);
   ObjectAabb(shelf, shelf.T_world_obj, &shelf_lo, &shelf_hi);
-  const Rect2 table_area{table_lo.x() + 0.03, table_lo.y() + 0.03, table_hi.x() - 0.03,
-                         table_hi.y() - 0.03};
-  const Rect2 shelf_area{shelf_lo.x() + 0.03, shelf_lo.y() + 0.03, shelf_hi.x() - 0.03,
-                         shelf_hi.y() - 0.03};
-  const Rect2 floor_area{kRoomMin.x() + 0.4, -0.9, kRoomMax.x() - 0.4, kRoomMax.y() - 0.1};
-  const std::vector<Rect2> floor_forbidden = {
-      Rect2{table_lo.x(), table_lo.y(), table_hi.x(), table_hi.y()}.Grown(0.12),
-      Rect2{shelf_lo.x(), shelf_lo.y(), shelf_hi.x(), shelf_hi.y()}.Grown(0.08),
-      Rect2{-100, kWalkBandLo, 100, kWalkBandHi}};
-  std::vector<Rect2> taken_table, taken_shelf, taken_floor;
+  u.table_id = table.id;
+  u.shelf_id = shelf.id;
+  u.table_z = table_hi.z();
+  u.shelf_z = shelf_hi.z();
+  u.table_area = {table_lo.x() + 0.03, table_lo.y() + 0.03, table_hi.x() - 0.03,
+                  table_hi.y() - 0.03};
+  u.shelf_area = {shelf_lo.x() + 0.03, shelf_lo.y() + 0.03, shelf_hi.x() - 0.03,
+                  shelf_hi.y() - 0.03};
+  u.floor_area = {kRoomMin.x() + 0.4, -0.9, kRoomMax.x() - 0.4, kRoomMax.y() - 0.1};
+  u.floor_forbidden = {Rect2{table_lo.x(), table_lo.y(), table_hi.x(), table_hi.y()}.Grown(0.12),
+                       Rect2{shelf_lo.x(), shelf_lo.y(), shelf_hi.x(), shelf_hi.y()}.Grown(0.08),
+                       Rect2{-100, kWalkBandLo, 100, kWalkBandHi}};
+  return u;
+}
 
-  // Core classes first (shuffled), then the extra ones, cycling when more objects are asked.
+// Core classes first (shuffled), then the extra ones; objects cycle through the list.
+std::vector<ClassSpec> ShuffledClasses(Rng& rng) {
   std::vector<ClassSpec> order[2] = {CoreClasses(), ExtraClasses()};
   for (auto& list : order) {
     for (size_t i = list.size(); i > 1; --i) std::swap(list[i - 1], list[rng.UniformInt(0, i - 1)]);
   }
   std::vector<ClassSpec> classes = order[0];
   classes.insert(classes.end(), order[1].begin(), order[1].end());
+  return classes;
+}
 
+// Places object `k` (0-based) on a support: the allowed one furthest behind its share (table
+// 55%, shelf 20%, floor 25%), so every scene has objects on all three; the others are fallbacks.
+bool PlaceOnSupport(const ClassSpec& spec, int k, Supports* u, SceneObject* o, Rng& rng) {
+  const bool face_front =
+      spec.name == "tv" || spec.name == "laptop" || spec.name == "keyboard" || spec.name == "clock";
+  std::vector<std::pair<double, int>> choices;
+  const double n_placed = k + 1.0;
+  auto deficit = [&](double share, size_t have) {
+    return share * n_placed - static_cast<double>(have) + rng.Uniform(0, 0.1);
+  };
+  if (spec.supports & kOnTable) choices.push_back({deficit(0.55, u->taken_table.size()), kOnTable});
+  if (spec.supports & kOnShelf) choices.push_back({deficit(0.20, u->taken_shelf.size()), kOnShelf});
+  if (spec.supports & kOnFloor) choices.push_back({deficit(0.25, u->taken_floor.size()), kOnFloor});
+  std::sort(choices.rbegin(), choices.rend());
+  if (!(spec.supports & kOnFloor)) choices.push_back({-1.0, kOnFloor});  // last resort
+  for (const auto& [weight, where] : choices) {
+    bool placed = false;
+    if (where == kOnTable) {
+      placed = Place(o, u->table_area, u->table_z, face_front, {}, &u->taken_table, rng);
+      o->on_id = u->table_id;
+    } else if (where == kOnShelf) {
+      placed = Place(o, u->shelf_area, u->shelf_z, face_front, {}, &u->taken_shelf, rng);
+      o->on_id = u->shelf_id;
+    } else {
+      placed = Place(o, u->floor_area, 0.0, false, u->floor_forbidden, &u->taken_floor, rng);
+      o->on_id = 0;
+    }
+    if (placed) return true;
+  }
+  return false;
+}
+
+Status AddObjects(const SceneOptions& options, double hue0, Supports* u, Scene* s, Rng& rng) {
+  const std::vector<ClassSpec> classes = ShuffledClasses(rng);
   for (int k = 0; k < options.num_objects; ++k) {
     const ClassSpec& spec = classes[k % classes.size()];
     SceneObject o;
@@ -196,66 +249,55 @@ StatusOr<Scene> MakeScene(const SceneOptions& options) {
     o.coco_class_id = spec.coco_id;
     o.parts = BuildClassParts(spec.name, rng);
     RestOnGround(&o.parts);
-    const bool face_front = spec.name == "tv" || spec.name == "laptop" || spec.name == "keyboard" ||
-                            spec.name == "clock";
-    // Preferred support: the allowed one furthest behind its share (table 55%, shelf 20%,
-    // floor 25%), so every scene has objects on all three; the others are fallbacks.
-    std::vector<std::pair<double, int>> choices;
-    const double n_placed = k + 1.0;
-    auto deficit = [&](double share, size_t have) {
-      return share * n_placed - static_cast<double>(have) + rng.Uniform(0, 0.1);
-    };
-    if (spec.supports & kOnTable) choices.push_back({deficit(0.55, taken_table.size()), kOnTable});
-    if (spec.supports & kOnShelf) choices.push_back({deficit(0.20, taken_shelf.size()), kOnShelf});
-    if (spec.supports & kOnFloor) choices.push_back({deficit(0.25, taken_floor.size()), kOnFloor});
-    std::sort(choices.rbegin(), choices.rend());
-    if (!(spec.supports & kOnFloor)) choices.push_back({-1.0, kOnFloor});  // last resort
-    bool placed = false;
-    for (const auto& [weight, where] : choices) {
-      if (where == kOnTable) {
-        placed = Place(&o, table_area, table_hi.z(), face_front, {}, &taken_table, rng);
-        o.on_id = table.id;
-      } else if (where == kOnShelf) {
-        placed = Place(&o, shelf_area, shelf_hi.z(), face_front, {}, &taken_shelf, rng);
-        o.on_id = shelf.id;
-      } else {
-        placed = Place(&o, floor_area, 0.0, false, floor_forbidden, &taken_floor, rng);
-        o.on_id = 0;
-      }
-      if (placed) break;
-    }
-    if (!placed) {
+    if (!PlaceOnSupport(spec, k, u, &o, rng)) {
       return absl::FailedPreconditionError(absl::StrCat("no free place for object ", k + 1, " (",
                                                         spec.name, "); use fewer objects"));
     }
-    Texturize(&s, &o, TextureStyle::kPrint, ObjectColor(k, hue0, rng), rng);
-    s.objects.push_back(std::move(o));
+    Texturize(s, &o, TextureStyle::kPrint, ObjectColor(k, hue0, rng), rng);
+    s->objects.push_back(std::move(o));
   }
+  return absl::OkStatus();
+}
 
-  if (options.dynamic) {
-    // Own random stream: the rest of the scene is the same with and without the person.
-    Rng prng(Rng::Mix(options.seed, 0x9E750));
-    SceneObject person;
-    person.id = 3 + options.num_objects;
-    person.class_name = "person";
-    person.coco_class_id = 0;
-    person.dynamic = true;
-    person.parts = BuildPerson(prng.Uniform(1.65, 1.85));
-    const bool left_to_right = prng.Bernoulli(0.5);
-    const double x_end = kRoomMax.x() - 0.5;
-    person.walk_start_m =
-        Vec3d(left_to_right ? prng.Uniform(-x_end, -0.5) : prng.Uniform(0.5, x_end), kWalkY, 0.0);
-    person.walk_end_m = Vec3d(left_to_right ? x_end : -x_end, kWalkY, 0.0);
-    person.walk_speed_mps = prng.Uniform(0.9, 1.3);
-    Texturize(&s, &person, TextureStyle::kPrint, ObjectColor(options.num_objects, hue0, prng),
-              prng);
-    s.objects.push_back(std::move(person));
-    s.objects.back().T_world_obj = ObjectPoseAt(s, s.objects.back(), options.start_t_ns);
-  }
+// The walking person, from its own random stream: the rest of the scene is the same with and
+// without it.
+void AddPerson(const SceneOptions& options, double hue0, Scene* s) {
+  Rng prng(Rng::Mix(options.seed, 0x9E750));
+  SceneObject person;
+  person.id = 3 + options.num_objects;
+  person.class_name = "person";
+  person.coco_class_id = 0;
+  person.dynamic = true;
+  person.parts = BuildPerson(prng.Uniform(1.65, 1.85));
+  const bool left_to_right = prng.Bernoulli(0.5);
+  const double x_end = kRoomMax.x() - 0.5;
+  person.walk_start_m =
+      Vec3d(left_to_right ? prng.Uniform(-x_end, -0.5) : prng.Uniform(0.5, x_end), kWalkY, 0.0);
+  person.walk_end_m = Vec3d(left_to_right ? x_end : -x_end, kWalkY, 0.0);
+  person.walk_speed_mps = prng.Uniform(0.9, 1.3);
+  Texturize(s, &person, TextureStyle::kPrint, ObjectColor(options.num_objects, hue0, prng), prng);
+  s->objects.push_back(std::move(person));
+  s->objects.back().T_world_obj = ObjectPoseAt(*s, s->objects.back(), options.start_t_ns);
+}
 
+}  // namespace
+
+StatusOr<Scene> MakeScene(const SceneOptions& options) {
+  LOCI_RETURN_IF_ERROR(options.Validate());
+  Scene s;
+  s.options = options;
+  s.camera = SceneCamera(options);
+  Rng rng(Rng::Mix(options.seed, 0x5CE7E));
+  AddRoom(&s, rng);
+  const double hue0 = rng.Uniform(0, 360);
+  s.objects.push_back(MakeTable(&s, rng));
+  s.objects.push_back(MakeShelf(&s, rng));
+  Supports supports = MakeSupports(s.objects[0], s.objects[1]);
+  LOCI_RETURN_IF_ERROR(AddObjects(options, hue0, &supports, &s, rng));
+  if (options.dynamic) AddPerson(options, hue0, &s);
   const SceneObject& t = s.objects.front();
   const Vec3d target(t.T_world_obj.translation().x(), t.T_world_obj.translation().y(),
-                     table_hi.z());
+                     supports.table_z);
   Rng path_rng(Rng::Mix(options.seed, 0xCA3E7A));
   s.camera_path = CameraPath::Random(target, path_rng);
   return s;

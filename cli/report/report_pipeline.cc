@@ -30,10 +30,6 @@ namespace loci::report {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double MsSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
 // Nearest ground-truth pose within max_dt_ns (TUM ground truth is at 100 Hz).
 std::optional<SE3d> GroundTruthAt(const Trajectory& gt, int64_t t_ns, int64_t max_dt_ns) {
   const StampedPose* best = NearestByTime<StampedPose>(gt, t_ns, max_dt_ns);
