@@ -171,14 +171,15 @@ StatusOr<ClientRun> RunClient(const ReportOptions& o, const TumSequence& seq,
   }
   KeyframeMasking masking{dc.mask, topt.camera};
   masking.options.depth_scale = static_cast<float>(topt.depth_scale);
-  KeyframeStage stage(std::move(detector), std::move(mot),
-                      [&](KeyframeData kf) {
-                        auto encoded = EncodeKeyframe(kf, static_cast<int64_t>(run.keyframes.size()), 90);
-                        if (encoded.ok()) run.bytes += static_cast<double>(encoded->ByteSizeLong());
-                        run.keyframes.push_back(std::move(kf));
-                        return absl::OkStatus();
-                      },
-                      /*capacity=*/0, masking);
+  KeyframeStage stage(
+      std::move(detector), std::move(mot),
+      [&](KeyframeData kf) {
+        auto encoded = EncodeKeyframe(kf, static_cast<int64_t>(run.keyframes.size()), 90);
+        if (encoded.ok()) run.bytes += static_cast<double>(encoded->ByteSizeLong());
+        run.keyframes.push_back(std::move(kf));
+        return absl::OkStatus();
+      },
+      /*capacity=*/0, masking);
   LOCI_ASSIGN_OR_RETURN(auto tracker, Tracker::Create(topt));
   TrackPipelineOptions po;
   po.max_frames = o.max_frames > 0 ? static_cast<size_t>(o.max_frames) : 0;
@@ -190,6 +191,78 @@ StatusOr<ClientRun> RunClient(const ReportOptions& o, const TumSequence& seq,
   LOCI_RETURN_IF_ERROR(stage.Finish());
   run.detect_ms = stage.detect_ms_total();
   return run;
+}
+
+// The client's trajectory against the ground truth (ATE, RPE); the ATE's alignment, or the
+// identity without ground truth.
+SE3d TrajectoryFigures(const TumSequence& seq, const Trajectory& traj, ReportResult* r) {
+  SE3d T_gt_est = SE3d::Identity();
+  if (seq.groundtruth.empty()) return T_gt_est;
+  if (auto ate = ComputeAte(seq.groundtruth, traj); ate.ok()) {
+    r->ate = *ate;
+    T_gt_est = ate->T_gt_est;
+  }
+  if (auto rpe = ComputeRpe(seq.groundtruth, traj); rpe.ok()) r->rpe = *rpe;
+  return T_gt_est;
+}
+
+// The dense cloud, the object-only cloud and the OctoMap of a mapping run.
+void MapFigures(server::Mapper& mapper, double voxel_m, ReportResult* r) {
+  // Both counts on the dense cloud's voxel grid (the object clouds themselves use finer,
+  // adaptive voxels and are counted separately).
+  for (const server::SemanticPoint& p : mapper.Cloud(0, {})) {
+    ++r->cloud_points;
+    r->object_points += p.object_id != 0;
+  }
+  // The object-only map of paper 000 Table 6: the union of the objects' clouds on the dense
+  // cloud's voxel grid.
+  std::unordered_set<server::VoxelKey> object_voxels;
+  for (const MapObject& obj : r->objects_est) {
+    std::vector<server::ColoredPoint> pts;
+    mapper.GetObject(obj.id, &pts, nullptr);
+    r->object_cloud_points += pts.size();
+    for (const server::ColoredPoint& p : pts) {
+      object_voxels.insert(server::KeyOf(p.p_m.cast<double>(), voxel_m));
+    }
+  }
+  r->object_voxel_points = object_voxels.size();
+  mapper.FlushOctomap();
+  r->octomap_nodes = mapper.Stats().octomap_nodes;
+  r->octomap_bytes = mapper.OctomapBt().size();
+  r->octomap_resolution_m = mapper.OctomapResolution();
+}
+
+// The same keyframes mapped again with ground-truth poses, and each estimated object paired
+// with one of that map's.
+void GroundTruthPosesFigures(const server::ServerOptions& sopt, const TrackerOptions& topt,
+                             const TumSequence& seq, const std::vector<KeyframeData>& kfs,
+                             const ReportOptions& o, ReportResult* r) {
+  if (o.progress) std::fprintf(stderr, "server: mapping again with ground-truth poses\n");
+  MapRun gt = RunMapper(sopt.map, kfs, topt.camera, topt.depth_scale, [&](const KeyframeData& kf) {
+    return GroundTruthAt(seq.groundtruth, kf.t_ns, 20'000'000);
+  });
+  // Its base frame is the ground-truth world.
+  r->objects_gt_poses =
+      ToGroundTruthFrame(gt.mapper->Snapshot(true), gt.mapper->MapFromBaseFrame().inverse());
+  r->pairs = PairObjects(r->objects_est, r->objects_gt_poses, o.match_max_m);
+  double sum = 0;
+  for (const ObjectPair& p : r->pairs) {
+    if (!p.gt) continue;
+    sum += p.error_m;
+    ++r->matched_pairs;
+  }
+  r->mean_pair_error_m = r->matched_pairs ? sum / r->matched_pairs : 0;
+}
+
+// Both maps against a synthetic scene's objects.json.
+Status SynthFigures(const ReportOptions& o, bool have_groundtruth, ReportResult* r) {
+  LOCI_ASSIGN_OR_RETURN(GroundTruthScene scene, ReadObjectsJson(o.synth_objects));
+  server::ObjectEvalOptions eo;
+  r->synth_est = server::EvaluateObjects(r->objects_est, scene, eo);
+  if (!r->objects_gt_poses.empty() || have_groundtruth) {
+    r->synth_gt_poses = server::EvaluateObjects(r->objects_gt_poses, scene, eo);
+  }
+  return absl::OkStatus();
 }
 
 }  // namespace
@@ -216,16 +289,7 @@ StatusOr<ReportResult> RunReport(const ReportOptions& o) {
   r.detect_ms_per_keyframe = client.detect_ms / r.keyframes;
   r.bytes_per_keyframe = client.bytes / r.keyframes;
   const std::vector<KeyframeData>& kfs = client.keyframes;
-  const Trajectory& traj = client.track.trajectory;
-
-  SE3d T_gt_est = SE3d::Identity();
-  if (!seq.groundtruth.empty()) {
-    if (auto ate = ComputeAte(seq.groundtruth, traj); ate.ok()) {
-      r.ate = *ate;
-      T_gt_est = ate->T_gt_est;
-    }
-    if (auto rpe = ComputeRpe(seq.groundtruth, traj); rpe.ok()) r.rpe = *rpe;
-  }
+  const SE3d T_gt_est = TrajectoryFigures(seq, client.track.trajectory, &r);
 
   // Server: the mapping with the client's poses, then with ground-truth poses.
   if (o.progress)
@@ -235,65 +299,20 @@ StatusOr<ReportResult> RunReport(const ReportOptions& o) {
   r.ingest_ms_per_keyframe = est.wall_ms / std::max<size_t>(1, est.integrated);
   r.ingest_cpu_ms_per_keyframe = est.cpu_ms / std::max<size_t>(1, est.integrated);
   r.objects_est = est.mapper->Snapshot(true);
-  // Both counts on the dense cloud's voxel grid (the object clouds themselves use finer,
-  // adaptive voxels and are counted separately).
-  for (const server::SemanticPoint& p : est.mapper->Cloud(0, {})) {
-    ++r.cloud_points;
-    r.object_points += p.object_id != 0;
-  }
-  // The object-only map of paper 000 Table 6: the union of the objects' clouds on the dense
-  // cloud's voxel grid.
-  const double voxel_m = sopt.map.cloud.voxel_m;
-  std::unordered_set<server::VoxelKey> object_voxels;
-  for (const MapObject& obj : r.objects_est) {
-    std::vector<server::ColoredPoint> pts;
-    est.mapper->GetObject(obj.id, &pts, nullptr);
-    r.object_cloud_points += pts.size();
-    for (const server::ColoredPoint& p : pts) {
-      object_voxels.insert(server::KeyOf(p.p_m.cast<double>(), voxel_m));
-    }
-  }
-  r.object_voxel_points = object_voxels.size();
-  est.mapper->FlushOctomap();
-  r.octomap_nodes = est.mapper->Stats().octomap_nodes;
-  r.octomap_bytes = est.mapper->OctomapBt().size();
-  r.octomap_resolution_m = est.mapper->OctomapResolution();
+  MapFigures(*est.mapper, sopt.map.cloud.voxel_m, &r);
 
   // The estimated map in the ground-truth world: its map frame -> the client's odometry frame
   // (the mapper's base) -> the world by the ATE alignment.
-  const std::vector<MapObject> est_in_gt = ToGroundTruthFrame(
-      r.objects_est, T_gt_est * est.mapper->MapFromBaseFrame().inverse());
-  r.objects_est = est_in_gt;
+  r.objects_est =
+      ToGroundTruthFrame(r.objects_est, T_gt_est * est.mapper->MapFromBaseFrame().inverse());
   if (!o.objects_gt.empty()) {
     LOCI_ASSIGN_OR_RETURN(r.gt_eval, EvaluateHandMade(o, *est.mapper, seq.groundtruth, false));
     LOCI_ASSIGN_OR_RETURN(r.gt_eval_orientations,
                           EvaluateHandMade(o, *est.mapper, seq.groundtruth, true));
   }
-  if (!seq.groundtruth.empty()) {
-    if (o.progress) std::fprintf(stderr, "server: mapping again with ground-truth poses\n");
-    MapRun gt =
-        RunMapper(sopt.map, kfs, topt.camera, topt.depth_scale, [&](const KeyframeData& kf) {
-          return GroundTruthAt(seq.groundtruth, kf.t_ns, 20'000'000);
-        });
-    // Its base frame is the ground-truth world.
-    r.objects_gt_poses =
-        ToGroundTruthFrame(gt.mapper->Snapshot(true), gt.mapper->MapFromBaseFrame().inverse());
-    r.pairs = PairObjects(est_in_gt, r.objects_gt_poses, o.match_max_m);
-    double sum = 0;
-    for (const ObjectPair& p : r.pairs) {
-      if (!p.gt) continue;
-      sum += p.error_m;
-      ++r.matched_pairs;
-    }
-    r.mean_pair_error_m = r.matched_pairs ? sum / r.matched_pairs : 0;
-  }
+  if (!seq.groundtruth.empty()) GroundTruthPosesFigures(sopt, topt, seq, kfs, o, &r);
   if (!o.synth_objects.empty()) {
-    LOCI_ASSIGN_OR_RETURN(GroundTruthScene scene, ReadObjectsJson(o.synth_objects));
-    server::ObjectEvalOptions eo;
-    r.synth_est = server::EvaluateObjects(est_in_gt, scene, eo);
-    if (!r.objects_gt_poses.empty() || !seq.groundtruth.empty()) {
-      r.synth_gt_poses = server::EvaluateObjects(r.objects_gt_poses, scene, eo);
-    }
+    LOCI_RETURN_IF_ERROR(SynthFigures(o, !seq.groundtruth.empty(), &r));
   }
   return r;
 }
