@@ -31,6 +31,16 @@ class AnswerBuilder {
   void WhichRobot(const ParsedQuery& q, AskResult* r) const;
   void Nearest(const ParsedQuery& q, AskResult* r) const;
 
+  // WhatRelation's subjects holding `rel` to an anchor (or an anchor pair for "between"): the
+  // most confident relation of each, best first.
+  std::vector<RelationResult> SubjectsRelated(const RelationClause& rel,
+                                              const std::vector<int>& anchors,
+                                              const std::vector<int>& anchors2,
+                                              const RelationSearch::Mask* subjects) const;
+  // "On the dining table (#3) there are a book (#12) and a cup (#7); ..." for a non-empty
+  // `unique`, grouped by anchor; adds the subjects and their relations to r.
+  std::string GroupedRelationAnswer(const RelationClause& rel,
+                                    const std::vector<RelationResult>& unique, AskResult* r) const;
   // Eligible objects named by `phrase`, sorted by index.
   std::vector<int> Matching(const ObjectPhrase& phrase) const;
   // "book", "object #12", "object" (for sentences about a phrase).

@@ -19,17 +19,11 @@ std::string Phrase(RelationKind kind) { return std::string(RelationPhrase(kind))
 
 }  // namespace
 
-void AnswerBuilder::WhatRelation(const ParsedQuery& q, AskResult* r) const {
-  const RelationClause& rel = *q.relation;
-  RelationSearch::Mask subject_mask;
-  if (q.target && !q.target->any()) subject_mask = search_.MakeMask(Matching(*q.target));
-  const RelationSearch::Mask* subjects = subject_mask.empty() ? nullptr : &subject_mask;
-  const std::vector<int> anchors = Matching(*rel.anchor);
-  if (NoneOf(*rel.anchor, anchors, r)) return;
+std::vector<RelationResult> AnswerBuilder::SubjectsRelated(
+    const RelationClause& rel, const std::vector<int>& anchors, const std::vector<int>& anchors2,
+    const RelationSearch::Mask* subjects) const {
   std::vector<RelationResult> found;
   if (rel.kind == RelationKind::kBetween) {
-    const std::vector<int> anchors2 = Matching(*rel.anchor2);
-    if (NoneOf(*rel.anchor2, anchors2, r)) return;
     size_t pairs = 0;
     const double max_span_m = 2.0 * opt_.relations.directional_max_m;
     for (int a : anchors) {
@@ -59,8 +53,12 @@ void AnswerBuilder::WhatRelation(const ParsedQuery& q, AskResult* r) const {
     if (!seen.insert(f.subject_id).second) continue;
     unique.push_back(std::move(f));
   }
-  r->count = static_cast<int64_t>(unique.size());
-  r->yes = !unique.empty();
+  return unique;
+}
+
+std::string AnswerBuilder::GroupedRelationAnswer(const RelationClause& rel,
+                                                 const std::vector<RelationResult>& unique,
+                                                 AskResult* r) const {
   // Group the subjects by their anchor (pair), groups in order of their best relation.
   std::vector<std::pair<std::pair<int64_t, int64_t>, std::vector<std::string>>> groups;
   for (const RelationResult& u : unique) {
@@ -82,16 +80,6 @@ void AnswerBuilder::WhatRelation(const ParsedQuery& q, AskResult* r) const {
     it->second.push_back(
         absl::StrCat(CountedClass(index_.vocabulary(), o.class_name, 1), " (#", o.id, ")"));
   }
-  const std::string what = q.target && !q.target->any() ? PhraseNoun(*q.target) : "";
-  if (unique.empty()) {
-    r->answer = absl::StrCat(what.empty() ? "Nothing" : absl::StrCat("No ", what), " is ",
-                             anchors.size() > 1
-                                 ? absl::StrCat(Phrase(rel.kind), " any of the ", anchors.size(),
-                                                " ", PhrasePlural(*rel.anchor))
-                                 : absl::StrCat(Phrase(rel.kind), " ", AnchorText(rel, anchors)),
-                             ".");
-    return;
-  }
   std::vector<std::string> parts;
   for (size_t g = 0; g < groups.size() && g < opt_.sentence_max_items; ++g) {
     const auto& [key, items] = groups[g];
@@ -110,7 +98,35 @@ void AnswerBuilder::WhatRelation(const ParsedQuery& q, AskResult* r) const {
   if (groups.size() > 1) {
     absl::StrAppend(&answer, " (", unique.size(), unique.size() == 1 ? " object)" : " objects)");
   }
-  r->answer = absl::StrCat(answer, ".");
+  return absl::StrCat(answer, ".");
+}
+
+void AnswerBuilder::WhatRelation(const ParsedQuery& q, AskResult* r) const {
+  const RelationClause& rel = *q.relation;
+  RelationSearch::Mask subject_mask;
+  if (q.target && !q.target->any()) subject_mask = search_.MakeMask(Matching(*q.target));
+  const RelationSearch::Mask* subjects = subject_mask.empty() ? nullptr : &subject_mask;
+  const std::vector<int> anchors = Matching(*rel.anchor);
+  if (NoneOf(*rel.anchor, anchors, r)) return;
+  std::vector<int> anchors2;
+  if (rel.kind == RelationKind::kBetween) {
+    anchors2 = Matching(*rel.anchor2);
+    if (NoneOf(*rel.anchor2, anchors2, r)) return;
+  }
+  const std::vector<RelationResult> unique = SubjectsRelated(rel, anchors, anchors2, subjects);
+  r->count = static_cast<int64_t>(unique.size());
+  r->yes = !unique.empty();
+  if (!unique.empty()) {
+    r->answer = GroupedRelationAnswer(rel, unique, r);
+    return;
+  }
+  const std::string what = q.target && !q.target->any() ? PhraseNoun(*q.target) : "";
+  r->answer = absl::StrCat(what.empty() ? "Nothing" : absl::StrCat("No ", what), " is ",
+                           anchors.size() > 1
+                               ? absl::StrCat(Phrase(rel.kind), " any of the ", anchors.size(), " ",
+                                              PhrasePlural(*rel.anchor))
+                               : absl::StrCat(Phrase(rel.kind), " ", AnchorText(rel, anchors)),
+                           ".");
 }
 
 void AnswerBuilder::Count(const ParsedQuery& q, AskResult* r) const {

@@ -305,44 +305,42 @@ std::string QueryHelp(const Vocabulary& vocabulary) {
       ", plurals, \"objects\" for any, \"#12\" for object 12.");
 }
 
-StatusOr<ParsedQuery> ParseQuestion(std::string_view text, const Vocabulary& vocabulary) {
-  const std::vector<std::string> raw = Tokenize(text);
-  if (raw.empty()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("The question is empty. ", QueryHelp(vocabulary)));
-  }
+namespace {
+
+// The question's form, from its first words.
+enum class Form { kCount, kList, kWhichRobot, kWhere, kExists, kCheck, kWhat };
+
+// The form the first words give, and how many of them it takes (*skip).
+Form LeadingForm(const std::vector<std::string>& raw, size_t* skip) {
   auto at = [&](size_t i) -> const std::string& {
     static const std::string kEmpty;
     return i < raw.size() ? raw[i] : kEmpty;
   };
-  ParsedQuery q;
-  size_t skip = 0;
-  enum class Form { kCount, kList, kWhichRobot, kWhere, kExists, kCheck, kWhat };
-  Form form = Form::kWhere;
-  if (at(0) == "how" && at(1) == "many") {
-    form = Form::kCount, skip = 2;
-  } else if (at(0) == "list" || at(0) == "enumerate" || at(0) == "name" ||
-             (at(0) == "show" && at(1) != "me")) {
-    form = Form::kList, skip = 1;
-  } else if ((at(0) == "which" || at(0) == "what") && (at(1) == "robot" || at(1) == "robots")) {
-    form = Form::kWhichRobot, skip = 2;
-  } else if (at(0) == "who") {
-    form = Form::kWhichRobot, skip = 1;
-  } else if (at(0) == "where" || at(0) == "find" || at(0) == "locate" || at(0) == "show") {
-    form = Form::kWhere, skip = 1;
-  } else if ((at(0) == "is" || at(0) == "are") && at(1) == "there") {
-    form = Form::kExists, skip = 2;
-  } else if (at(0) == "do" || at(0) == "does" || at(0) == "can" || at(0) == "have" ||
-             at(0) == "did") {
-    form = Form::kExists, skip = 1;
-  } else if (at(0) == "is" || at(0) == "are") {
-    form = Form::kCheck, skip = 1;
-  } else if (at(0) == "what" || at(0) == "which") {
-    form = Form::kWhat, skip = 1;
+  *skip = 0;
+  if (at(0) == "how" && at(1) == "many") return *skip = 2, Form::kCount;
+  if (at(0) == "list" || at(0) == "enumerate" || at(0) == "name" ||
+      (at(0) == "show" && at(1) != "me")) {
+    return *skip = 1, Form::kList;
   }
-  q.first_seen = form == Form::kWhichRobot && std::count(raw.begin(), raw.end(), "first") > 0;
+  if ((at(0) == "which" || at(0) == "what") && (at(1) == "robot" || at(1) == "robots")) {
+    return *skip = 2, Form::kWhichRobot;
+  }
+  if (at(0) == "who") return *skip = 1, Form::kWhichRobot;
+  if (at(0) == "where" || at(0) == "find" || at(0) == "locate" || at(0) == "show") {
+    return *skip = 1, Form::kWhere;
+  }
+  if ((at(0) == "is" || at(0) == "are") && at(1) == "there") return *skip = 2, Form::kExists;
+  if (at(0) == "do" || at(0) == "does" || at(0) == "can" || at(0) == "have" || at(0) == "did") {
+    return *skip = 1, Form::kExists;
+  }
+  if (at(0) == "is" || at(0) == "are") return *skip = 1, Form::kCheck;
+  if (at(0) == "what" || at(0) == "which") return *skip = 1, Form::kWhat;
+  return Form::kWhere;
+}
 
-  // Drop fillers and "in the map"-like place phrases: what remains is "[X] [REL Y [and Z]]".
+// The words after the first `skip` without fillers and "in the map"-like place phrases: what
+// remains is "[X] [REL Y [and Z]]".
+std::vector<std::string> ContentWords(const std::vector<std::string>& raw, size_t skip) {
   std::vector<std::string> t;
   for (size_t i = skip; i < raw.size(); ++i) {
     if (Fillers().count(raw[i])) continue;
@@ -352,47 +350,62 @@ StatusOr<ParsedQuery> ParseQuestion(std::string_view text, const Vocabulary& voc
     }
     t.push_back(raw[i]);
   }
+  return t;
+}
+
+// q's intent from the form and what the tail named; an error when the form needs a target and
+// none was named.
+Status SetIntent(Form form, std::string_view text, const Vocabulary& vocabulary, ParsedQuery* q) {
+  const bool nearest = q->relation && q->relation->kind == RelationKind::kNearest;
+  const bool list = form == Form::kList || form == Form::kWhat;
+  if (!q->target && !(list && !nearest)) {
+    return absl::InvalidArgumentError(absl::StrCat("Which object? \"", std::string(text),
+                                                   "\" names none. ", QueryHelp(vocabulary)));
+  }
+  switch (form) {
+    case Form::kCount:
+      q->intent = nearest ? Intent::kNearest : Intent::kCount;
+      break;
+    case Form::kList:
+    case Form::kWhat:
+      q->intent = nearest ? Intent::kNearest : q->relation ? Intent::kWhatRelation : Intent::kList;
+      break;
+    case Form::kWhichRobot:
+      q->intent = Intent::kWhichRobot;
+      break;
+    case Form::kWhere:
+      q->intent = nearest ? Intent::kNearest : Intent::kWhere;
+      break;
+    case Form::kExists:
+      q->intent = nearest ? Intent::kNearest : Intent::kExists;
+      break;
+    case Form::kCheck:
+      q->intent = nearest       ? Intent::kNearest
+                  : q->relation ? Intent::kCheckRelation
+                                : Intent::kExists;
+      break;
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+StatusOr<ParsedQuery> ParseQuestion(std::string_view text, const Vocabulary& vocabulary) {
+  const std::vector<std::string> raw = Tokenize(text);
+  if (raw.empty()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("The question is empty. ", QueryHelp(vocabulary)));
+  }
+  ParsedQuery q;
+  size_t skip = 0;
+  const Form form = LeadingForm(raw, &skip);
+  q.first_seen = form == Form::kWhichRobot && std::count(raw.begin(), raw.end(), "first") > 0;
+  const std::vector<std::string> t = ContentWords(raw, skip);
   TailParser parser(t, vocabulary, text);
   LOCI_ASSIGN_OR_RETURN(TailParser::Tail tail, parser.Parse(0, t.size()));
   q.target = tail.target;
   q.relation = tail.relation;
-  const bool nearest = q.relation && q.relation->kind == RelationKind::kNearest;
-  auto need_target = [&]() -> Status {
-    if (q.target) return absl::OkStatus();
-    return absl::InvalidArgumentError(absl::StrCat("Which object? \"", std::string(text),
-                                                   "\" names none. ", QueryHelp(vocabulary)));
-  };
-  switch (form) {
-    case Form::kCount:
-      LOCI_RETURN_IF_ERROR(need_target());
-      q.intent = nearest ? Intent::kNearest : Intent::kCount;
-      break;
-    case Form::kList:
-    case Form::kWhat:
-      if (nearest) {
-        LOCI_RETURN_IF_ERROR(need_target());
-        q.intent = Intent::kNearest;
-      } else {
-        q.intent = q.relation ? Intent::kWhatRelation : Intent::kList;
-      }
-      break;
-    case Form::kWhichRobot:
-      LOCI_RETURN_IF_ERROR(need_target());
-      q.intent = Intent::kWhichRobot;
-      break;
-    case Form::kWhere:
-      LOCI_RETURN_IF_ERROR(need_target());
-      q.intent = nearest ? Intent::kNearest : Intent::kWhere;
-      break;
-    case Form::kExists:
-      LOCI_RETURN_IF_ERROR(need_target());
-      q.intent = nearest ? Intent::kNearest : Intent::kExists;
-      break;
-    case Form::kCheck:
-      LOCI_RETURN_IF_ERROR(need_target());
-      q.intent = nearest ? Intent::kNearest : q.relation ? Intent::kCheckRelation : Intent::kExists;
-      break;
-  }
+  LOCI_RETURN_IF_ERROR(SetIntent(form, text, vocabulary, &q));
   return q;
 }
 
