@@ -34,6 +34,7 @@ void LoopCloser::AddMatch(const VerifiedMatch& match, bool fresh, int64_t graph)
   if (!fresh) return;
   ++(match.loop ? stats_.loop_matches : stats_.merge_matches);
   ++pending_[graph].new_matches;
+  pending_[graph].new_merges += !match.loop;
 }
 
 void LoopCloser::NoteRecognised(int64_t graph) {
@@ -48,9 +49,17 @@ bool LoopCloser::Due(int64_t graph, int64_t graph_keyframes) const {
   const double size = graph_keyframes < 0 ? static_cast<double>(keyframes_.size())
                                           : static_cast<double>(graph_keyframes);
   const double min_keyframes =
-      std::max<double>(options_.optimize_min_keyframes, options_.optimize_growth * size);
+      JoinDue(graph, it->second)
+          ? options_.optimize_min_keyframes
+          : std::max<double>(options_.optimize_min_keyframes, options_.optimize_growth * size);
   return it->second.new_matches >= options_.optimize_every_edges &&
          static_cast<double>(it->second.recognised) >= min_keyframes;
+}
+
+bool LoopCloser::JoinDue(int64_t graph, const Pending& pending) const {
+  const auto parts = parts_.find(graph);
+  return pending.new_merges > 0 && parts != parts_.end() && parts->second.count > 1 &&
+         !parts->second.join_tried;
 }
 
 void LoopCloser::MoveDue(int64_t from, int64_t to) {
@@ -60,10 +69,12 @@ void LoopCloser::MoveDue(int64_t from, int64_t to) {
   }
   std::lock_guard<std::mutex> lock(mu_);
   stats_.islands.erase(from);
+  if (from != to) parts_.erase(from);
   auto it = pending_.find(from);
   if (it == pending_.end() || from == to) return;
   Pending& dst = pending_[to];
   dst.new_matches += it->second.new_matches;
+  dst.new_merges += it->second.new_merges;
   dst.recognised += it->second.recognised;
   pending_.erase(from);
 }
@@ -102,14 +113,19 @@ StatusOr<GraphResult> LoopCloser::Optimize(const std::vector<MappedKeyframe>& ma
   std::lock_guard<std::mutex> solving(solve_mu_);
   PoseGraph graph(graph_);
   graph.SetPcmCache(&pcm_caches_[graph_key]);
+  bool join = false;
   {
     std::lock_guard<std::mutex> lock(mu_);
+    join = JoinDue(graph_key, pending_[graph_key]);
     pending_[graph_key] = Pending();
   }
   LOCI_RETURN_IF_ERROR(BuildGraph(mapped, gravity_aligned, centroids, &graph));
   // Without mu_: the mapping worker records keyframes and matches while the graph solves.
   LOCI_ASSIGN_OR_RETURN(GraphResult result, graph.Optimize());
   std::lock_guard<std::mutex> lock(mu_);
+  Parts& parts = parts_[graph_key];
+  parts.join_tried = join && result.stats.islands >= parts.count;
+  parts.count = result.stats.islands;
   if (graph_key != kSharedGraph) return result;  // counted once applied (NoteIslandApplied)
   ++stats_.optimizations;
   stats_.keyframes_moved += result.updates.size();
@@ -120,8 +136,7 @@ StatusOr<GraphResult> LoopCloser::Optimize(const std::vector<MappedKeyframe>& ma
 }
 
 Status LoopCloser::BuildGraph(const std::vector<MappedKeyframe>& mapped, bool gravity_aligned,
-                              const std::vector<CentroidObservation>& centroids,
-                              PoseGraph* graph) {
+                              const std::vector<CentroidObservation>& centroids, PoseGraph* graph) {
   std::lock_guard<std::mutex> lock(mu_);
   // Nodes in id order: the first is the map's first keyframe (the gauge's reference chain).
   std::map<int64_t, const LoopKeyframe*> last_of_chain;  // by session row: the previous node

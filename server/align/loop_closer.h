@@ -48,7 +48,7 @@ struct LoopKeyframe {
   int segment = 0;  // the client's odometry segment (a tracking loss starts a new one)
   int64_t t_ns = 0;
   SE3d T_odom_kf = SE3d::Identity();
-  int tracking_inliers = 0;  // the client's tracking quality of T_odom_kf (0 = unknown)
+  int tracking_inliers = 0;          // the client's tracking quality of T_odom_kf (0 = unknown)
   Vec3d gravity_kf = Vec3d::Zero();  // the keyframe's measured gravity, unit, down (0: none)
 };
 
@@ -65,12 +65,12 @@ struct IslandGraphStats {
 };
 
 struct LoopStats {
-  uint64_t loop_matches = 0;   // verified matches recorded, within one session
-  uint64_t merge_matches = 0;  // between two sessions
-  uint64_t optimizations = 0;  // solves run
+  uint64_t loop_matches = 0;     // verified matches recorded, within one session
+  uint64_t merge_matches = 0;    // between two sessions
+  uint64_t optimizations = 0;    // solves run
   uint64_t keyframes_moved = 0;  // summed over the solves
-  double solve_ms_total = 0;   // PCM + Ceres, wall ms, summed
-  GraphStats last;             // of the latest solve
+  double solve_ms_total = 0;     // PCM + Ceres, wall ms, summed
+  GraphStats last;               // of the latest solve
   // Moving the map to the latest solution (in chunks, MapServer): wall ms from the first chunk
   // to the last, chunks, and the longest the mapping lock was held for one chunk; the longest
   // such hold since start.
@@ -98,6 +98,10 @@ class LoopCloser {
   // max(optimize_min_keyframes, optimize_growth x graph_keyframes) keyframes through place
   // recognition since its last solve. Counted in keyframes, not time, so the same
   // data gives the same solves and the same map. graph_keyframes < 0: every recorded keyframe.
+  // When the last solve left the graph in unconnected parts (a robot aligned before its merge
+  // edges were in) and merge matches have come since, optimize_min_keyframes is enough: the
+  // parts are joined now, not after the graph has grown by its share. Once per part count: a
+  // solve that joins nothing does not make the next one early.
   bool Due(int64_t graph = kSharedGraph, int64_t graph_keyframes = -1) const;
   // `from`'s pending matches and keyframes count for `to` from now on (an island aligned to the
   // shared map, or joined to another island); `from`'s counts and stats are dropped.
@@ -128,12 +132,22 @@ class LoopCloser {
   // What counts towards a graph's next solve.
   struct Pending {
     int new_matches = 0;
+    int new_merges = 0;  // of new_matches, between sessions
     int recognised = 0;
   };
+  // A graph's connected parts after its last solve, and whether an early solve to join them
+  // (Due) found nothing to join.
+  struct Parts {
+    size_t count = 1;
+    bool join_tried = false;
+  };
+  // Whether `graph`'s next solve may join its parts early (mu_ held).
+  bool JoinDue(int64_t graph, const Pending& pending) const;
 
-  mutable std::mutex mu_;     // the records and stats
-  std::mutex solve_mu_;       // one solve at a time; guards pcm_cache_
-  std::map<int64_t, LoopKeyframe> keyframes_;                // by id
+  mutable std::mutex mu_;                      // the records and stats
+  std::map<int64_t, Parts> parts_;             // by graph (mu_)
+  std::mutex solve_mu_;                        // one solve at a time; guards pcm_cache_
+  std::map<int64_t, LoopKeyframe> keyframes_;  // by id
   // T_a_b by (a, b); loop or merge is decided by the keyframes' sessions when solving.
   std::map<std::pair<int64_t, int64_t>, SE3d> matches_;
   std::map<int64_t, Pending> pending_;  // by graph

@@ -124,7 +124,8 @@ TEST(LoopCloser, AWrongMatchDoesNotMoveTheMapBeyondTwoCentimetres) {
   ASSERT_TRUE(rc.ok() && rd.ok());
   const auto pc = Apply(mapped, *rc), pd = Apply(mapped, *rd);
   double worst_m = 0;
-  for (const auto& [id, T] : pc) worst_m = std::max(worst_m, (T.translation() - pd.at(id).translation()).norm());
+  for (const auto& [id, T] : pc)
+    worst_m = std::max(worst_m, (T.translation() - pd.at(id).translation()).norm());
   std::printf("wrong match: %zu loops rejected, map moved by %.4f m\n", rd->stats.loops_rejected,
               worst_m);
   EXPECT_GE(rd->stats.loops_rejected, 1u);
@@ -162,8 +163,8 @@ TEST(LoopCloser, ASecondSessionJoinsThroughMerges) {
   const std::vector<SE3d> truth = SquarePath(path);
   const std::vector<SE3d> truth_a(truth.begin(), truth.begin() + 120);
   const std::vector<SE3d> truth_b(truth.begin() + 80, truth.end());
-  const SyntheticRobot a = MakeSyntheticRobot("a", 1, truth_a, OdometryNoiseOptions{},
-                                              truth_a.front(), true, &rng);
+  const SyntheticRobot a =
+      MakeSyntheticRobot("a", 1, truth_a, OdometryNoiseOptions{}, truth_a.front(), true, &rng);
   // b was placed by the aligner 10 cm and 3 deg off its truth (one match's error).
   SE3d off = SE3d::Identity();
   off.linear() = Eigen::AngleAxisd(0.05, Vec3d::UnitZ()).toRotationMatrix();
@@ -203,6 +204,58 @@ TEST(LoopCloser, ASecondSessionJoinsThroughMerges) {
   EXPECT_EQ(closer.Stats().merge_matches, merges.size());
 }
 
+// A robot aligned before its merge edges were in leaves the graph in two parts at its next
+// solve (loci bench merge behind a backlog with server.queue_capacity 8: b's placement stayed
+// 10 cm off until the graph had grown by its share). Merges that come after such a solve make
+// the graph due after optimize_min_keyframes, not optimize_growth x its size; once joined, the
+// share applies again, and matches within one session do not count as merges.
+TEST(LoopCloser, AGraphLeftInPartsIsDueAsSoonAsMergesCome) {
+  std::mt19937 rng(5);
+  const std::vector<SE3d> truth = SquarePath(SquarePathOptions{});
+  const std::vector<SE3d> truth_a(truth.begin(), truth.begin() + 120);
+  const std::vector<SE3d> truth_b(truth.begin() + 80, truth.end());
+  const SyntheticRobot a =
+      MakeSyntheticRobot("a", 1, truth_a, OdometryNoiseOptions{}, truth_a.front(), true, &rng);
+  const SyntheticRobot b =
+      MakeSyntheticRobot("b", 1001, truth_b, OdometryNoiseOptions{}, truth_b.front(), true, &rng);
+  ProximityEdgeOptions near;
+  near.every = 2;
+  const std::vector<GraphEdge> loops_a = ProximityEdges(a, a, EdgeKind::kLoop, near, &rng);
+  const std::vector<GraphEdge> merges = ProximityEdges(a, b, EdgeKind::kMerge, near, &rng);
+  ASSERT_GE(loops_a.size(), 6u);
+  ASSERT_GE(merges.size(), 6u);
+  LoopOptions options = Options();
+  options.optimize_growth = 0.2;  // 48 of the 240 keyframes, against optimize_min_keyframes 10
+  LoopCloser closer(GraphOptions{}, options);
+  Record(a, 1, &closer);
+  Record(b, 2, &closer);
+  std::vector<MappedKeyframe> mapped = Mapped(a);
+  for (const MappedKeyframe& m : Mapped(b)) mapped.push_back(m);
+  AddMatches({loops_a.begin(), loops_a.begin() + 3}, true, &closer);
+  ASSERT_TRUE(closer.Due());
+  auto parts = closer.Optimize(mapped, true);
+  ASSERT_TRUE(parts.ok()) << parts.status();
+  ASSERT_EQ(parts->stats.islands, 2u);  // b has no edge to a yet
+
+  auto recognise = [&](int n) {
+    for (int i = 0; i < n; ++i) closer.NoteRecognised();
+  };
+  AddMatches({loops_a.begin() + 3, loops_a.begin() + 6}, true, &closer);
+  recognise(10);
+  EXPECT_FALSE(closer.Due());  // loops within a join nothing: the share applies
+  AddMatches({merges.begin(), merges.begin() + 3}, false, &closer);
+  EXPECT_TRUE(closer.Due());  // merges: 10 keyframes are enough
+  auto joined = closer.Optimize(mapped, true);
+  ASSERT_TRUE(joined.ok()) << joined.status();
+  EXPECT_EQ(joined->stats.islands, 1u);
+
+  AddMatches({merges.begin() + 3, merges.begin() + 6}, false, &closer);
+  recognise(10);
+  EXPECT_FALSE(closer.Due());  // joined: the share applies again
+  recognise(38);
+  EXPECT_TRUE(closer.Due());
+}
+
 // An island's graph (keyed by its island row) counts its own matches: they make it due, not the
 // shared map's; its solve is counted apart once applied; when the island is aligned its pending
 // matches count for the shared graph.
@@ -224,7 +277,7 @@ TEST(LoopCloser, AnIslandsGraphIsDueOnItsOwnMatchesAndMovesToTheShared) {
   auto r = closer.Optimize(mapped, true, kIsland);
   ASSERT_TRUE(r.ok()) << r.status();
   EXPECT_LT(Ate(s.robot, Apply(mapped, *r)), Ate(s.robot, Apply(mapped, GraphResult{})) / 3);
-  EXPECT_FALSE(closer.Due(kIsland, size));  // reset by the solve
+  EXPECT_FALSE(closer.Due(kIsland, size));      // reset by the solve
   EXPECT_EQ(closer.Stats().optimizations, 0u);  // the shared map's figures are untouched
   EXPECT_TRUE(closer.Stats().islands.empty());  // counted once applied
   closer.NoteIslandApplied(kIsland, r->stats);
