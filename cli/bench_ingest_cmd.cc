@@ -202,8 +202,7 @@ StreamResult StreamKeyframes(const BenchIngestArgs& a, const std::vector<loci::v
 }
 
 void PrintIngest(const BenchIngestArgs& a, size_t det_total, size_t view_count,
-                 const StreamResult& r, server::MapServer& srv) {
-  const auto stats = srv.mapper().Stats();
+                 const StreamResult& r, const server::MapperStats& stats, server::MapServer& srv) {
   const double n = static_cast<double>(std::max<uint64_t>(1, stats.keyframes));
   std::printf(
       "loci bench ingest: %d keyframes (640x480, %.1f detections/keyframe, %zu views), "
@@ -227,8 +226,7 @@ void PrintIngest(const BenchIngestArgs& a, size_t det_total, size_t view_count,
       stats.total.voxel_ms / n, stats.total.outlier_ms / n);
 }
 
-void PrintMap(const BenchIngestArgs& a, server::MapServer& srv) {
-  const auto stats = srv.mapper().Stats();
+void PrintMap(const BenchIngestArgs& a, const server::MapperStats& stats, server::MapServer& srv) {
   const uint64_t db_bytes = srv.store().DbBytes();
   std::printf("  database        %.1f KB per keyframe (%.1f MB total, WAL included)\n",
               db_bytes / 1024.0 / a.keyframes, db_bytes / (1024.0 * 1024.0));
@@ -268,9 +266,10 @@ int RunBenchIngest(const BenchIngestArgs& a) {
   const StreamResult r = StreamKeyframes(a, *views, &b, &mem);
   const double rss1 = RssMb();
   b.srv->mapper().FlushOctomap();
-  PrintIngest(a, det_total, views->size(), r, *b.srv);
+  const server::MapperStats stats = b.srv->mapper().Stats();
+  PrintIngest(a, det_total, views->size(), r, stats, *b.srv);
   mem.Print(a.keyframes, r.pauses[1] - r.pauses[0], rss1 - rss0);
-  PrintMap(a, *b.srv);
+  PrintMap(a, stats, *b.srv);
   b.grpc.reset();
   b.srv.reset();
   if (a.keep_dir.empty()) std::filesystem::remove_all(dir);
