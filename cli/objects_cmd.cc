@@ -177,7 +177,9 @@ int RunStats(const ServerArgs& a) {
   std::printf("place features     %.1f KB per keyframe (%llu keyframes)\n",
               resp.place_feature_bytes_per_keyframe() / 1e3,
               static_cast<unsigned long long>(resp.keyframes_with_place_features()));
-  std::printf("checkpoint         %.1f MB\n", resp.checkpoint_bytes() / 1e6);
+  std::printf("checkpoint         %.1f MB (%llu written since start)\n",
+              resp.checkpoint_bytes() / 1e6,
+              static_cast<unsigned long long>(resp.checkpoints_written()));
   std::printf("queue depth        %llu\n", static_cast<unsigned long long>(resp.queue_depth()));
   std::printf("mapping per kf     %.1f ms; the worker waited at most %.0f ms for the mapping lock\n",
               resp.ingest_ms_mean(), resp.worker_longest_wait_ms());

@@ -225,6 +225,7 @@ Status MapServer::Checkpoint() {
   record.data = mapper_->SaveCheckpoint();
   if (record.data.empty()) return absl::OkStatus();  // the map frame is not settled yet
   LOCI_RETURN_IF_ERROR(store_->PutCheckpoint(record));
+  ++checkpoints_written_;
   spdlog::info("checkpoint at keyframe {}: {:.1f} MB in {:.2f} s", record.last_keyframe_id,
                static_cast<double>(record.data.size()) / 1e6,
                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
@@ -246,9 +247,10 @@ Status MapServer::ApplyRetention() {
   return absl::OkStatus();
 }
 
-void MapServer::MaybeCheckpoint() {
-  ++since_checkpoint_;
+void MapServer::MaybeCheckpoint(bool shared_map_changed) {
+  if (shared_map_changed) ++since_checkpoint_;
   if (merging_held_) return;  // MapHeldKeyframes checkpoints when they are all in
+  if (since_checkpoint_ == 0 && !checkpoint_due_) return;  // the last checkpoint holds the map
   const auto now = std::chrono::steady_clock::now();
   if (!checkpoint_due_ &&
       since_checkpoint_ < static_cast<uint64_t>(options_.checkpoint_keyframes) &&
@@ -491,11 +493,12 @@ void MapServer::WorkerLoop() {
       std::lock_guard<HandoffMutex> mapping(mapping_mu_);
       // Written by this thread only: a plain load and store keep the maximum.
       worker_longest_wait_ms_ = std::max(worker_longest_wait_ms_.load(), MsSince(t0));
-      recognise = MapQueued(*kf);
+      const Queued queued = MapQueued(*kf);
+      recognise = queued.recognise;
       mapping_ms_total_.fetch_add(
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
       ++mapping_count_;
-      MaybeCheckpoint();
+      MaybeCheckpoint(queued.shared_map);
     }
     mapping_mu_.LetWaitersIn();  // a chunked pose-graph move waiting for the lock goes next
     if (recognise) {  // outside mapping_mu_: the aligning thread takes it after each keyframe

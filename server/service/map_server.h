@@ -122,6 +122,8 @@ class MapServer {
   // The longest the mapping worker waited for the mapping lock since start, ms (a chunk of a
   // pose-graph move or of a robot's held keyframes, a checkpoint).
   double worker_longest_wait_ms() const { return worker_longest_wait_ms_; }
+  // Checkpoints written since start.
+  uint64_t checkpoints_written() const { return checkpoints_written_; }
   // Mean time of the handler-side stages per accepted keyframe, ms: validation with image
   // decoding (thread CPU time), and the storage transaction (wall time).
   double validate_ms_mean() const;
@@ -140,8 +142,12 @@ class MapServer {
   StatusOr<size_t> UpdateKeyframePosesLocked(const std::vector<Mapper::KeyframePoseUpdate>& updates,
                                              bool rebuild_octomap = true);
   // Maps (or, for an unaligned session, holds back) one queued keyframe (map_server_align.cc);
-  // worker thread, mapping_mu_ held. True when the keyframe goes on to place recognition.
-  bool MapQueued(MapperKeyframe& kf);
+  // worker thread, mapping_mu_ held.
+  struct Queued {
+    bool recognise = false;   // the keyframe goes on to place recognition
+    bool shared_map = false;  // it was mapped into the shared map (not held back in an island)
+  };
+  Queued MapQueued(MapperKeyframe& kf);
   // The aligning thread: place recognition of every mapped or held keyframe, off the mapping
   // worker; then, with mapping_mu_, its matches, an alignment it completes, a graph solve.
   void AlignLoop();
@@ -292,8 +298,10 @@ class MapServer {
   // with its placement or island, before a keyframe or a join can need it (loading thread).
   void DeclareStoredSessions();
   void FinishLoad(const Status& status);
-  // Checkpoints when checkpoint_keyframes or checkpoint_interval_s have passed (worker thread).
-  void MaybeCheckpoint();
+  // Checkpoints when checkpoint_keyframes or checkpoint_interval_s have passed since the shared
+  // map last changed (worker thread). `shared_map_changed`: this keyframe was mapped into it (a
+  // held keyframe is mapped in its island only, which a checkpoint does not hold).
+  void MaybeCheckpoint(bool shared_map_changed);
   // Drops raw images as server.raw_keep_days / raw_keep_last say (after a checkpoint).
   Status ApplyRetention();
   StatusOr<SessionRecord> FindSession(const std::string& session_id,
@@ -341,6 +349,7 @@ class MapServer {
   bool checkpoint_due_ = false;
   std::chrono::steady_clock::time_point last_checkpoint_ = std::chrono::steady_clock::now();
   std::mutex checkpoint_mu_;  // one checkpoint at a time
+  std::atomic<uint64_t> checkpoints_written_{0};
   std::mutex close_loops_mu_;  // one CloseLoops at a time (aligning and loading threads)
   HandoffMutex mapping_mu_;   // held by the worker per keyframe and by UpdateKeyframePoses
   // Held from storing a keyframe until it is queued, so the worker maps keyframes in id order

@@ -18,10 +18,10 @@
 
 namespace loci::server {
 
-bool MapServer::MapQueued(MapperKeyframe& kf) {
+MapServer::Queued MapServer::MapQueued(MapperKeyframe& kf) {
   if (!aligner_) {
     MapAndStoreProducts(*mapper_, kf, detector_.get(), store_.get());
-    return false;
+    return {.recognise = false, .shared_map = true};
   }
   DeclareSession(kf.session_row);
   const std::optional<SE3d> T_base_odom = aligner_->Alignment(kf.session_row);
@@ -38,7 +38,7 @@ bool MapServer::MapQueued(MapperKeyframe& kf) {
   worker_last_id_ = kf.keyframe_id;
   int64_t none = 0;
   first_live_id_.compare_exchange_strong(none, kf.keyframe_id);
-  return true;
+  return {.recognise = true, .shared_map = T_base_odom.has_value()};
 }
 
 AlignOutcome MapServer::Guarded(

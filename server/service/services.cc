@@ -329,6 +329,7 @@ grpc::Status QueryService::GetStats(loci::v1::GetStatsResponse* resp) {
   resp->set_keyframes_with_raw(bytes->keyframes_with_raw);
   resp->set_keyframes_with_products(bytes->products);
   resp->set_checkpoint_bytes(bytes->checkpoint_bytes);
+  resp->set_checkpoints_written(server_->checkpoints_written());
   resp->set_place_feature_bytes_per_keyframe(per(bytes->place_feature_bytes, bytes->place_features));
   resp->set_keyframes_with_place_features(bytes->place_features);
   return FillAlignment(*sessions, resp);

@@ -471,6 +471,35 @@ TEST_F(Islands, AnIslandIsAlignedAsAWhole) {
   }
 }
 
+// Keyframes held back in an island leave the shared map as it was, so they write no checkpoint
+// of it (they used to count towards server.checkpoint_keyframes: the same checkpoint rewritten
+// every few seconds while an unaligned robot streamed). The shared map's keyframes still do.
+TEST_F(Islands, HeldKeyframesWriteNoCheckpoint) {
+  ServerOptions options = testing::Options();
+  options.align.loops.enabled = false;
+  options.checkpoint_keyframes = 10;
+  Running r = Start(dir_ + "/checkpoints.db", options);
+  ASSERT_TRUE(r.server);
+  Stream(r.mapping.get(), "A", Rebased(views_["a"], 0, false));
+  r.server->Flush();
+  const uint64_t after_a = Stats(r.query.get()).checkpoints_written();
+  EXPECT_GE(after_a, 3u) << "45 keyframes at checkpoint_keyframes 10";
+
+  Stream(r.mapping.get(), "B", Rebased(views_["b"], 0, true));
+  r.server->Flush();
+  const loci::v1::GetStatsResponse held = Stats(r.query.get());
+  ASSERT_FALSE(SessionsByRobot(held).at("B").aligned()) << "room b is another place";
+  EXPECT_EQ(held.checkpoints_written(), after_a) << "B's 45 held keyframes wrote checkpoints";
+
+  std::vector<loci::v1::Keyframe> later = Rebased(views_["a"], 0, false);
+  later.resize(12);
+  for (auto& kf : later) kf.set_t_ns(kf.t_ns() + 100'000'000'000);
+  Stream(r.mapping.get(), "A", later);
+  r.server->Flush();
+  EXPECT_EQ(Stats(r.query.get()).checkpoints_written(), after_a + 1)
+      << "12 more keyframes of the shared map";
+}
+
 // A robot aligned as the server stopped: its held keyframes have ids below the checkpoint's
 // (robot A streamed on meanwhile), and the checkpoint lacks them. The next start maps them.
 TEST_F(Islands, HeldKeyframesTheCheckpointLacksAreMappedOnTheNextStart) {
