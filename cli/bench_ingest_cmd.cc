@@ -237,6 +237,9 @@ void PrintMap(const BenchIngestArgs& a, const server::MapperStats& stats, server
       static_cast<unsigned long long>(stats.confirmed_objects),
       static_cast<unsigned long long>(stats.cloud_points),
       static_cast<unsigned long long>(stats.octomap_nodes));
+  std::printf("  octomap         rebuilt after %llu pose updates, %llu others within tolerance\n",
+              static_cast<unsigned long long>(stats.octomap_rebuilds),
+              static_cast<unsigned long long>(stats.octomap_rebuilds_skipped));
 }
 
 int RunBenchIngest(const BenchIngestArgs& a) {

@@ -164,9 +164,13 @@ int RunStats(const ServerArgs& a) {
               static_cast<unsigned long long>(resp.objects()),
               static_cast<unsigned long long>(resp.confirmed_objects()));
   std::printf("cloud points       %llu\n", static_cast<unsigned long long>(resp.cloud_points()));
-  std::printf("octomap nodes      %llu (%llu scans queued)\n",
-              static_cast<unsigned long long>(resp.octomap_nodes()),
-              static_cast<unsigned long long>(resp.octomap_pending_scans()));
+  std::printf(
+      "octomap nodes      %llu (%llu scans queued); rebuilt after %llu pose updates, "
+      "%llu others within tolerance\n",
+      static_cast<unsigned long long>(resp.octomap_nodes()),
+      static_cast<unsigned long long>(resp.octomap_pending_scans()),
+      static_cast<unsigned long long>(resp.octomap_rebuilds()),
+      static_cast<unsigned long long>(resp.octomap_rebuilds_skipped()));
   std::printf("database           %.1f MB\n", resp.db_bytes() / 1e6);
   std::printf("raw per keyframe   %.1f KB (%llu keyframes keep their images)\n",
               resp.raw_bytes_per_keyframe() / 1e3,

@@ -214,6 +214,7 @@ std::string Mapper::SaveCheckpoint() const {
       ks->set_robot(k.robot);
       ks->set_t_ns(k.t_ns);
       ToState(k.T_base_kf, ks->mutable_t_base_kf());
+      ToState(k.T_base_kf_octomap, ks->mutable_t_base_kf_octomap());
       for (int64_t id : k.observation_object_ids) ks->add_observation_object_id(id);
       for (const Eigen::Vector3f& c : k.observation_centroids_kf_m) {
         for (int axis = 0; axis < 3; ++axis) ks->add_observation_centroid_kf_m(c[axis]);
@@ -257,9 +258,15 @@ Status Mapper::LoadCheckpoint(const std::string& bytes) {
   keyframe_poses_.clear();
   keyframe_poses_.reserve(in.keyframes_size());
   for (const auto& k : in.keyframes()) {
-    keyframe_poses_.push_back({k.keyframe_id(), k.robot(), k.t_ns(), FromState(k.t_base_kf()),
-                               {k.observation_object_id().begin(), k.observation_object_id().end()},
-                               {}});
+    const SE3d T_base_kf = FromState(k.t_base_kf());
+    keyframe_poses_.push_back(
+        {k.keyframe_id(),
+         k.robot(),
+         k.t_ns(),
+         T_base_kf,
+         {k.observation_object_id().begin(), k.observation_object_id().end()},
+         {},
+         k.has_t_base_kf_octomap() ? FromState(k.t_base_kf_octomap()) : T_base_kf});
     const auto& c = k.observation_centroid_kf_m();
     for (int i = 0; i + 2 < c.size(); i += 3) {
       keyframe_poses_.back().observation_centroids_kf_m.emplace_back(c[i], c[i + 1], c[i + 2]);

@@ -56,8 +56,9 @@ Status CheckMapKeys(const YAML::Node& node) {
   }
   LOCI_RETURN_IF_ERROR(
       CheckKnownKeys(node["frame"], "map.frame", {"settle_keyframes", "plane_refine_max_deg"}));
-  return CheckKnownKeys(node["octomap"], "map.octomap",
-                        {"enabled", "resolution_m", "max_range_m", "ray_voxel_m"});
+  return CheckKnownKeys(
+      node["octomap"], "map.octomap",
+      {"enabled", "resolution_m", "max_range_m", "ray_voxel_m", "rebuild_tolerance_m"});
 }
 
 // FNV-1a, 64 bit, as 16 hex digits: a stable digest (std::hash and absl::Hash are seeded or
@@ -231,6 +232,7 @@ Status ReadOctomap(const YAML::Node& n, OctomapOptions* o) {
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "resolution_m", &o->resolution_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_range_m", &o->max_range_m));
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "ray_voxel_m", &o->ray_voxel_m));
+  LOCI_RETURN_IF_ERROR(ReadOptional(n, "rebuild_tolerance_m", &o->rebuild_tolerance_m));
   return absl::OkStatus();
 }
 
@@ -437,6 +439,8 @@ Status CheckFrameAndOctomap(const MapOptions& m) {
   }
   if (m.octomap.enabled && !(m.octomap.resolution_m >= 0.005))
     return BadMapOption("octomap.resolution_m >= 0.005");
+  if (!(m.octomap.rebuild_tolerance_m >= 0))
+    return BadMapOption("octomap.rebuild_tolerance_m >= 0");
   return absl::OkStatus();
 }
 

@@ -223,6 +223,11 @@ struct OctomapOptions {
   // points are marked occupied without a ray (ray casting dominates the cost). <= resolution_m
   // = a ray to every end point (0.1).
   double ray_voxel_m = 0.1;
+  // A pose update rebuilds the OctoMap (from every keyframe's products) only when some
+  // keyframe's scan would move more than this since it went into the tree: its translation plus
+  // its rotation (rad) times max_range_m (4 m when max_range_m <= 0), m. 0: every update that
+  // moves a keyframe (0.0125, a quarter of the default leaf).
+  double rebuild_tolerance_m = 0.0125;
 };
 
 struct MapOptions {

@@ -43,7 +43,7 @@ Mapper::Mapper(const MapOptions& options)
 }
 
 Mapper::~Mapper() {
-  ++octomap_generation_;  // a queued or running rebuild stops (its product source may be gone)
+  rebuild_stopping_ = true;  // a running rebuild stops (its product source may be gone)
   {
     std::lock_guard<std::mutex> lock(rebuild_mu_);
     rebuild_stop_ = true;
@@ -201,7 +201,7 @@ StageTimes Mapper::Integrate(const MapperKeyframe& kf, const KeyframeProducts& p
     if (!have_frame_) FixFirstFrame(kf, gravity_cam);  // the origin and a first up
     // In id order; a keyframe held back (an unaligned robot's) may arrive after newer ones.
     keyframe_poses_.insert(KeyframePoseAfter(kf.keyframe_id),
-                           {kf.keyframe_id, kf.robot, kf.t_ns, kf.T_base_kf, {}, {}});
+                           {kf.keyframe_id, kf.robot, kf.t_ns, kf.T_base_kf, {}, {}, kf.T_base_kf});
   }
   if (!frame_settled_) CollectFrameEvidence(kf, gravity_cam, products);
   Observed observed = IntegrateProducts(kf, products, &times, &events);

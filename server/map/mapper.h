@@ -78,6 +78,10 @@ struct MapperStats {
   uint64_t cloud_points = 0;
   uint64_t octomap_nodes = 0;          // of the scans inserted so far ...
   uint64_t octomap_pending_scans = 0;  // ... while these still wait for the OctoMap thread
+  // Pose updates that rebuilt the OctoMap / that moved keyframes within
+  // octomap.rebuild_tolerance_m of their scans and left it.
+  uint64_t octomap_rebuilds = 0;
+  uint64_t octomap_rebuilds_skipped = 0;
   StageTimes total;  // sums over all keyframes
 };
 
@@ -195,7 +199,7 @@ class Mapper {
   struct OctomapRebuild {
     std::vector<std::pair<int64_t, SE3d>> T_map_kf;  // keyframe id, pose; in id order
     ProductSource source;
-    uint64_t generation = 0;  // a later rebuild makes this one moot
+    uint64_t generation = 0;  // of the pose update that requested it
   };
   static OctomapScan ThinScan(const std::vector<SemanticPoint>& static_points_m,
                               const Vec3d& origin_m, double resolution_m);
@@ -222,6 +226,10 @@ class Mapper {
     SE3d T_base_kf = SE3d::Identity();
     std::vector<int64_t> observation_object_ids;  // the object each observation went into
     std::vector<Eigen::Vector3f> observation_centroids_kf_m;  // each one's centroid, kf frame
+    // Where its scan is in the OctoMap (or will be, once the scan queue or a requested rebuild
+    // gets to it): T_base_kf when mapped or at a rebuild's request; a move within
+    // octomap.rebuild_tolerance_m leaves it.
+    SE3d T_base_kf_octomap = SE3d::Identity();
   };
   // What a keyframe's observations went into: one entry per observation.
   struct Observed {
@@ -245,6 +253,9 @@ class Mapper {
   // absent); mu_ held.
   std::vector<KeyframePose>::iterator KeyframePoseAfter(int64_t keyframe_id);
   std::vector<KeyframePose>::iterator FindKeyframePose(int64_t keyframe_id);
+  // Whether some keyframe's pose is farther from where its scan is in the OctoMap than
+  // octomap.rebuild_tolerance_m allows (mu_ held).
+  bool OctomapOutOfTolerance() const;
   // Moves keyframe_poses_[index] and its points (mu_ held).
   void MoveKeyframe(size_t index, const SE3d& T_base_kf, const KeyframeProducts& products,
                     std::vector<int64_t>* moved_objects);
@@ -287,6 +298,7 @@ class Mapper {
   std::condition_variable rebuild_cv_;
   std::optional<OctomapRebuild> rebuild_request_;  // the newest; guarded by rebuild_mu_
   bool rebuild_stop_ = false;                       // guarded by rebuild_mu_
+  std::atomic<bool> rebuild_stopping_{false};       // a running rebuild stops (destructor)
   uint64_t rebuilt_generation_ = 0;  // of the last rebuild swapped in; octomap_progress_mu_
   std::thread rebuild_thread_;
   mutable std::mutex octomap_progress_mu_;

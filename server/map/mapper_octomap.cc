@@ -2,7 +2,9 @@
 // pose update a new tree is built from every keyframe's products on another, and the scans of
 // keyframes mapped meanwhile are added to it before it replaces the live one. The mapping thread
 // therefore never waits for a rebuild (which reads every keyframe's products back: seconds per
-// 1000 keyframes), only for the scan queue.
+// 1000 keyframes), only for the scan queue. A rebuild runs to its end even when a newer pose
+// update comes meanwhile (which then waits, the newest of them only): were it dropped for the
+// newer one, pose updates coming faster than a rebuild takes would never let one finish.
 #include <spdlog/spdlog.h>
 
 #include <unordered_set>
@@ -68,7 +70,7 @@ void Mapper::RebuildOctomap(const OctomapRebuild& rebuild) {
   std::unordered_set<int64_t> in_list;
   size_t skipped = 0;
   for (const auto& [id, T_map_kf] : rebuild.T_map_kf) {
-    if (rebuild.generation != octomap_generation_.load()) return;  // a newer rebuild follows
+    if (rebuild_stopping_.load()) return;  // the mapper goes (its product source may be gone)
     in_list.insert(id);
     StatusOr<KeyframeProducts> products = rebuild.source(id);
     if (!products.ok()) {
@@ -85,13 +87,15 @@ void Mapper::RebuildOctomap(const OctomapRebuild& rebuild) {
   }
   {
     std::lock_guard<std::mutex> lock(octo_mu_);
-    // A newer request's list holds what this one's does and more: it keeps the collected scans.
-    if (rebuild.generation != octomap_generation_.load()) return;
     for (const OctomapScan& scan : scans_since_request_) {
       if (!in_list.count(scan.keyframe_id)) tree->Insert(scan.points_m, scan.origin_m);
     }
-    scans_since_request_.clear();
-    collecting_scans_ = false;
+    // A newer request waits: its list holds what this one's does and more, and it still needs
+    // the scans collected since this one's.
+    if (rebuild.generation == octomap_generation_.load()) {
+      scans_since_request_.clear();
+      collecting_scans_ = false;
+    }
     octomap_ = std::move(tree);
   }
   std::lock_guard<std::mutex> lock(octomap_progress_mu_);

@@ -68,18 +68,36 @@ StatusOr<size_t> Mapper::UpdateKeyframePoses(const std::vector<KeyframePoseUpdat
     }
     AppendEvents(changes, &events);
     if (options_.octomap.enabled && rebuild_octomap && moved > 0) {
-      rebuild = OctomapRebuild{{}, source, ++octomap_generation_};
-      rebuild->T_map_kf.reserve(keyframe_poses_.size());
-      for (const KeyframePose& k : keyframe_poses_) {
-        rebuild->T_map_kf.emplace_back(k.keyframe_id, T_map_base_ * k.T_base_kf);
+      if (OctomapOutOfTolerance()) {
+        rebuild = OctomapRebuild{{}, source, ++octomap_generation_};
+        rebuild->T_map_kf.reserve(keyframe_poses_.size());
+        for (KeyframePose& k : keyframe_poses_) {
+          rebuild->T_map_kf.emplace_back(k.keyframe_id, T_map_base_ * k.T_base_kf);
+          k.T_base_kf_octomap = k.T_base_kf;
+        }
+        CollectScansForRebuild();  // keyframes mapped from here on are not in the list
+        ++stats_.octomap_rebuilds;
+      } else {
+        ++stats_.octomap_rebuilds_skipped;
       }
-      CollectScansForRebuild();  // keyframes mapped from here on are not in the list
     }
   }
   if (rebuild) RequestRebuild(std::move(*rebuild));
   if (listener_ && !events.empty()) listener_(events);
   if (!status.ok()) return status;
   return moved;
+}
+
+bool Mapper::OctomapOutOfTolerance() const {
+  const double tolerance_m = options_.octomap.rebuild_tolerance_m;
+  if (tolerance_m <= 0) return true;
+  const double range_m = options_.octomap.max_range_m > 0 ? options_.octomap.max_range_m : 4.0;
+  for (const KeyframePose& k : keyframe_poses_) {
+    const SE3d d = k.T_base_kf_octomap.inverse() * k.T_base_kf;
+    const double angle_rad = Eigen::AngleAxisd(d.rotation()).angle();
+    if (d.translation().norm() + angle_rad * range_m > tolerance_m) return true;
+  }
+  return false;
 }
 
 void Mapper::MoveKeyframe(size_t index, const SE3d& T_base_kf, const KeyframeProducts& products,

@@ -314,6 +314,8 @@ grpc::Status QueryService::GetStats(loci::v1::GetStatsResponse* resp) {
   resp->set_cloud_points(s.cloud_points);
   resp->set_octomap_nodes(s.octomap_nodes);
   resp->set_octomap_pending_scans(s.octomap_pending_scans);
+  resp->set_octomap_rebuilds(s.octomap_rebuilds);
+  resp->set_octomap_rebuilds_skipped(s.octomap_rebuilds_skipped);
   resp->set_db_bytes(server_->store().DbBytes());
   resp->set_queue_depth(server_->queue_depth());
   resp->set_ingest_ms_mean(server_->ingest_ms_mean());

@@ -178,6 +178,58 @@ TEST(MapperPoses, KeyframesMappedDuringAnOctomapRebuildDoNotWaitForIt) {
       << "the rebuilt OctoMap differs from the one mapped at the new poses";
 }
 
+// A pose update rebuilds the OctoMap only when some keyframe's scan would move more than
+// map.octomap.rebuild_tolerance_m (1.25 cm) from where it is in the tree. Two moves of 8 mm: the
+// first leaves the tree as it was; the second, 16 mm from where the scans are (not 8 mm from the
+// last poses), rebuilds it, also in a mapper restarted from a checkpoint taken between the two.
+TEST(MapperPoses, SmallMovesAddUpUntilTheyRebuildTheOctomap) {
+  const auto boxes = TwoRooms();
+  const auto room_a = Views(boxes, 12, true, kTargetA, 1);
+  const auto room_b = Views(boxes, 12, true, kTargetA + kOffset, 13);
+  auto shift = [](double dx_m) {
+    SE3d T = SE3d::Identity();
+    T.translation() = Eigen::Vector3d(dx_m, 0.0, 0.0);
+    return T;
+  };
+  auto moved_by = [&](double dx_m) {
+    std::vector<Mapper::KeyframePoseUpdate> updates;
+    for (const MapperKeyframe& kf : room_b) {
+      updates.push_back({kf.keyframe_id, shift(dx_m) * kf.T_base_kf});
+    }
+    return updates;
+  };
+  MappedRun run;
+  run.Add(room_a);
+  run.Add(room_b);
+  const std::string unmoved = run.mapper.OctomapBt();
+  ASSERT_EQ(run.mapper.options().octomap.rebuild_tolerance_m, 0.0125);
+  ASSERT_TRUE(run.mapper.UpdateKeyframePoses(moved_by(0.008), run.Source()).ok());
+  EXPECT_TRUE(run.mapper.OctomapBt() == unmoved) << "an 8 mm move rebuilt the OctoMap";
+  EXPECT_EQ(run.mapper.Stats().octomap_rebuilds, 0u);
+  EXPECT_EQ(run.mapper.Stats().octomap_rebuilds_skipped, 1u);
+
+  const std::string checkpoint = run.mapper.SaveCheckpoint();
+  ASSERT_TRUE(run.mapper.UpdateKeyframePoses(moved_by(0.016), run.Source()).ok());
+  EXPECT_EQ(run.mapper.Stats().octomap_rebuilds, 1u) << "16 mm from where the scans are";
+  MappedRun fresh;  // room B 16 mm over from the start
+  fresh.Add(room_a);
+  std::vector<MapperKeyframe> room_b_moved = room_b;
+  for (MapperKeyframe& kf : room_b_moved) kf.T_base_kf = shift(0.016) * kf.T_base_kf;
+  fresh.Add(room_b_moved);
+  EXPECT_TRUE(fresh.mapper.OctomapBt() != unmoved);
+  EXPECT_TRUE(run.mapper.OctomapBt() == fresh.mapper.OctomapBt())
+      << "the rebuilt OctoMap differs from the one mapped at the new poses";
+
+  // The checkpoint keeps where the scans are (the poses 8 mm back from its keyframes' own).
+  MappedRun restarted;
+  restarted.products = run.products;
+  ASSERT_TRUE(restarted.mapper.LoadCheckpoint(checkpoint).ok());
+  EXPECT_TRUE(restarted.mapper.OctomapBt() == unmoved);
+  ASSERT_TRUE(restarted.mapper.UpdateKeyframePoses(moved_by(0.016), restarted.Source()).ok());
+  EXPECT_EQ(restarted.mapper.Stats().octomap_rebuilds, 1u) << "16 mm from where the scans are";
+  EXPECT_TRUE(restarted.mapper.OctomapBt() != unmoved);
+}
+
 TEST(MapperPoses, ABlockMovedOntoKnownObjectsMergesIntoThem) {
   const auto boxes = TwoRooms();
   MappedRun run;
