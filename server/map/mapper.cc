@@ -407,9 +407,9 @@ std::vector<SemanticPoint> Mapper::Cloud(double voxel_m,
   return cloud_.Points(voxel_m <= 0 ? cloud_.voxel_m() : voxel_m, resolve, keep);
 }
 
-std::string Mapper::OctomapBt() const {
+std::string Mapper::OctomapBt(bool wait_for_rebuild) const {
   if (!options_.octomap.enabled) return {};
-  FlushOctomap();
+  FlushOctomap(wait_for_rebuild);
   std::lock_guard<std::mutex> lock(octo_mu_);
   return octomap_->SerializeBt();
 }

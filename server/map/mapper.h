@@ -149,7 +149,10 @@ class Mapper {
   // Semantic cloud at voxel_m (0 = the map's voxel); `classes` empty = all, "background" selects
   // unlabelled points.
   std::vector<SemanticPoint> Cloud(double voxel_m, const std::vector<std::string>& classes) const;
-  std::string OctomapBt() const;
+  // The OctoMap as a .bt stream once it holds every keyframe integrated so far. With
+  // `wait_for_rebuild` false it does not wait for a rebuild after a pose update (seconds per
+  // 1000 keyframes): the moved keyframes' scans are then where they were (OctomapRebuilding()).
+  std::string OctomapBt(bool wait_for_rebuild = true) const;
   double OctomapResolution() const { return options_.octomap.resolution_m; }
   std::vector<Eigen::Vector3d> OccupiedCenters() const;
   // Unit "up" of the map frame (minus the mean gravity of the keyframes), if any had gravity.
@@ -183,8 +186,9 @@ class Mapper {
   // OctoMap figures cover the scans inserted so far. Call FlushOctomap first to settle them.
   MapperStats Stats() const;
   const MapOptions& options() const { return options_; }
-  // Blocks until the OctoMap holds every keyframe integrated so far.
-  void FlushOctomap() const;
+  // Blocks until the OctoMap holds every keyframe integrated so far and (with
+  // `wait_for_rebuild`) the rebuild after the last pose update is in.
+  void FlushOctomap(bool wait_for_rebuild = true) const;
   // Whether a rebuild after a pose update is still running: SaveCheckpoint would wait for it
   // (about 9 ms per mapped keyframe).
   bool OctomapRebuilding() const;

@@ -103,13 +103,14 @@ void Mapper::RebuildOctomap(const OctomapRebuild& rebuild) {
   octomap_progress_cv_.notify_all();
 }
 
-void Mapper::FlushOctomap() const {
+void Mapper::FlushOctomap(bool wait_for_rebuild) const {
   // Waits for the scans pushed and the rebuild requested before this call only: a reader must
   // not wait for keyframes the worker maps meanwhile (under a steady stream that wait would
   // never end).
   std::unique_lock<std::mutex> lock(octomap_progress_mu_);
   const uint64_t target = octomap_pushed_;
-  const uint64_t generation = options_.octomap.enabled ? octomap_generation_.load() : 0;
+  const uint64_t generation =
+      options_.octomap.enabled && wait_for_rebuild ? octomap_generation_.load() : 0;
   octomap_progress_cv_.wait(lock, [&] {
     return octomap_done_ >= target && rebuilt_generation_ >= generation;
   });

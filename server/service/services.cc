@@ -246,7 +246,11 @@ grpc::Status QueryService::GetOctomap(grpc::ServerContext* ctx,
   StatusOr<std::shared_ptr<const Mapper>> named = MapNamed(req->island());
   if (!named.ok()) return ToGrpc(named.status());
   const Mapper& map = **named;
-  resp->set_octomap_bt(map.OctomapBt());  // waits for the queued scans
+  // Waits for the queued scans, and for a running rebuild only when asked to; `rebuilding` when
+  // one ran before or after the tree was taken.
+  const bool rebuilding_before = map.OctomapRebuilding();
+  resp->set_octomap_bt(map.OctomapBt(req->wait_for_rebuild()));
+  resp->set_rebuilding((rebuilding_before && !req->wait_for_rebuild()) || map.OctomapRebuilding());
   resp->set_resolution_m(map.OctomapResolution());
   resp->set_node_count(map.Stats().octomap_nodes);
   return grpc::Status::OK;

@@ -132,7 +132,8 @@ TEST(MapperPoses, AMovedBlockEndsAsIfItHadItsNewPosesFromTheStart) {
 // The OctoMap rebuild after a move reads every keyframe's products (seconds per 1000 keyframes).
 // Keyframes mapped meanwhile do not wait for it on the OctoMap's bounded queue: their scans go
 // into the new tree after it, which ends as if they had been mapped after the move. Meanwhile
-// OctomapRebuilding() says so (a checkpoint then waits for a later keyframe).
+// OctomapRebuilding() says so (a checkpoint then waits for a later keyframe), and a reader that
+// does not wait for the rebuild gets the live tree at once.
 TEST(MapperPoses, KeyframesMappedDuringAnOctomapRebuildDoNotWaitForIt) {
   const auto boxes = TwoRooms();
   const auto room_a = Views(boxes, 12, true, kTargetA, 1);
@@ -159,9 +160,18 @@ TEST(MapperPoses, KeyframesMappedDuringAnOctomapRebuildDoNotWaitForIt) {
   const bool mapped = mapping.wait_for(std::chrono::seconds(60)) == std::future_status::ready;
   // What a checkpoint asks before it waits for the OctoMap (MapServer::MaybeCheckpoint defers).
   const bool rebuilding = run.mapper.OctomapRebuilding();
+  // A reader that does not wait for the rebuild (GetOctomap by default) gets the live tree.
+  auto live = std::async(std::launch::async, [&] { return run.mapper.OctomapBt(false); });
+  const bool answered = live.wait_for(std::chrono::seconds(60)) == std::future_status::ready;
   gate.set_value();
   mapping.get();
   EXPECT_TRUE(mapped) << "mapping the next keyframes waited for the OctoMap rebuild";
+  EXPECT_TRUE(answered) << "OctomapBt(false) waited for the OctoMap rebuild";
+  MappedRun unmoved;  // the live tree: room B where it was, then the next keyframes
+  unmoved.Add(room_a);
+  unmoved.Add(room_b);
+  unmoved.Add(again_a);
+  EXPECT_TRUE(live.get() == unmoved.mapper.OctomapBt()) << "the live tree is not the unmoved one";
   EXPECT_GT(reads.load(), updates.size()) << "the rebuild had started";
 
   MappedRun fresh;  // room B at the new poses from the start, then the same next keyframes

@@ -207,6 +207,13 @@ TEST_F(ServiceTest, IngestAcksDeduplicatesAndAnswersQueries) {
   ASSERT_TRUE(query_->GetOctomap(&c6, {}, &octo).ok());
   EXPECT_GT(octo.octomap_bt().size(), 100u);
   EXPECT_DOUBLE_EQ(octo.resolution_m(), 0.05);
+  EXPECT_FALSE(octo.rebuilding()) << "no pose has changed";
+  grpc::ClientContext c6b;
+  loci::v1::GetOctomapRequest waiting;
+  waiting.set_wait_for_rebuild(true);
+  loci::v1::GetOctomapResponse octo_waited;
+  ASSERT_TRUE(query_->GetOctomap(&c6b, waiting, &octo_waited).ok());
+  EXPECT_EQ(octo_waited.octomap_bt(), octo.octomap_bt());
 
   grpc::ClientContext c7;
   loci::v1::GetStatsResponse stats;
