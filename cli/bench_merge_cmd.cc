@@ -25,6 +25,7 @@
 #include "cli/bench_views.h"
 #include "cli/commands.h"
 #include "common/config.h"
+#include "common/time.h"
 #include "loci/v1/mapping.grpc.pb.h"
 #include "loci/v1/query.grpc.pb.h"
 #include "proto/convert.h"
@@ -173,6 +174,24 @@ void PrintHeldFigures(const loci::v1::GetStatsResponse& stats) {
               stats.worker_longest_wait_ms());
 }
 
+// GetOctomap at once (the live tree, `rebuilding` when the rebuild after the last pose update is
+// still running), then waiting for that rebuild.
+Status PrintOctomapFetches(loci::v1::Query::Stub& query) {
+  for (const bool wait : {false, true}) {
+    grpc::ClientContext ctx;
+    loci::v1::GetOctomapRequest req;
+    req.set_wait_for_rebuild(wait);
+    loci::v1::GetOctomapResponse resp;
+    const Clock::time_point t0 = Clock::now();
+    const grpc::Status s = query.GetOctomap(&ctx, req, &resp);
+    if (!s.ok()) return absl::UnavailableError("GetOctomap: " + s.error_message());
+    std::printf("  GetOctomap%s: %.0f ms, %.1f KB%s\n", wait ? " with wait_for_rebuild" : "",
+                MsSince(t0), resp.octomap_bt().size() / 1e3,
+                resp.rebuilding() ? " (rebuilding: the tree before the last pose update)" : "");
+  }
+  return absl::OkStatus();
+}
+
 // A's views of the room, the views B's room is taken from (A's, or another room's), and B's
 // keyframes in B's odometry frame.
 struct MergeViews {
@@ -318,9 +337,10 @@ Status RunMerge(const BenchMergeArgs& a, const std::string& dir) {
   PrintFigures(stats,
                T_map_odomA * PoseFromProto(v.b_room[static_cast<size_t>(a.start)].t_odom_cam()));
   PrintHeldFigures(stats);
+  const Status fetched = PrintOctomapFetches(*m.query);
   m.grpc.reset();
   m.srv.reset();
-  return absl::OkStatus();
+  return fetched;
 }
 
 }  // namespace
