@@ -214,7 +214,10 @@ std::string Mapper::SaveCheckpoint() const {
       ks->set_robot(k.robot);
       ks->set_t_ns(k.t_ns);
       ToState(k.T_base_kf, ks->mutable_t_base_kf());
-      ToState(k.T_base_kf_octomap, ks->mutable_t_base_kf_octomap());
+      // Only where a move within the tolerance left the scan (absent: T_base_kf).
+      if (k.T_base_kf_octomap.matrix() != k.T_base_kf.matrix()) {
+        ToState(k.T_base_kf_octomap, ks->mutable_t_base_kf_octomap());
+      }
       for (int64_t id : k.observation_object_ids) ks->add_observation_object_id(id);
       for (const Eigen::Vector3f& c : k.observation_centroids_kf_m) {
         for (int axis = 0; axis < 3; ++axis) ks->add_observation_centroid_kf_m(c[axis]);
