@@ -10,8 +10,9 @@
 // in A's room is the first overlapping one. Prints B's keyframes and wall time from that
 // keyframe to its session aligned (GetStats, polled every 10 ms), the capture time the server
 // reports, the alignment's error against the truth, how the held keyframes entered the map
-// (time, chunks, the longest hold of the mapping lock), and the server's place-recognition and
-// pose-graph figures. Place-recognition time at 1k and
+// (time, chunks, the longest hold of the mapping lock), the server's place-recognition and
+// pose-graph figures, and GetOctomap's time at once and with wait_for_rebuild (the rebuild
+// after the last pose update). Place-recognition time at 1k and
 // 10k keyframes: `loci bench place`; solve time at 1k and 10k keyframes: `loci bench graph`.
 #include <grpcpp/create_channel.h>
 #include <unistd.h>
