@@ -187,25 +187,36 @@ double RobustExtentM(const pcl::PointCloud<pcl::PointXYZRGB>& cloud) {
                    RobustSpanAlongM(cloud, Vec3d::UnitZ())});
 }
 
-// The pieces of one detection's cloud: one per top surface of flat-topped furniture seen with
-// gravity (support_tops.h), else the whole cloud. *tops is set when the cloud was split.
+// The options that split one detection's cloud into tops (support_tops.h), if any: those of
+// flat-topped furniture, or of small flat objects that lie side by side (object_tops).
+const SupportTopsOptions* TopsOptionsFor(const std::string& class_name,
+                                         const ObservationOptions& o) {
+  if (o.mask.IsFlatTopClass(class_name)) return o.support_tops.enabled ? &o.support_tops : nullptr;
+  return o.object_tops.Applies(class_name) ? &o.object_tops.tops : nullptr;
+}
+
+// The pieces of one detection's cloud seen with gravity: one per top surface of flat-topped
+// furniture (and without what lies outside the tops), one per top of a box over several small
+// flat objects (two or more tops; else whole); otherwise the whole cloud. *tops is set when the
+// cloud was split.
 std::vector<pcl::PointCloud<pcl::PointXYZRGB>> Pieces(pcl::PointCloud<pcl::PointXYZRGB> cloud,
                                                       const std::string& class_name,
                                                       const MapOptions& options,
                                                       const std::optional<Vec3d>& gravity_cam,
                                                       std::optional<SupportTops>* tops) {
   std::vector<pcl::PointCloud<pcl::PointXYZRGB>> pieces;
-  if (!gravity_cam || !options.observation.support_tops.enabled ||
-      !options.observation.mask.IsFlatTopClass(class_name)) {
+  const SupportTopsOptions* split = TopsOptionsFor(class_name, options.observation);
+  if (!gravity_cam || split == nullptr) {
     pieces.push_back(std::move(cloud));
     return pieces;
   }
   std::vector<Eigen::Vector3d> points_kf;
   points_kf.reserve(cloud.size());
   for (const auto& p : cloud) points_kf.push_back(p.getVector3fMap().cast<double>());
-  tops->emplace(points_kf, -gravity_cam->normalized(), options.observation.support_tops,
-                options.observation.mask);
-  if ((*tops)->size() == 0) {  // no top in view (seen from below, or too little of it)
+  tops->emplace(points_kf, -gravity_cam->normalized(), *split, options.observation.mask);
+  const bool furniture = split == &options.observation.support_tops;
+  // No top in view (furniture seen from below, or too little of it), or one object's top.
+  if ((*tops)->size() < (furniture ? 1u : 2u)) {
     tops->reset();
     pieces.push_back(std::move(cloud));
     return pieces;

@@ -40,11 +40,15 @@ Status CheckMapKeys(const YAML::Node& node) {
       CheckKnownKeys(node["observation"], "map.observation",
                      {"min_score", "mask", "voxel_m", "max_points", "sor_mean_k", "sor_stddev_mul",
                       "sor_min_voxels", "min_points", "min_box_px", "max_object_depth_m",
-                      "min_centre_cover", "support_tops"}));
+                      "min_centre_cover", "support_tops", "object_tops"}));
   if (const YAML::Node observation = node["observation"]) {
     LOCI_RETURN_IF_ERROR(
         CheckKnownKeys(observation["support_tops"], "map.observation.support_tops",
                        {"enabled", "cell_m", "max_tilt_deg", "min_top_area_m2", "reach_m",
+                        "max_planes", "ransac_iterations", "cell_band_share"}));
+    LOCI_RETURN_IF_ERROR(
+        CheckKnownKeys(observation["object_tops"], "map.observation.object_tops",
+                       {"classes", "cell_m", "max_tilt_deg", "min_top_area_m2", "reach_m",
                         "max_planes", "ransac_iterations", "cell_band_share"}));
   }
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["fusion"], "map.fusion", kFusionKeys));
@@ -119,6 +123,10 @@ Status ReadObservation(const YAML::Node& n, ObservationOptions* o) {
   LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_centre_cover", &o->min_centre_cover));
   if (const YAML::Node t = n["support_tops"])
     LOCI_RETURN_IF_ERROR(ReadSupportTops(t, &o->support_tops));
+  if (const YAML::Node t = n["object_tops"]) {
+    LOCI_RETURN_IF_ERROR(ReadOptional(t, "classes", &o->object_tops.classes));
+    LOCI_RETURN_IF_ERROR(ReadSupportTops(t, &o->object_tops.tops));
+  }
   return absl::OkStatus();
 }
 
@@ -313,7 +321,7 @@ Status MapOptions::ClassesFromYaml(const YAML::Node& node) {
 
 namespace {
 
-Status BadMapOption(const char* what) {
+Status BadMapOption(const std::string& what) {
   return absl::InvalidArgumentError(absl::StrCat("map options: ", what));
 }
 
@@ -338,15 +346,15 @@ Status CheckClouds(const MapOptions& m) {
   return absl::OkStatus();
 }
 
-// observation.support_tops.
-Status CheckSupportTops(const SupportTopsOptions& t) {
+// observation.support_tops or observation.object_tops (`name`).
+Status CheckSupportTops(const SupportTopsOptions& t, const std::string& name) {
   if (!(t.cell_m > 0.001) || !(t.max_tilt_deg >= 0 && t.max_tilt_deg < 90) ||
       !(t.min_top_area_m2 >= 0) || !(t.reach_m >= 0) || t.max_planes < 1 ||
       t.ransac_iterations < 1 || !(t.cell_band_share <= 1)) {
-    return BadMapOption(
-        "observation.support_tops: cell_m > 0.001, max_tilt_deg in [0, 90), "
-        "min_top_area_m2 >= 0, reach_m >= 0, max_planes >= 1, ransac_iterations >= 1, "
-        "cell_band_share <= 1");
+    return BadMapOption(absl::StrCat(
+        name,
+        ": cell_m > 0.001, max_tilt_deg in [0, 90), min_top_area_m2 >= 0, reach_m >= 0, "
+        "max_planes >= 1, ransac_iterations >= 1, cell_band_share <= 1"));
   }
   return absl::OkStatus();
 }
@@ -448,12 +456,17 @@ Status CheckFrameAndOctomap(const MapOptions& m) {
 
 Status MapOptions::Validate() const {
   LOCI_RETURN_IF_ERROR(CheckClouds(*this));
-  LOCI_RETURN_IF_ERROR(CheckSupportTops(observation.support_tops));
+  LOCI_RETURN_IF_ERROR(CheckSupportTops(observation.support_tops, "observation.support_tops"));
+  LOCI_RETURN_IF_ERROR(CheckSupportTops(observation.object_tops.tops, "observation.object_tops"));
   LOCI_RETURN_IF_ERROR(CheckConfirmAndFurniture(fusion));
   LOCI_RETURN_IF_ERROR(CheckTopLoads(fusion.top_loads));
   LOCI_RETURN_IF_ERROR(CheckShape(fusion));
   LOCI_RETURN_IF_ERROR(CheckEvidence(fusion));
   return CheckFrameAndOctomap(*this);
+}
+
+bool ObservationOptions::ObjectTops::Applies(const std::string& class_name) const {
+  return std::find(classes.begin(), classes.end(), class_name) != classes.end();
 }
 
 bool MapOptions::IsDynamic(const std::string& c) const {

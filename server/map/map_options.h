@@ -58,6 +58,20 @@ struct ObservationOptions {
   // Flat-topped furniture (mask.flat_top_classes) seen with gravity: one observation per top
   // surface, without what lies outside the tops' footprints (support_tops.h).
   SupportTopsOptions support_tops;
+  // Small flat objects that lie side by side or on each other (books): one detector box often
+  // covers two of them. Seen with gravity, a box of one of these classes whose points hold two
+  // or more level tops of different footprints gives one observation per top (support_tops.h,
+  // these options); with one top it stays whole. Empty classes: off.
+  struct ObjectTops {
+    std::vector<std::string> classes = {"book"};
+    // A book's top is at least about 0.1 x 0.1 m; 2 cm cells resolve it at 1-3 m; its side
+    // faces hang under the top's edge within a cell or two; books lie level to a few degrees.
+    SupportTopsOptions tops = {
+        /*enabled=*/true,          /*cell_m=*/0.02,        /*max_tilt_deg=*/8.0,
+        /*min_top_area_m2=*/0.01,  /*reach_m=*/0.03,       /*max_planes=*/3,
+        /*ransac_iterations=*/200, /*cell_band_share=*/0.5};
+    bool Applies(const std::string& class_name) const;
+  } object_tops;
 };
 
 // Association of observations with objects and merging (paper 000 3.3).
@@ -279,6 +293,6 @@ struct MapOptions {
 
 // Version of the product and fusion code; bump it when a change alters products or the map
 // for the same options (stored products and checkpoints of another version are recomputed).
-inline constexpr int kMapCodeVersion = 14;
+inline constexpr int kMapCodeVersion = 15;
 
 }  // namespace loci::server

@@ -94,6 +94,25 @@ TEST_F(ServerOptionsKeys, TheBottomQuantileIsReadAndOneOfHalfOrMoreIsRefused) {
   EXPECT_NE(s.message().find("fusion.bottom_quantile"), std::string::npos) << s;
 }
 
+TEST_F(ServerOptionsKeys, ObjectTopsAreReadAndBadSizesAreRefusedByName) {
+  MapOptions map;
+  ASSERT_TRUE(map.FromYaml(YAML::Load("observation:\n  object_tops:\n    classes: [book, "
+                                      "laptop]\n    min_top_area_m2: 0.02\n"))
+                  .ok());
+  EXPECT_TRUE(map.observation.object_tops.Applies("laptop"));
+  EXPECT_FALSE(map.observation.object_tops.Applies("cup"));
+  EXPECT_DOUBLE_EQ(map.observation.object_tops.tops.min_top_area_m2, 0.02);
+  EXPECT_DOUBLE_EQ(map.observation.object_tops.tops.cell_m, 0.02);       // the objects' default
+  EXPECT_DOUBLE_EQ(map.observation.support_tops.min_top_area_m2, 0.08);  // furniture's, apart
+  const Status s =
+      MapOptions().FromYaml(YAML::Load("observation:\n  object_tops:\n    cell_m: 0\n"));
+  ASSERT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("observation.object_tops"), std::string::npos) << s;
+  SetStrictConfig(true);
+  EXPECT_FALSE(
+      MapOptions().FromYaml(YAML::Load("observation:\n  object_tops:\n    enabled: true\n")).ok());
+}
+
 TEST_F(ServerOptionsKeys, ShippedConfigFilesHaveNoUnknownKeys) {
   SetStrictConfig(true);
   const std::string config = SourceDir() + "/config/";
