@@ -195,6 +195,18 @@ const SupportTopsOptions* TopsOptionsFor(const std::string& class_name,
   return o.object_tops.Applies(class_name) ? &o.object_tops.tops : nullptr;
 }
 
+// Whether the tops of a box of small flat objects are several objects' (object_tops): two or more,
+// with a step of min_step_m between the highest and the lowest.
+bool TopsOfSeveralObjects(const SupportTops& tops, double min_step_m) {
+  if (tops.size() < 2) return false;
+  double lo_m = tops.HeightM(0), hi_m = lo_m;
+  for (size_t i = 1; i < tops.size(); ++i) {
+    lo_m = std::min(lo_m, tops.HeightM(i));
+    hi_m = std::max(hi_m, tops.HeightM(i));
+  }
+  return hi_m - lo_m >= min_step_m;
+}
+
 // The pieces of one detection's cloud seen with gravity: one per top surface of flat-topped
 // furniture (and without what lies outside the tops), one per top of a box over several small
 // flat objects (two or more tops; else whole); otherwise the whole cloud. *tops is set when the
@@ -216,7 +228,8 @@ std::vector<pcl::PointCloud<pcl::PointXYZRGB>> Pieces(pcl::PointCloud<pcl::Point
   tops->emplace(points_kf, -gravity_cam->normalized(), *split, options.observation.mask);
   const bool furniture = split == &options.observation.support_tops;
   // No top in view (furniture seen from below, or too little of it), or one object's top.
-  if ((*tops)->size() < (furniture ? 1u : 2u)) {
+  if (furniture ? (*tops)->size() == 0
+                : !TopsOfSeveralObjects(**tops, options.observation.object_tops.min_step_m)) {
     tops->reset();
     pieces.push_back(std::move(cloud));
     return pieces;

@@ -48,8 +48,8 @@ Status CheckMapKeys(const YAML::Node& node) {
                         "max_planes", "ransac_iterations", "cell_band_share"}));
     LOCI_RETURN_IF_ERROR(
         CheckKnownKeys(observation["object_tops"], "map.observation.object_tops",
-                       {"classes", "cell_m", "max_tilt_deg", "min_top_area_m2", "reach_m",
-                        "max_planes", "ransac_iterations", "cell_band_share"}));
+                       {"classes", "min_step_m", "cell_m", "max_tilt_deg", "min_top_area_m2",
+                        "reach_m", "max_planes", "ransac_iterations", "cell_band_share"}));
   }
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["fusion"], "map.fusion", kFusionKeys));
   if (const YAML::Node fusion = node["fusion"]) {
@@ -125,6 +125,7 @@ Status ReadObservation(const YAML::Node& n, ObservationOptions* o) {
     LOCI_RETURN_IF_ERROR(ReadSupportTops(t, &o->support_tops));
   if (const YAML::Node t = n["object_tops"]) {
     LOCI_RETURN_IF_ERROR(ReadOptional(t, "classes", &o->object_tops.classes));
+    LOCI_RETURN_IF_ERROR(ReadOptional(t, "min_step_m", &o->object_tops.min_step_m));
     LOCI_RETURN_IF_ERROR(ReadSupportTops(t, &o->object_tops.tops));
   }
   return absl::OkStatus();
@@ -458,6 +459,9 @@ Status MapOptions::Validate() const {
   LOCI_RETURN_IF_ERROR(CheckClouds(*this));
   LOCI_RETURN_IF_ERROR(CheckSupportTops(observation.support_tops, "observation.support_tops"));
   LOCI_RETURN_IF_ERROR(CheckSupportTops(observation.object_tops.tops, "observation.object_tops"));
+  if (!(observation.object_tops.min_step_m >= 0)) {
+    return BadMapOption("observation.object_tops.min_step_m >= 0");
+  }
   LOCI_RETURN_IF_ERROR(CheckConfirmAndFurniture(fusion));
   LOCI_RETURN_IF_ERROR(CheckTopLoads(fusion.top_loads));
   LOCI_RETURN_IF_ERROR(CheckShape(fusion));

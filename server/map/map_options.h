@@ -70,6 +70,9 @@ struct ObservationOptions {
         /*enabled=*/true,          /*cell_m=*/0.02,        /*max_tilt_deg=*/8.0,
         /*min_top_area_m2=*/0.01,  /*reach_m=*/0.03,       /*max_planes=*/3,
         /*ransac_iterations=*/200, /*cell_band_share=*/0.5};
+    // The tops must differ in height by at least this, m: a step between two objects (books
+    // 2-8 cm thick), not the two pages of one open book or two parts of one cover (0.015).
+    double min_step_m = 0.015;
     bool Applies(const std::string& class_name) const;
   } object_tops;
 };

@@ -63,6 +63,8 @@ class SupportTops {
               const SupportTopsOptions& options, const detection::MaskOptions& mask);
 
   size_t size() const { return tops_.size(); }
+  // Mean height (along up) of top i's points, m.
+  double HeightM(size_t i) const { return tops_[i].height_m; }
   // Index of the top the point belongs to, -1 when none (see the file comment).
   int TopOf(const Eigen::Vector3d& p_kf) const;
 

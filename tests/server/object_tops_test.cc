@@ -1,5 +1,6 @@
 // One detector box over two books side by side (observation.object_tops): a view gives one
-// observation per book top, a lone book (with a small thing on it) stays one observation.
+// observation per book top when the tops differ in height by a step; tops 1.2 cm apart and a lone
+// book with a small thing on it stay one observation.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -84,6 +85,20 @@ TEST(ObjectTops, OneBoxOverTwoBooksGivesOneObservationPerBook) {
   const KeyframeProducts no_gravity = BuildKeyframeProducts(
       d.view.bgr, d.view.depth_m, PinholeCamera::TumFr1(), {box}, MapOptions{}, std::nullopt);
   EXPECT_EQ(no_gravity.observations.size(), 1u);
+}
+
+TEST(ObjectTops, TwoTopsWithoutAStepBetweenThemStayOneObservation) {
+  // Two level surfaces side by side 1.2 cm apart in height (the pages of an open book, a cover
+  // and the label on it): two tops, but no step between two objects, so one observation.
+  const std::vector<WorldBox> halves = {
+      {1, "book", {-0.16, -0.05, 0.75}, {0.0, 0.17, 0.785}, {230, 230, 230}},
+      {2, "book", {0.0, -0.05, 0.75}, {0.16, 0.17, 0.797}, {230, 230, 230}}};
+  const DeskView d = SeeDesk(halves);
+  const Detection2D box = BoxOver(d.view.detections, {1, 2});
+  EXPECT_EQ(BookCentroidsWorld(d, box, {}).size(), 1u);
+  MapOptions no_step;  // they are two tops: only the step keeps them one observation
+  no_step.observation.object_tops.min_step_m = 0;
+  EXPECT_EQ(BookCentroidsWorld(d, box, no_step).size(), 2u);
 }
 
 TEST(ObjectTops, ALoneBookWithAnEraserOnItStaysOneObservation) {

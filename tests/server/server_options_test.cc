@@ -97,11 +97,14 @@ TEST_F(ServerOptionsKeys, TheBottomQuantileIsReadAndOneOfHalfOrMoreIsRefused) {
 TEST_F(ServerOptionsKeys, ObjectTopsAreReadAndBadSizesAreRefusedByName) {
   MapOptions map;
   ASSERT_TRUE(map.FromYaml(YAML::Load("observation:\n  object_tops:\n    classes: [book, "
-                                      "laptop]\n    min_top_area_m2: 0.02\n"))
+                                      "laptop]\n    min_top_area_m2: 0.02\n    min_step_m: 0.02\n"))
                   .ok());
   EXPECT_TRUE(map.observation.object_tops.Applies("laptop"));
   EXPECT_FALSE(map.observation.object_tops.Applies("cup"));
   EXPECT_DOUBLE_EQ(map.observation.object_tops.tops.min_top_area_m2, 0.02);
+  EXPECT_DOUBLE_EQ(map.observation.object_tops.min_step_m, 0.02);
+  EXPECT_FALSE(
+      MapOptions().FromYaml(YAML::Load("observation:\n  object_tops:\n    min_step_m: -1\n")).ok());
   EXPECT_DOUBLE_EQ(map.observation.object_tops.tops.cell_m, 0.02);       // the objects' default
   EXPECT_DOUBLE_EQ(map.observation.support_tops.min_top_area_m2, 0.08);  // furniture's, apart
   const Status s =
