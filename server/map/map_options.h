@@ -296,6 +296,6 @@ struct MapOptions {
 
 // Version of the product and fusion code; bump it when a change alters products or the map
 // for the same options (stored products and checkpoints of another version are recomputed).
-inline constexpr int kMapCodeVersion = 15;
+inline constexpr int kMapCodeVersion = 16;
 
 }  // namespace loci::server
