@@ -9,6 +9,8 @@
 // Every point then belongs to the top whose footprint is horizontally nearest, within reach_m,
 // unless it rises more than MaskOptions::flat_top_margin_m above that top (something standing on
 // it): what is outside every footprint is not this furniture.
+// The same search at book sizes tells apart books that one box covers (ObservationOptions::
+// object_tops, keyframe_products.cc).
 #pragma once
 
 #include <Eigen/Core>
