@@ -49,7 +49,7 @@ std::string ViewerDir(const std::string& flag) {
 // The command line.
 struct Flags {
   std::string config_path, listen, db, http, query_config, viewer_dir, log_level = "info";
-  bool strict_config = false;
+  bool strict_config = false, print_options = false;
   std::string token_file;
   loci::server::TlsFiles tls;
 };
@@ -76,6 +76,8 @@ void AddFlags(CLI::App* app, Flags* f) {
   app->add_option("--tls-client-ca", f->tls.client_ca_file,
                   "require client certificates signed by this CA (mutual TLS)")
       ->check(CLI::ExistingFile);
+  app->add_flag("--print-options", f->print_options,
+                "print the map options with their defaults and doc lines, and exit");
   app->add_flag("--strict-config", f->strict_config,
                 "unknown keys in the YAML files are errors (default: warnings)");
   app->add_option("--log-level", f->log_level, "trace|debug|info|warn|error")
@@ -147,6 +149,10 @@ int main(int argc, char** argv) {
   Flags flags;
   AddFlags(&app, &flags);
   CLI11_PARSE(app, argc, argv);
+  if (flags.print_options) {
+    std::cout << loci::server::MapOptions::DefaultsYaml();
+    return 0;
+  }
   loci::SetStrictConfig(flags.strict_config);
   // Logs go to stderr: stdout carries only the "listening on HOST:PORT" line for scripts.
   spdlog::set_default_logger(spdlog::stderr_color_mt("loci-server"));

@@ -1,12 +1,12 @@
 #include "server/map/fused_object.h"
 
-#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <iterator>
 #include <limits>
 
 #include "server/map/point_components.h"
+#include "server/map/upright_box.h"
 
 namespace loci::server {
 
@@ -125,15 +125,9 @@ void FusedObject::Absorb(const FusedObject& other) {
   }
   std::sort(keyframes_.begin(), keyframes_.end());
   tracks_.insert(other.tracks_.begin(), other.tracks_.end());
-  straddled_with_.insert(straddled_with_.end(), other.straddled_with_.begin(),
-                         other.straddled_with_.end());
-  std::vector<int64_t> missed;
-  std::set_union(missed_keyframes_.begin(), missed_keyframes_.end(),
-                 other.missed_keyframes_.begin(), other.missed_keyframes_.end(),
-                 std::back_inserter(missed));
-  missed_keyframes_.clear();
-  std::set_difference(missed.begin(), missed.end(), keyframes_.begin(), keyframes_.end(),
-                      std::back_inserter(missed_keyframes_));
+  hit_t_ns_.insert(other.hit_t_ns_.begin(), other.hit_t_ns_.end());
+  missed_t_ns_.insert(other.missed_t_ns_.begin(), other.missed_t_ns_.end());
+  for (const auto& [kf, t_ns] : hit_t_ns_) missed_t_ns_.erase(kf);
   ObserveRange(other.nearest_range_m_);
   RecomputeGeometry();
 }
@@ -150,17 +144,9 @@ void FusedObject::Observe(const std::string& class_name, double score, int64_t s
   }
   robots_.insert(robot);
   if (keyframes_.empty() || keyframes_.back() != keyframe_id) keyframes_.push_back(keyframe_id);
-  const auto missed =
-      std::lower_bound(missed_keyframes_.begin(), missed_keyframes_.end(), keyframe_id);
-  if (missed != missed_keyframes_.end() && *missed == keyframe_id) missed_keyframes_.erase(missed);
+  hit_t_ns_.emplace(keyframe_id, t_ns);
+  missed_t_ns_.erase(keyframe_id);
   if (track_id != 0) tracks_.insert({session_row, track_id});
-}
-
-int FusedObject::StraddledWith(int64_t id,
-                               const std::function<int64_t(int64_t)>& resolve) const {
-  int n = 0;
-  for (int64_t other : straddled_with_) n += resolve(other) == id ? 1 : 0;
-  return n;
 }
 
 void FusedObject::ObserveRange(double range_m) {
@@ -169,25 +155,30 @@ void FusedObject::ObserveRange(double range_m) {
   }
 }
 
-double FusedObject::ExistenceLlr(const ExistenceModel& m) const {
-  return observation_count() * std::log(m.p_real / m.p_false) +
-         misses() * std::log((1 - m.p_real) / (1 - m.p_false));
-}
-
-void FusedObject::Miss(int64_t keyframe_id) {
-  if (std::find(keyframes_.begin(), keyframes_.end(), keyframe_id) != keyframes_.end()) return;
-  const auto it =
-      std::lower_bound(missed_keyframes_.begin(), missed_keyframes_.end(), keyframe_id);
-  if (it == missed_keyframes_.end() || *it != keyframe_id) {
-    missed_keyframes_.insert(it, keyframe_id);
+FusedObject::Evidence FusedObject::EvidenceOver(int64_t window_ns) const {
+  std::vector<std::pair<int64_t, bool>> events;  // (t_ns, hit)
+  events.reserve(hit_t_ns_.size() + missed_t_ns_.size());
+  for (const auto& [kf, t_ns] : hit_t_ns_) events.emplace_back(t_ns, true);
+  for (const auto& [kf, t_ns] : missed_t_ns_) events.emplace_back(t_ns, false);
+  std::sort(events.begin(), events.end());
+  Evidence e;
+  for (size_t i = 0; i < events.size();) {
+    const int64_t end_ns = events[i].first + std::max<int64_t>(window_ns, 1);
+    bool hit = false;
+    for (; i < events.size() && events[i].first < end_ns; ++i) hit |= events[i].second;
+    ++(hit ? e.hits : e.misses);
   }
+  return e;
 }
 
-void FusedObject::UpdateConfirmed(int confirm_observations, int64_t min_span_ns,
-                                  const ExistenceModel& m, double min_llr, bool size_fits) {
-  confirmed_ = size_fits && static_cast<int>(keyframes_.size()) >= confirm_observations &&
-               last_seen_ns_ - first_seen_ns_ >= min_span_ns &&
-               ExistenceLlr(m) >= min_llr;
+double FusedObject::ExistenceLogOdds(const ExistenceModel& m) const {
+  const Evidence e = EvidenceOver(m.window_ns);
+  return std::log(m.prior / (1 - m.prior)) + e.hits * std::log(m.p_detect / m.p_false) +
+         e.misses * std::log((1 - m.p_detect) / (1 - m.p_false));
+}
+
+void FusedObject::Miss(int64_t keyframe_id, int64_t t_ns) {
+  if (hit_t_ns_.count(keyframe_id) == 0) missed_t_ns_.emplace(keyframe_id, t_ns);
 }
 
 VoxelSet FusedObject::KeysAt(double voxel_m) const {
@@ -253,17 +244,6 @@ std::vector<ColoredPoint> FusedObject::Cloud() const {
 
 namespace {
 
-// Centre of the points' box.
-Eigen::Vector3d BoxCentre(const std::vector<Eigen::Vector3d>& pts) {
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::max());
-  Eigen::Vector3d hi = -lo;
-  for (const Eigen::Vector3d& p : pts) {
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
-  return 0.5 * (lo + hi);
-}
-
 // Centre of the 2 cm z layer holding the most points (the map frame is z up).
 double DensestLayerZ(const std::vector<Eigen::Vector3d>& pts) {
   constexpr double kLayerM = 0.02;
@@ -323,25 +303,14 @@ void FusedObject::RecomputeGeometry() {
   }
   bottom_z_m_ = HeightQuantile(pts, support_.bottom_quantile);
   const Eigen::Vector3d mean = sum / static_cast<double>(pts.size());
+  const UprightBox box = FitUprightBox(pts);
+  R_map_box_ = box.R_map_box;
+  obb_center_m_ = box.center_m;
+  obb_half_m_ = box.half_extent_m;
   centroid_m_ = centroid_from_box_
-                    ? BoxCentre(MainParts(pts, support_.cell_m, support_.centroid_min_part))
+                    ? BoxCentreAlong(MainParts(pts, support_.cell_m, support_.centroid_min_part),
+                                     R_map_box_)
                     : mean;
-  // Oriented box from the principal axes of the fused points.
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (const auto& p : pts) cov += (p - mean) * (p - mean).transpose();
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
-  Eigen::Matrix3d R = eig.eigenvectors();
-  if (R.determinant() < 0) R.col(0) *= -1.0;
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::max());
-  Eigen::Vector3d hi = -lo;
-  for (const auto& p : pts) {
-    const Eigen::Vector3d q = R.transpose() * (p - mean);
-    lo = lo.cwiseMin(q);
-    hi = hi.cwiseMax(q);
-  }
-  R_map_box_ = R;
-  obb_center_m_ = mean + R * (0.5 * (lo + hi));
-  obb_half_m_ = 0.5 * (hi - lo);
   sample_m_.clear();
   const size_t stride = std::max<size_t>(1, pts.size() / 48);
   for (size_t i = 0; i < pts.size(); i += stride) sample_m_.push_back(pts[i]);

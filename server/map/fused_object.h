@@ -5,7 +5,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cstdint>
-#include <functional>
+#include <map>
 #include <set>
 #include <string>
 #include <unordered_map>
@@ -110,29 +110,32 @@ class FusedObject {
   // Records a keyframe that should have seen the object but did not (visibility.h). Misses are
   // kept per keyframe, as hits are: two pieces of one object missed in the same keyframe and then
   // merged hold one miss for it, and none where the other piece saw it.
-  void Miss(int64_t keyframe_id);
-  // Existence as a sequential test between "a real object, detected in a view with probability
-  // p_real" and "a false detection, repeated with probability p_false": the log-likelihood
-  // ratio of the hits (keyframes that saw it) and misses. A weak detector that finds a real book
-  // in one view of six still accumulates evidence; a one-off false box does not.
+  void Miss(int64_t keyframe_id, int64_t t_ns);
+  // Existence as a log-odds belief: the prior's log-odds, plus log(p_detect / p_false) per time
+  // window of window_ns in which a keyframe saw the object, plus log((1 - p_detect) /
+  // (1 - p_false)) per window whose keyframes should have seen it and did not. Keyframes a
+  // fraction of a second apart share their viewpoint, blur and light, so a detector's hits and
+  // misses come in bursts: a window is one piece of evidence.
   struct ExistenceModel {
-    double p_real = 0.15, p_false = 0.03;
+    double prior = 0.03, p_detect = 0.5, p_false = 0.1;
+    int64_t window_ns = 500'000'000;
   };
-  double ExistenceLlr(const ExistenceModel& m) const;
-  // Confirmed: seen in at least confirm_observations keyframes, over at least min_span_ns from
-  // its first detection to its last, with an LLR of at least min_llr, and of a size its most
-  // likely class can have (size_fits, the caller's class size prior).
-  void UpdateConfirmed(int confirm_observations, int64_t min_span_ns, const ExistenceModel& m,
-                       double min_llr, bool size_fits);
+  struct Evidence {
+    int hits = 0, misses = 0;  // windows
+  };
+  Evidence EvidenceOver(int64_t window_ns) const;
+  double ExistenceLogOdds(const ExistenceModel& m) const;
+  void SetConfirmed(bool confirmed) { confirmed_ = confirmed; }
   // Hits / (hits + misses), for display.
   double existence() const {
     return observation_count() / std::max(1.0, double(observation_count()) + misses());
   }
-  uint32_t misses() const { return static_cast<uint32_t>(missed_keyframes_.size()); }
+  uint32_t misses() const { return static_cast<uint32_t>(missed_t_ns_.size()); }
   // Up to 48 of the object's supported points (map frame), and its largest half extent, m.
   const std::vector<Eigen::Vector3d>& sample_m() const { return sample_m_; }
   double half_size_m() const { return obb_half_m_.maxCoeff(); }
-  // Oriented box (map frame): centre, half extents along its axes, and the axes (columns).
+  // Oriented box (map frame): centre, half extents along its axes, and the axes (columns): an
+  // upright box (upright_box.h), turned about up to the footprint's smallest rectangle.
   const Eigen::Vector3d& obb_center_m() const { return obb_center_m_; }
   const Eigen::Vector3d& obb_half_m() const { return obb_half_m_; }
   const Eigen::Matrix3d& R_map_box() const { return R_map_box_; }
@@ -145,6 +148,7 @@ class FusedObject {
   // The same for the voxels that shape the object (SupportOptions: supported cells, the views
   // of its most likely class): what the object is, not every view fused into it.
   VoxelSet ShapeKeysAt(double voxel_m) const;
+  const std::set<std::pair<int64_t, int64_t>>& tracks() const { return tracks_; }
   bool HasTrack(int64_t session_row, int64_t track_id) const {
     return track_id != 0 && tracks_.count({session_row, track_id}) > 0;
   }
@@ -157,12 +161,6 @@ class FusedObject {
   uint32_t observation_count() const { return static_cast<uint32_t>(keyframes_.size()); }
   bool confirmed() const { return confirmed_; }
   const std::vector<int64_t>& keyframes() const { return keyframes_; }
-  // Records a view of flat-topped furniture that straddled this object and object other_id
-  // (ObjectMap::StraddledFurniture): the map held the two apart then.
-  void AddStraddled(int64_t other_id) { straddled_with_.push_back(other_id); }
-  // How many views straddled this object and object `id`; `resolve` maps the ids recorded
-  // then to the ids they live on as now (merges).
-  int StraddledWith(int64_t id, const std::function<int64_t(int64_t)>& resolve) const;
   size_t voxel_count() const { return voxels_.size(); }
 
   // Fused cloud (one point per supported voxel, see SupportOptions) in the map frame.
@@ -216,10 +214,10 @@ class FusedObject {
   std::set<std::string> robots_;
   std::string last_robot_;
   std::vector<int64_t> keyframes_;                // distinct, in observation order
+  std::map<int64_t, int64_t> hit_t_ns_;           // keyframe -> its time
   std::set<std::pair<int64_t, int64_t>> tracks_;  // (session_row, track_id)
-  std::vector<int64_t> straddled_with_;  // one id per straddling view, as it was then
   bool confirmed_ = false;
-  std::vector<int64_t> missed_keyframes_;  // sorted, none of them in keyframes_
+  std::map<int64_t, int64_t> missed_t_ns_;  // keyframe -> time; none of them in keyframes_
   double nearest_range_m_ = 0;
   std::vector<Eigen::Vector3d> sample_m_;
 };

@@ -187,49 +187,26 @@ double RobustExtentM(const pcl::PointCloud<pcl::PointXYZRGB>& cloud) {
                    RobustSpanAlongM(cloud, Vec3d::UnitZ())});
 }
 
-// The options that split one detection's cloud into tops (support_tops.h), if any: those of
-// flat-topped furniture, or of small flat objects that lie side by side (object_tops).
-const SupportTopsOptions* TopsOptionsFor(const std::string& class_name,
-                                         const ObservationOptions& o) {
-  if (o.mask.IsFlatTopClass(class_name)) return o.support_tops.enabled ? &o.support_tops : nullptr;
-  return o.object_tops.Applies(class_name) ? &o.object_tops.tops : nullptr;
-}
-
-// Whether the tops of a box of small flat objects are several objects' (object_tops): two or more,
-// with a step of min_step_m between the highest and the lowest.
-bool TopsOfSeveralObjects(const SupportTops& tops, double min_step_m) {
-  if (tops.size() < 2) return false;
-  double lo_m = tops.HeightM(0), hi_m = lo_m;
-  for (size_t i = 1; i < tops.size(); ++i) {
-    lo_m = std::min(lo_m, tops.HeightM(i));
-    hi_m = std::max(hi_m, tops.HeightM(i));
-  }
-  return hi_m - lo_m >= min_step_m;
-}
-
-// The pieces of one detection's cloud seen with gravity: one per top surface of flat-topped
-// furniture (and without what lies outside the tops), one per top of a box over several small
-// flat objects (two or more tops; else whole); otherwise the whole cloud. *tops is set when the
-// cloud was split.
+// The pieces of one detection's cloud seen with gravity: one per top surface of furniture with
+// a top (and without what lies outside the tops); otherwise the whole cloud. *tops is set when
+// the cloud was split.
 std::vector<pcl::PointCloud<pcl::PointXYZRGB>> Pieces(pcl::PointCloud<pcl::PointXYZRGB> cloud,
                                                       const std::string& class_name,
                                                       const MapOptions& options,
                                                       const std::optional<Vec3d>& gravity_cam,
                                                       std::optional<SupportTops>* tops) {
   std::vector<pcl::PointCloud<pcl::PointXYZRGB>> pieces;
-  const SupportTopsOptions* split = TopsOptionsFor(class_name, options.observation);
-  if (!gravity_cam || split == nullptr) {
+  const ObservationOptions& o = options.observation;
+  if (!gravity_cam || !o.support_tops.enabled || !o.mask.IsFlatTopClass(class_name)) {
     pieces.push_back(std::move(cloud));
     return pieces;
   }
   std::vector<Eigen::Vector3d> points_kf;
   points_kf.reserve(cloud.size());
   for (const auto& p : cloud) points_kf.push_back(p.getVector3fMap().cast<double>());
-  tops->emplace(points_kf, -gravity_cam->normalized(), *split, options.observation.mask);
-  const bool furniture = split == &options.observation.support_tops;
-  // No top in view (furniture seen from below, or too little of it), or one object's top.
-  if (furniture ? (*tops)->size() == 0
-                : !TopsOfSeveralObjects(**tops, options.observation.object_tops.min_step_m)) {
+  tops->emplace(points_kf, -gravity_cam->normalized(), o.support_tops, o.mask);
+  // No top in view (furniture seen from below, or too little of it).
+  if ((*tops)->size() == 0) {
     tops->reset();
     pieces.push_back(std::move(cloud));
     return pieces;

@@ -69,10 +69,16 @@ void FusedObject::SaveState(loci::store::v1::FusedObjectState* out) const {
     out->add_track_session(session);
     out->add_track_id(track);
   }
-  for (int64_t id : straddled_with_) out->add_straddled_with(id);
+  for (int64_t kf : keyframes_) {
+    const auto it = hit_t_ns_.find(kf);
+    out->add_hit_t_ns(it == hit_t_ns_.end() ? 0 : it->second);
+  }
   out->set_confirmed(confirmed_);
   out->set_misses(misses());
-  for (int64_t kf : missed_keyframes_) out->add_missed_keyframes(kf);
+  for (const auto& [kf, t_ns] : missed_t_ns_) {
+    out->add_missed_keyframes(kf);
+    out->add_missed_t_ns(t_ns);
+  }
   out->set_nearest_range_m(nearest_range_m_);
 }
 
@@ -129,16 +135,18 @@ Status FusedObject::LoadState(const loci::store::v1::FusedObjectState& in) {
   last_robot_ = in.last_robot();
   keyframes_ = {in.keyframes().begin(), in.keyframes().end()};
   for (int i = 0; i < in.track_id_size(); ++i) tracks_.insert({in.track_session(i), in.track_id(i)});
-  straddled_with_ = {in.straddled_with().begin(), in.straddled_with().end()};
   confirmed_ = in.confirmed();
-  if (in.missed_keyframes_size() != static_cast<int>(in.misses())) {
-    // Checkpoints from before session 42 hold a count only: the map is replayed.
+  if (in.missed_keyframes_size() != static_cast<int>(in.misses()) ||
+      in.missed_t_ns_size() != in.missed_keyframes_size() ||
+      in.hit_t_ns_size() != in.keyframes_size()) {
+    // Checkpoints without the evidence's times are replayed.
     return absl::FailedPreconditionError(absl::StrCat(
-        "the map checkpoint counts ", in.misses(), " missed views of object ", in.id(),
-        " but lists ", in.missed_keyframes_size(), " (written before misses were per keyframe)"));
+        "the map checkpoint of object ", in.id(), " lacks the times of its hits and misses"));
   }
-  missed_keyframes_ = {in.missed_keyframes().begin(), in.missed_keyframes().end()};
-  std::sort(missed_keyframes_.begin(), missed_keyframes_.end());
+  for (int i = 0; i < in.keyframes_size(); ++i) hit_t_ns_[in.keyframes(i)] = in.hit_t_ns(i);
+  for (int i = 0; i < in.missed_keyframes_size(); ++i) {
+    missed_t_ns_[in.missed_keyframes(i)] = in.missed_t_ns(i);
+  }
   nearest_range_m_ = in.nearest_range_m();
   RecomputeGeometry();
   return absl::OkStatus();

@@ -6,64 +6,156 @@
 #include <limits>
 
 #include "common/config.h"
+#include "common/option_table.h"
 
 namespace loci::server {
 namespace {
 
-// The keys FromYaml reads, per section (a key added there belongs here too).
-// clang-format off
-constexpr const char* kFusionKeys[] = {
-    "max_centroid_distance_m", "centroid_from_box", "min_overlap",          "support_cell_m",
-    "min_support_fraction",    "overlap_voxel_m",   "weight_track",         "weight_centroid",
-    "weight_overlap",          "score_threshold",   "track_gate_m",         "confirm_observations",
-    "merge_centroid_m",        "merge_containment", "merge_across_classes", "assoc_containment",
-    "max_size_ratio",          "label_universe",    "min_likelihood",       "existence_p_real",
-    "existence_p_false",       "confirm_llr",       "remove_llr",           "visibility",
-    "centroid_min_part",       "class_size_slack",  "merge_box_containment", "bottom_quantile",
-    "merge_sigmas",            "depth_sigma_at_1m", "view_sigma_rad",       "shape_min_label_views",
-    "existence_class_prior_views", "confirm_min_span_s", "straddle_share",
-    "straddle_apart_views", "straddle_pieces", "furniture_merge_containment",
-    "furniture_footprint_containment",
-    "top_load_reach_m", "top_load_max_gap_m", "top_load_max_sink_m", "top_load_rival_min_views",
-    "top_load_confirm_loads", "top_load_floor_classes", "top_load_lower_loads",
-    "part_containment", "never_part_of", "stand_classes", "stand_height_m"};
-// clang-format on
+using CloudRow = OptionRow<CloudOptions>;
+const CloudRow kCloud[] = {
+    {"min_depth_m", &CloudOptions::min_depth_m, 0, 10, "nearer depth readings are ignored, m"},
+    {"max_depth_m", &CloudOptions::max_depth_m, 0.2, 20,
+     "farther readings are ignored, m (Kinect noise grows with z^2)"},
+    {"pixel_stride", &CloudOptions::pixel_stride, 1, 16, "back-project every n-th pixel in u, v"},
+    {"voxel_m", &CloudOptions::voxel_m, 0.002, 1, "voxel edge of keyframe and global cloud, m"},
+    {"sor_mean_k", &CloudOptions::sor_mean_k, 0, 100,
+     "statistical outlier removal: K neighbours (0 = off)"},
+    {"sor_stddev_mul", &CloudOptions::sor_stddev_mul, 0, 10,
+     "eq. 18: drop points with mean neighbour distance > m + k s; this is k"},
+};
 
-Status CheckMapKeys(const YAML::Node& node) {
-  LOCI_RETURN_IF_ERROR(CheckKnownKeys(
-      node, "map",
-      {"dynamic_classes", "mapped_classes", "cloud", "observation", "fusion", "frame", "octomap"}));
-  LOCI_RETURN_IF_ERROR(CheckKnownKeys(
-      node["cloud"], "map.cloud",
-      {"min_depth_m", "max_depth_m", "pixel_stride", "voxel_m", "sor_mean_k", "sor_stddev_mul"}));
-  LOCI_RETURN_IF_ERROR(
-      CheckKnownKeys(node["observation"], "map.observation",
-                     {"min_score", "mask", "voxel_m", "max_points", "sor_mean_k", "sor_stddev_mul",
-                      "sor_min_voxels", "min_points", "min_box_px", "max_object_depth_m",
-                      "min_centre_cover", "support_tops", "object_tops"}));
-  if (const YAML::Node observation = node["observation"]) {
-    LOCI_RETURN_IF_ERROR(
-        CheckKnownKeys(observation["support_tops"], "map.observation.support_tops",
-                       {"enabled", "cell_m", "max_tilt_deg", "min_top_area_m2", "reach_m",
-                        "max_planes", "ransac_iterations", "cell_band_share"}));
-    LOCI_RETURN_IF_ERROR(
-        CheckKnownKeys(observation["object_tops"], "map.observation.object_tops",
-                       {"classes", "min_step_m", "cell_m", "max_tilt_deg", "min_top_area_m2",
-                        "reach_m", "max_planes", "ransac_iterations", "cell_band_share"}));
-  }
-  LOCI_RETURN_IF_ERROR(CheckKnownKeys(node["fusion"], "map.fusion", kFusionKeys));
-  if (const YAML::Node fusion = node["fusion"]) {
-    LOCI_RETURN_IF_ERROR(
-        CheckKnownKeys(fusion["visibility"], "map.fusion.visibility",
-                       {"min_visible_fraction", "occlusion_tol_m", "occlusion_tol_rel", "border_px",
-                        "min_projected_px", "max_depth_m", "excuse_iou", "depth_stride"}));
-  }
-  LOCI_RETURN_IF_ERROR(
-      CheckKnownKeys(node["frame"], "map.frame", {"settle_keyframes", "plane_refine_max_deg"}));
-  return CheckKnownKeys(
-      node["octomap"], "map.octomap",
-      {"enabled", "resolution_m", "max_range_m", "ray_voxel_m", "rebuild_tolerance_m"});
-}
+using ObservationRow = OptionRow<ObservationOptions>;
+const ObservationRow kObservation[] = {
+    {"min_score", &ObservationOptions::min_score, 0, 1, "weaker detections are ignored"},
+    {"voxel_m", &ObservationOptions::voxel_m, 0.002, 0.2, "voxel edge of object clouds, m"},
+    {"max_points", &ObservationOptions::max_points, 10, 1000000,
+     "larger views get coarser voxels: sqrt(visible area / this)"},
+    {"sor_mean_k", &ObservationOptions::sor_mean_k, 0, 100,
+     "outlier removal on object clouds: K (0 = off)"},
+    {"sor_stddev_mul", &ObservationOptions::sor_stddev_mul, 0, 10,
+     "outlier removal on object clouds: k of eq. 18"},
+    {"sor_min_voxels", &ObservationOptions::sor_min_voxels, 0, 100,
+     "keep points within this many voxels of their K neighbours (rims)"},
+    {"min_points", &ObservationOptions::min_points, 1, 100000,
+     "views with fewer filtered points are dropped"},
+    {"min_box_px", &ObservationOptions::min_box_px, 0, 10000,
+     "boxes with a shorter side are not fused (detector precision falls)"},
+    {"max_object_depth_m", &ObservationOptions::max_object_depth_m, 0.1, 20,
+     "objects whose median depth is farther are not fused (depth noise ~z^2)"},
+    {"min_centre_cover", &ObservationOptions::min_centre_cover, 0, 1,
+     "a mask covering less of its box's middle half is a ring around no depth (0 = off)"},
+};
+
+using TopsRow = OptionRow<SupportTopsOptions>;
+const TopsRow kSupportTops[] = {
+    {"enabled", &SupportTopsOptions::enabled, 0, 0,
+     "furniture seen with gravity: one observation per top surface"},
+    {"cell_m", &SupportTopsOptions::cell_m, 0.005, 1,
+     "footprint grid, m: coarser than depth noise, finer than any top"},
+    {"max_tilt_deg", &SupportTopsOptions::max_tilt_deg, 0, 89,
+     "a top's normal within this of up, deg (gravity in motion: 1-3 deg)"},
+    {"min_top_area_m2", &SupportTopsOptions::min_top_area_m2, 0, 100,
+     "smallest top of a piece of furniture, m^2 (half a 0.4 m side table)"},
+    {"reach_m", &SupportTopsOptions::reach_m, 0, 2,
+     "points within this horizontal distance of a top are its furniture's, m"},
+    {"max_planes", &SupportTopsOptions::max_planes, 1, 20, "level planes tried per view"},
+    {"ransac_iterations", &SupportTopsOptions::ransac_iterations, 1, 100000,
+     "RANSAC samples per plane (fixed sequence)"},
+    {"cell_band_share", &SupportTopsOptions::cell_band_share, -1, 1,
+     "a cell is on a plane when half its points lie in this share of its band"},
+};
+
+using FusionRow = OptionRow<FusionOptions>;
+const FusionRow kFusion[] = {
+    {"overlap_voxel_m", &FusionOptions::overlap_voxel_m, 0.002, 0.5,
+     "voxel edge of the containment test, m"},
+    {"containment", &FusionOptions::containment, 0, 1,
+     "one object when this share of the smaller one's voxels lies in the other"},
+    {"centroid_gate_m", &FusionOptions::centroid_gate_m, 0, 2,
+     "one object when centroids are closer than this, m (or the range gate)"},
+    {"gate_sigmas", &FusionOptions::gate_sigmas, 0, 5,
+     "range gate: this x sqrt(2) s(r) at the nearer one's range r (0 = off)"},
+    {"depth_sigma_at_1m", &FusionOptions::depth_sigma_at_1m, 0, 0.2,
+     "s(r): depth noise at 1 m, grows with r^2, m"},
+    {"view_sigma_rad", &FusionOptions::view_sigma_rad, 0, 0.5,
+     "s(r): view orientation error, moves an object by r times it, rad"},
+    {"track_gate_m", &FusionOptions::track_gate_m, 0, 5,
+     "the client's track id links views within this distance, m"},
+    {"max_size_ratio", &FusionOptions::max_size_ratio, 1, 100,
+     "sizes compatible: larger half extent <= this x the smaller"},
+    {"class_size_slack", &FusionOptions::class_size_slack, 0, 10,
+     "a fused box may be this x its class's max_size_m (0 = no class sizes)"},
+    {"support_cell_m", &FusionOptions::support_cell_m, 0.005, 1, "shape support cells, m"},
+    {"min_support_fraction", &FusionOptions::min_support_fraction, 0, 1,
+     "a shape cell needs this share of the views (at least 2; 0 = every voxel)"},
+    {"shape_min_label_views", &FusionOptions::shape_min_label_views, 0, 1000,
+     "once the top class has this many views, only they shape the object (0 = all)"},
+    {"bottom_quantile", &FusionOptions::bottom_quantile, 0, 0.49,
+     "an object's bottom: this quantile of its shape voxels' heights"},
+    {"label_universe", &FusionOptions::label_universe, 2, 1000,
+     "K classes of the Bayesian label fusion (default: size of `mapped`)"},
+    {"min_likelihood", &FusionOptions::min_likelihood, 0.001, 0.49,
+     "detection scores are clamped to [this, 1 - this]"},
+    {"existence_prior", &FusionOptions::existence_prior, 1e-6, 0.999,
+     "P(real) of a new object before any evidence"},
+    {"p_detect", &FusionOptions::p_detect, 0.001, 0.999,
+     "P(box | real object) in a window of views that should show it"},
+    {"p_false", &FusionOptions::p_false, 0.0001, 0.999,
+     "P(box | no object there) in such a window: a false box recurring at one place"},
+    {"evidence_window_s", &FusionOptions::evidence_window_s, 0, 3600,
+     "views within this time are one piece of evidence (shared blur, light, viewpoint), s"},
+    {"confirm_belief", &FusionOptions::confirm_belief, 0, 1,
+     "an object is confirmed at this P(real)"},
+    {"remove_belief", &FusionOptions::remove_belief, 0, 1,
+     "an object is removed when P(real) falls to this"},
+};
+
+using VisibilityRow = OptionRow<VisibilityOptions>;
+const VisibilityRow kVisibility[] = {
+    {"min_visible_fraction", &VisibilityOptions::min_visible_fraction, 0, 1,
+     "share of the object's sample points that must be visible"},
+    {"occlusion_tol_m", &VisibilityOptions::occlusion_tol_m, 0, 1,
+     "hidden: the keyframe's depth is nearer by more than this"},
+    {"occlusion_tol_rel", &VisibilityOptions::occlusion_tol_rel, 0, 1,
+     "  + this x depth + the object's half size"},
+    {"border_px", &VisibilityOptions::border_px, 0, 1000,
+     "points this close to the image border do not count"},
+    {"min_projected_px", &VisibilityOptions::min_projected_px, 0, 10000,
+     "the projection's larger side must reach this, px"},
+    {"max_depth_m", &VisibilityOptions::max_depth_m, 0.1, 20, "farther points do not count, m"},
+    {"excuse_iou", &VisibilityOptions::excuse_iou, 0, 1,
+     "a detection of any class overlapping this much excuses a miss"},
+    {"depth_stride", &VisibilityOptions::depth_stride, 1, 16,
+     "depth kept for this test: every n-th pixel in u and v"},
+};
+
+using FrameRow = OptionRow<MapFrameOptions>;
+const FrameRow kFrame[] = {
+    {"settle_keyframes", &MapFrameOptions::settle_keyframes, 1, 1000,
+     "the first N keyframes fix the frame; the map is re-derived once then"},
+    {"plane_refine_max_deg", &MapFrameOptions::plane_refine_max_deg, 0, 90,
+     "planes replace the mean gravity when within this angle of it, deg"},
+};
+
+using OctomapRow = OptionRow<OctomapOptions>;
+const OctomapRow kOctomap[] = {
+    {"enabled", &OctomapOptions::enabled, 0, 0, "build the OctoMap"},
+    {"resolution_m", &OctomapOptions::resolution_m, 0.005, 10, "leaf size, m"},
+    {"max_range_m", &OctomapOptions::max_range_m, -1, 100,
+     "rays are cut at this range, m (<= 0: no limit)"},
+    {"ray_voxel_m", &OctomapOptions::ray_voxel_m, 0, 10,
+     "free space: one ray per voxel of this edge (<= resolution_m: every point)"},
+    {"rebuild_tolerance_m", &OctomapOptions::rebuild_tolerance_m, 0, 10,
+     "a pose update rebuilds the tree when a scan moves more than this, m"},
+};
+
+using MapRow = OptionRow<MapOptions>;
+const MapRow kMap[] = {
+    {"dynamic_classes", &MapOptions::dynamic_classes, 0, 0,
+     "classes whose pixels never enter the map (default: the classes file's)"},
+    {"mapped_classes", &MapOptions::mapped_classes, 0, 0,
+     "classes of the object database, [] = all (default: the classes file's `mapped`)"},
+};
 
 // FNV-1a, 64 bit, as 16 hex digits: a stable digest (std::hash and absl::Hash are seeded or
 // unspecified across builds).
@@ -85,164 +177,21 @@ std::string DumpKey(const YAML::Node& node, const char* key) {
 }
 
 // The sections of `map:`, each read into its options (only the keys present).
-Status ReadCloud(const YAML::Node& n, CloudOptions* o) {
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_depth_m", &o->min_depth_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_depth_m", &o->max_depth_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "pixel_stride", &o->pixel_stride));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "voxel_m", &o->voxel_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "sor_mean_k", &o->sor_mean_k));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "sor_stddev_mul", &o->sor_stddev_mul));
-  return absl::OkStatus();
-}
-
-Status ReadSupportTops(const YAML::Node& n, SupportTopsOptions* o) {
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "enabled", &o->enabled));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "cell_m", &o->cell_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_tilt_deg", &o->max_tilt_deg));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_top_area_m2", &o->min_top_area_m2));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "reach_m", &o->reach_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_planes", &o->max_planes));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "ransac_iterations", &o->ransac_iterations));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "cell_band_share", &o->cell_band_share));
-  return absl::OkStatus();
-}
-
 Status ReadObservation(const YAML::Node& n, ObservationOptions* o) {
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_score", &o->min_score));
+  LOCI_RETURN_IF_ERROR(ReadOptionTable<ObservationOptions>(n, "map.observation", kObservation, o,
+                                                           {"mask", "support_tops"}));
   if (n["mask"]) {
     LOCI_ASSIGN_OR_RETURN(o->mask, detection::MaskOptions::FromYaml(n["mask"]));
   }
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "voxel_m", &o->voxel_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_points", &o->max_points));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "sor_mean_k", &o->sor_mean_k));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "sor_stddev_mul", &o->sor_stddev_mul));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "sor_min_voxels", &o->sor_min_voxels));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_points", &o->min_points));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_box_px", &o->min_box_px));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_object_depth_m", &o->max_object_depth_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_centre_cover", &o->min_centre_cover));
-  if (const YAML::Node t = n["support_tops"])
-    LOCI_RETURN_IF_ERROR(ReadSupportTops(t, &o->support_tops));
-  if (const YAML::Node t = n["object_tops"]) {
-    LOCI_RETURN_IF_ERROR(ReadOptional(t, "classes", &o->object_tops.classes));
-    LOCI_RETURN_IF_ERROR(ReadOptional(t, "min_step_m", &o->object_tops.min_step_m));
-    LOCI_RETURN_IF_ERROR(ReadSupportTops(t, &o->object_tops.tops));
-  }
-  return absl::OkStatus();
-}
-
-Status ReadVisibility(const YAML::Node& n, VisibilityOptions* o) {
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_visible_fraction", &o->min_visible_fraction));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "occlusion_tol_m", &o->occlusion_tol_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "occlusion_tol_rel", &o->occlusion_tol_rel));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "border_px", &o->border_px));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_projected_px", &o->min_projected_px));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_depth_m", &o->max_depth_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "excuse_iou", &o->excuse_iou));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "depth_stride", &o->depth_stride));
-  return absl::OkStatus();
-}
-
-// fusion: associating an observation with an object.
-Status ReadAssociation(const YAML::Node& n, FusionOptions* o) {
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_centroid_distance_m", &o->max_centroid_distance_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "centroid_from_box", &o->centroid_from_box));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_overlap", &o->min_overlap));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "overlap_voxel_m", &o->overlap_voxel_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "weight_track", &o->weight_track));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "weight_centroid", &o->weight_centroid));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "weight_overlap", &o->weight_overlap));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "score_threshold", &o->score_threshold));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "track_gate_m", &o->track_gate_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "straddle_share", &o->straddle_share));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "straddle_apart_views", &o->straddle_apart_views));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "straddle_pieces", &o->straddle_pieces));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "assoc_containment", &o->assoc_containment));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_size_ratio", &o->max_size_ratio));
-  return absl::OkStatus();
-}
-
-// fusion: an object's shape, centroid, size and parts.
-Status ReadShape(const YAML::Node& n, FusionOptions* o) {
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "support_cell_m", &o->support_cell_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_support_fraction", &o->min_support_fraction));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "centroid_min_part", &o->centroid_min_part));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "bottom_quantile", &o->bottom_quantile));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "shape_min_label_views", &o->shape_min_label_views));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "class_size_slack", &o->class_size_slack));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "part_containment", &o->part_containment));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "never_part_of", &o->never_part_of));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "stand_classes", &o->stand_classes));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "stand_height_m", &o->stand_height_m));
-  return absl::OkStatus();
-}
-
-// fusion.top_load_*: what a table top carries.
-Status ReadTopLoads(const YAML::Node& n, TopLoadOptions* o) {
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_reach_m", &o->reach_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_max_gap_m", &o->max_gap_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_max_sink_m", &o->max_sink_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_rival_min_views", &o->rival_min_views));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_confirm_loads", &o->confirm_loads));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_floor_classes", &o->floor_classes));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "top_load_lower_loads", &o->lower_loads));
-  return absl::OkStatus();
-}
-
-// fusion: merging duplicate objects.
-Status ReadMerge(const YAML::Node& n, FusionOptions* o) {
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_box_containment", &o->merge_box_containment));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_centroid_m", &o->merge_centroid_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_sigmas", &o->merge_sigmas));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "depth_sigma_at_1m", &o->depth_sigma_at_1m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "view_sigma_rad", &o->view_sigma_rad));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_containment", &o->merge_containment));
-  LOCI_RETURN_IF_ERROR(
-      ReadOptional(n, "furniture_merge_containment", &o->furniture_merge_containment));
-  LOCI_RETURN_IF_ERROR(
-      ReadOptional(n, "furniture_footprint_containment", &o->furniture_footprint_containment));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "merge_across_classes", &o->merge_across_classes));
-  return absl::OkStatus();
-}
-
-// fusion: labels, existence and confirmation.
-Status ReadEvidence(const YAML::Node& n, FusionOptions* o) {
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "confirm_observations", &o->confirm_observations));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "confirm_min_span_s", &o->confirm_min_span_s));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "label_universe", &o->label_universe));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "min_likelihood", &o->min_likelihood));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "existence_p_real", &o->existence_p_real));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "existence_p_false", &o->existence_p_false));
-  LOCI_RETURN_IF_ERROR(
-      ReadOptional(n, "existence_class_prior_views", &o->existence_class_prior_views));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "confirm_llr", &o->confirm_llr));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "remove_llr", &o->remove_llr));
-  return absl::OkStatus();
+  return ReadOptionTable<SupportTopsOptions>(n["support_tops"], "map.observation.support_tops",
+                                             kSupportTops, &o->support_tops);
 }
 
 Status ReadFusion(const YAML::Node& n, FusionOptions* o) {
-  LOCI_RETURN_IF_ERROR(ReadAssociation(n, o));
-  LOCI_RETURN_IF_ERROR(ReadShape(n, o));
-  LOCI_RETURN_IF_ERROR(ReadTopLoads(n, &o->top_loads));
-  LOCI_RETURN_IF_ERROR(ReadMerge(n, o));
-  LOCI_RETURN_IF_ERROR(ReadEvidence(n, o));
-  if (const YAML::Node v = n["visibility"]) LOCI_RETURN_IF_ERROR(ReadVisibility(v, &o->visibility));
-  return absl::OkStatus();
-}
-
-Status ReadFrame(const YAML::Node& n, MapFrameOptions* o) {
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "settle_keyframes", &o->settle_keyframes));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "plane_refine_max_deg", &o->plane_refine_max_deg));
-  return absl::OkStatus();
-}
-
-Status ReadOctomap(const YAML::Node& n, OctomapOptions* o) {
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "enabled", &o->enabled));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "resolution_m", &o->resolution_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "max_range_m", &o->max_range_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "ray_voxel_m", &o->ray_voxel_m));
-  LOCI_RETURN_IF_ERROR(ReadOptional(n, "rebuild_tolerance_m", &o->rebuild_tolerance_m));
-  return absl::OkStatus();
+  LOCI_RETURN_IF_ERROR(
+      ReadOptionTable<FusionOptions>(n, "map.fusion", kFusion, o, {"visibility"}));
+  return ReadOptionTable<VisibilityOptions>(n["visibility"], "map.fusion.visibility", kVisibility,
+                                            &o->visibility);
 }
 
 }  // namespace
@@ -258,19 +207,19 @@ std::string MapOptions::MapFingerprint() const {
 
 Status MapOptions::FromYaml(const YAML::Node& node) {
   if (!node) return absl::OkStatus();
-  LOCI_RETURN_IF_ERROR(CheckMapKeys(node));
   products_yaml_ += DumpKey(node, "cloud") + DumpKey(node, "observation") +
                     DumpKey(node, "dynamic_classes") + DumpKey(node, "mapped_classes");
   map_yaml_ += YAML::Dump(node) + "\n";
-  if (const YAML::Node n = node["cloud"]) LOCI_RETURN_IF_ERROR(ReadCloud(n, &cloud));
+  LOCI_RETURN_IF_ERROR(ReadOptionTable<CloudOptions>(node["cloud"], "map.cloud", kCloud, &cloud));
   if (const YAML::Node n = node["observation"]) {
     LOCI_RETURN_IF_ERROR(ReadObservation(n, &observation));
   }
   if (const YAML::Node n = node["fusion"]) LOCI_RETURN_IF_ERROR(ReadFusion(n, &fusion));
-  if (const YAML::Node n = node["frame"]) LOCI_RETURN_IF_ERROR(ReadFrame(n, &frame));
-  if (const YAML::Node n = node["octomap"]) LOCI_RETURN_IF_ERROR(ReadOctomap(n, &octomap));
-  LOCI_RETURN_IF_ERROR(ReadOptional(node, "dynamic_classes", &dynamic_classes));
-  LOCI_RETURN_IF_ERROR(ReadOptional(node, "mapped_classes", &mapped_classes));
+  LOCI_RETURN_IF_ERROR(ReadOptionTable<MapFrameOptions>(node["frame"], "map.frame", kFrame, &frame));
+  LOCI_RETURN_IF_ERROR(
+      ReadOptionTable<OctomapOptions>(node["octomap"], "map.octomap", kOctomap, &octomap));
+  LOCI_RETURN_IF_ERROR(ReadOptionTable<MapOptions>(
+      node, "map", kMap, this, {"cloud", "observation", "fusion", "frame", "octomap"}));
   return Validate();
 }
 
@@ -311,9 +260,10 @@ Status MapOptions::ClassesFromYaml(const YAML::Node& node) {
   LOCI_RETURN_IF_ERROR(ReadClassMetres(node, "max_height_m", &max_height_m));
   LOCI_RETURN_IF_ERROR(ReadClassMetres(node, "max_thickness_m", &max_thickness_m));
   if (node["stand_m"]) {  // replaces the built-in stands; 0 turns a class's off
-    fusion.top_loads.stand_m.clear();
-    LOCI_RETURN_IF_ERROR(ReadClassMetres(node, "stand_m", &fusion.top_loads.stand_m, true, 2.0));
+    stand_m.clear();
+    LOCI_RETURN_IF_ERROR(ReadClassMetres(node, "stand_m", &stand_m, true, 2.0));
   }
+  LOCI_RETURN_IF_ERROR(ReadOptional(node, "top", &observation.mask.flat_top_classes));
   if (!mapped_classes.empty()) {
     fusion.label_universe = std::max<int>(2, static_cast<int>(mapped_classes.size()));
   }
@@ -326,151 +276,54 @@ Status BadMapOption(const std::string& what) {
   return absl::InvalidArgumentError(absl::StrCat("map options: ", what));
 }
 
-// Depth ranges, voxels and outlier removal of the dense cloud and the object clouds.
-Status CheckClouds(const MapOptions& m) {
-  if (!(m.cloud.min_depth_m >= 0 && m.cloud.max_depth_m > m.cloud.min_depth_m)) {
-    return BadMapOption("cloud depth range must satisfy 0 <= min_depth_m < max_depth_m");
+// What the tables' bounds cannot say: relations between options.
+Status CheckRelations(const MapOptions& m) {
+  if (!(m.cloud.max_depth_m > m.cloud.min_depth_m)) {
+    return BadMapOption("cloud depth range must satisfy min_depth_m < max_depth_m");
   }
-  if (m.cloud.pixel_stride < 1 || m.cloud.pixel_stride > 16)
-    return BadMapOption("cloud.pixel_stride in [1, 16]");
-  if (!(m.cloud.voxel_m > 0.001) || !(m.observation.voxel_m > 0.001) ||
-      !(m.fusion.overlap_voxel_m > 0.001)) {
-    return BadMapOption("voxel sizes must be > 1 mm");
+  const FusionOptions& f = m.fusion;
+  if (!(f.p_false < f.p_detect)) return BadMapOption("fusion: p_false < p_detect");
+  if (!(f.remove_belief < f.existence_prior && f.existence_prior < f.confirm_belief)) {
+    return BadMapOption("fusion: remove_belief < existence_prior < confirm_belief");
   }
-  if (m.cloud.sor_mean_k < 0 || m.observation.sor_mean_k < 0)
-    return BadMapOption("sor_mean_k >= 0 (0 = off)");
-  if (!(m.observation.sor_min_voxels >= 0)) return BadMapOption("observation.sor_min_voxels >= 0");
-  if (m.observation.max_points < 10) return BadMapOption("observation.max_points >= 10");
-  if (!(m.observation.min_centre_cover >= 0 && m.observation.min_centre_cover <= 1)) {
-    return BadMapOption("observation.min_centre_cover in [0, 1]");
-  }
-  return absl::OkStatus();
-}
-
-// observation.support_tops or observation.object_tops (`name`).
-Status CheckSupportTops(const SupportTopsOptions& t, const std::string& name) {
-  if (!(t.cell_m > 0.001) || !(t.max_tilt_deg >= 0 && t.max_tilt_deg < 90) ||
-      !(t.min_top_area_m2 >= 0) || !(t.reach_m >= 0) || t.max_planes < 1 ||
-      t.ransac_iterations < 1 || !(t.cell_band_share <= 1)) {
-    return BadMapOption(absl::StrCat(
-        name,
-        ": cell_m > 0.001, max_tilt_deg in [0, 90), min_top_area_m2 >= 0, reach_m >= 0, "
-        "max_planes >= 1, ransac_iterations >= 1, cell_band_share <= 1"));
-  }
-  return absl::OkStatus();
-}
-
-// Confirmation and the furniture rules of fusion.
-Status CheckConfirmAndFurniture(const FusionOptions& f) {
-  if (f.confirm_observations < 1) return BadMapOption("fusion.confirm_observations >= 1");
-  if (!(f.confirm_min_span_s >= 0 && f.confirm_min_span_s <= 3600)) {
-    return BadMapOption("fusion.confirm_min_span_s in [0, 3600]");
-  }
-  if (!(f.straddle_share >= 0 && f.straddle_share <= 1)) {
-    return BadMapOption("fusion.straddle_share in [0, 1]");
-  }
-  if (!(f.furniture_footprint_containment >= 0 && f.furniture_footprint_containment <= 1)) {
-    return BadMapOption("fusion.furniture_footprint_containment in [0, 1]");
-  }
-  if (!(f.furniture_merge_containment >= 0 && f.furniture_merge_containment <= 1)) {
-    return BadMapOption("fusion.furniture_merge_containment in [0, 1]");
-  }
-  if (f.straddle_apart_views < 0) return BadMapOption("fusion.straddle_apart_views >= 0");
-  return absl::OkStatus();
-}
-
-// fusion.top_load_*.
-Status CheckTopLoads(const TopLoadOptions& l) {
-  if (!(l.reach_m >= 0 && l.reach_m <= 2)) {
-    return BadMapOption("fusion.top_load_reach_m in [0, 2]");
-  }
-  if (!(l.max_gap_m >= 0 && l.max_gap_m <= 0.5)) {
-    return BadMapOption("fusion.top_load_max_gap_m in [0, 0.5]");
-  }
-  if (!(l.max_sink_m >= 0 && l.max_sink_m <= 0.5)) {
-    return BadMapOption("fusion.top_load_max_sink_m in [0, 0.5]");
-  }
-  if (l.rival_min_views < 0) return BadMapOption("fusion.top_load_rival_min_views >= 0");
-  if (l.confirm_loads < 0) return BadMapOption("fusion.top_load_confirm_loads >= 0");
-  return absl::OkStatus();
-}
-
-// An object's support grid, shape, parts and merge geometry.
-Status CheckShape(const FusionOptions& f) {
-  if (!(f.support_cell_m > 0.001) ||
-      !(f.min_support_fraction >= 0 && f.min_support_fraction <= 1)) {
-    return BadMapOption("fusion.support_cell_m > 0.001 and fusion.min_support_fraction in [0, 1]");
-  }
-  if (f.label_universe < 2) return BadMapOption("fusion.label_universe >= 2");
-  if (!(f.merge_box_containment > 0)) return BadMapOption("fusion.merge_box_containment > 0");
-  if (!(f.part_containment > 0)) return BadMapOption("fusion.part_containment > 0");
-  if (!(f.stand_height_m >= 0 && f.stand_height_m <= 1)) {
-    return BadMapOption("fusion.stand_height_m in [0, 1]");
-  }
-  if (!(f.merge_sigmas >= 0 && f.merge_sigmas <= 5 && f.depth_sigma_at_1m >= 0 &&
-        f.view_sigma_rad >= 0 && f.view_sigma_rad < 0.5)) {
-    return BadMapOption(
-        "fusion: merge_sigmas in [0, 5], depth_sigma_at_1m >= 0, view_sigma_rad in [0, 0.5)");
-  }
-  if (!std::isfinite(f.class_size_slack)) return BadMapOption("fusion.class_size_slack finite");
-  if (!(f.centroid_min_part >= 0 && f.centroid_min_part < 0.5)) {
-    return BadMapOption("fusion.centroid_min_part in [0, 0.5)");
-  }
-  if (!(f.bottom_quantile >= 0 && f.bottom_quantile < 0.5)) {
-    return BadMapOption("fusion.bottom_quantile in [0, 0.5)");
-  }
-  if (f.shape_min_label_views < 0) {
-    return BadMapOption("fusion.shape_min_label_views >= 0");
-  }
-  return absl::OkStatus();
-}
-
-// Labels, existence and visibility.
-Status CheckEvidence(const FusionOptions& f) {
-  if (!(f.min_likelihood > 0 && f.min_likelihood < 0.5)) {
-    return BadMapOption("fusion.min_likelihood in (0, 0.5)");
-  }
-  if (!(f.existence_p_false > 0 && f.existence_p_false < f.existence_p_real &&
-        f.existence_p_real < 1)) {
-    return BadMapOption("fusion: 0 < existence_p_false < existence_p_real < 1");
-  }
-  if (!(f.remove_llr < f.confirm_llr)) return BadMapOption("fusion: remove_llr < confirm_llr");
-  if (f.visibility.depth_stride < 1 || f.visibility.depth_stride > 16) {
-    return BadMapOption("fusion.visibility.depth_stride in [1, 16]");
-  }
-  return absl::OkStatus();
-}
-
-// The map frame and the OctoMap.
-Status CheckFrameAndOctomap(const MapOptions& m) {
-  if (m.frame.settle_keyframes < 1 || m.frame.settle_keyframes > 1000) {
-    return BadMapOption("frame.settle_keyframes in [1, 1000]");
-  }
-  if (m.octomap.enabled && !(m.octomap.resolution_m >= 0.005))
-    return BadMapOption("octomap.resolution_m >= 0.005");
-  if (!(m.octomap.rebuild_tolerance_m >= 0))
-    return BadMapOption("octomap.rebuild_tolerance_m >= 0");
   return absl::OkStatus();
 }
 
 }  // namespace
 
 Status MapOptions::Validate() const {
-  LOCI_RETURN_IF_ERROR(CheckClouds(*this));
-  LOCI_RETURN_IF_ERROR(CheckSupportTops(observation.support_tops, "observation.support_tops"));
-  LOCI_RETURN_IF_ERROR(CheckSupportTops(observation.object_tops.tops, "observation.object_tops"));
-  if (!(observation.object_tops.min_step_m >= 0)) {
-    return BadMapOption("observation.object_tops.min_step_m >= 0");
-  }
-  LOCI_RETURN_IF_ERROR(CheckConfirmAndFurniture(fusion));
-  LOCI_RETURN_IF_ERROR(CheckTopLoads(fusion.top_loads));
-  LOCI_RETURN_IF_ERROR(CheckShape(fusion));
-  LOCI_RETURN_IF_ERROR(CheckEvidence(fusion));
-  return CheckFrameAndOctomap(*this);
+  LOCI_RETURN_IF_ERROR(CheckOptionTable<CloudOptions>("map.cloud", kCloud, cloud));
+  LOCI_RETURN_IF_ERROR(
+      CheckOptionTable<ObservationOptions>("map.observation", kObservation, observation));
+  LOCI_RETURN_IF_ERROR(CheckOptionTable<SupportTopsOptions>(
+      "map.observation.support_tops", kSupportTops, observation.support_tops));
+  LOCI_RETURN_IF_ERROR(CheckOptionTable<FusionOptions>("map.fusion", kFusion, fusion));
+  LOCI_RETURN_IF_ERROR(CheckOptionTable<VisibilityOptions>("map.fusion.visibility", kVisibility,
+                                                           fusion.visibility));
+  LOCI_RETURN_IF_ERROR(CheckOptionTable<MapFrameOptions>("map.frame", kFrame, frame));
+  LOCI_RETURN_IF_ERROR(CheckOptionTable<OctomapOptions>("map.octomap", kOctomap, octomap));
+  return CheckRelations(*this);
 }
 
-bool ObservationOptions::ObjectTops::Applies(const std::string& class_name) const {
-  return std::find(classes.begin(), classes.end(), class_name) != classes.end();
+std::string MapOptions::DefaultsYaml() { return MapOptions().ValuesYaml(); }
+
+std::string MapOptions::ValuesYaml() const {
+  const MapOptions& d = *this;
+  std::string y = "map:\n" + OptionTableYaml<MapOptions>(kMap, d, 2);
+  y += "  frame:\n" + OptionTableYaml<MapFrameOptions>(kFrame, d.frame, 4);
+  y += "  cloud:\n" + OptionTableYaml<CloudOptions>(kCloud, d.cloud, 4);
+  y += "  observation:\n" + OptionTableYaml<ObservationOptions>(kObservation, d.observation, 4);
+  y += "    support_tops:\n" +
+       OptionTableYaml<SupportTopsOptions>(kSupportTops, d.observation.support_tops, 6);
+  y += "  fusion:\n" + OptionTableYaml<FusionOptions>(kFusion, d.fusion, 4);
+  y += "    visibility:\n" + OptionTableYaml<VisibilityOptions>(kVisibility, d.fusion.visibility, 6);
+  y += "  octomap:\n" + OptionTableYaml<OctomapOptions>(kOctomap, d.octomap, 4);
+  return y;
+}
+
+size_t MapOptions::OptionCount() {
+  return std::size(kMap) + std::size(kFrame) + std::size(kCloud) + std::size(kObservation) +
+         std::size(kSupportTops) + std::size(kFusion) + std::size(kVisibility) + std::size(kOctomap);
 }
 
 bool MapOptions::IsDynamic(const std::string& c) const {

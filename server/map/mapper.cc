@@ -20,8 +20,8 @@ FusionOptions FusionWithFlatTops(const MapOptions& options) {
   FusionOptions f = options.fusion;
   f.max_size_m = options.max_size_m;
   f.max_thickness_m = options.max_thickness_m;
-  f.flat_top_classes = options.observation.mask.flat_top_classes;
-  f.flat_top_margin_m = options.observation.mask.flat_top_margin_m;
+  f.top_classes = options.observation.mask.flat_top_classes;
+  f.top_margin_m = options.observation.mask.flat_top_margin_m;
   return f;
 }
 
@@ -114,7 +114,6 @@ MapObservation ToMap(const ObjectObservation& o, const MapperKeyframe& kf,
 
 void Mapper::AppendEvents(const std::vector<ObjectChange>& changes,
                           std::vector<ObjectEventOut>* events) const {
-  const size_t first = events->size();
   std::vector<int64_t> ids;
   for (const ObjectChange& c : changes) {
     if (c.kind != ObjectChange::Kind::kRemoved) ids.push_back(objects_.Resolve(c.object_id));
@@ -135,28 +134,6 @@ void Mapper::AppendEvents(const std::vector<ObjectChange>& changes,
     e.object.id = objects_.Resolve(c.object_id);
     events->push_back(std::move(e));
   }
-  AppendLoadedTables(first, events);
-}
-
-void Mapper::AppendLoadedTables(size_t first, std::vector<ObjectEventOut>* events) const {
-  std::vector<MapObject> loads;
-  std::set<int64_t> emitted;
-  for (size_t i = first; i < events->size(); ++i) {
-    loads.push_back((*events)[i].object);
-    if ((*events)[i].kind != ObjectChange::Kind::kRemoved) emitted.insert((*events)[i].object.id);
-  }
-  const auto emit = [&](MapObject o) {
-    if (!emitted.insert(o.id).second) return;
-    ObjectEventOut e;
-    e.kind = ObjectChange::Kind::kUpdated;
-    e.object = std::move(o);
-    events->push_back(std::move(e));
-  };
-  std::vector<MapObject> tables = objects_.TablesUnder(loads);
-  for (const MapObject& table : tables) emit(table);
-  // Loads reach down to their tables' tops: a changed table moves them.
-  loads.insert(loads.end(), tables.begin(), tables.end());
-  for (MapObject& load : objects_.LoadsOnTables(loads)) emit(std::move(load));
 }
 
 KeyframeProducts Mapper::BuildProducts(const MapperKeyframe& kf) const {
@@ -292,7 +269,7 @@ Mapper::Observed Mapper::IntegrateProducts(const MapperKeyframe& kf,
   std::vector<MapObservation> observations;
   observations.reserve(products.observations.size());
   for (const ObjectObservation& o : products.observations) {
-    observations.push_back(ToMap(o, kf, T_map_kf_f, options_.fusion.centroid_from_box));
+    observations.push_back(ToMap(o, kf, T_map_kf_f, /*centroid_from_box=*/true));
   }
   Observed observed;
   const SE3d T_kf_map = T_map_kf.inverse();
@@ -305,12 +282,10 @@ Mapper::Observed Mapper::IntegrateProducts(const MapperKeyframe& kf,
     std::lock_guard<std::mutex> lock(mu_);
     double t0 = ThreadCpuMs();
     std::vector<ObjectChange> changes;
-    std::vector<int64_t> seen;  // straddled furniture, then every observation's object
-    ids = objects_.Integrate(observations, &changes, &seen);
-    seen.insert(seen.end(), ids.begin(), ids.end());
+    ids = objects_.Integrate(observations, &changes);
     const KeyframeView view{&kf.camera, &products.visibility_depth_m, products.depth_stride,
                             T_map_kf.inverse(), &products.detection_boxes};
-    objects_.ObserveView(kf.keyframe_id, view, seen, &changes);
+    objects_.ObserveView(kf.keyframe_id, kf.t_ns, view, ids, &changes);
     AppendEvents(changes, events);
     times->fusion_ms = MsSince(t0);
 

@@ -266,10 +266,6 @@ class Mapper {
   // Object events of fusion changes, with the objects' state now; call with mu_ held.
   void AppendEvents(const std::vector<ObjectChange>& changes,
                     std::vector<ObjectEventOut>* events) const;
-  // UPDATED events for the tables under what changed from events[first] on, and for the loads
-  // on those tables, when their own change did not emit one: a table's snapshot runs on under
-  // its loads, and a load's reaches down to its table's top (top_loads.h).
-  void AppendLoadedTables(size_t first, std::vector<ObjectEventOut>* events) const;
   // Fixes the map frame from the settling keyframes and re-derives the map from them.
   void SettleFrame(std::vector<ObjectEventOut>* events);
   void AddTimes(const StageTimes& times);

@@ -9,8 +9,6 @@
 // Every point then belongs to the top whose footprint is horizontally nearest, within reach_m,
 // unless it rises more than MaskOptions::flat_top_margin_m above that top (something standing on
 // it): what is outside every footprint is not this furniture.
-// The same search at book sizes tells apart books that one box covers (ObservationOptions::
-// object_tops, keyframe_products.cc).
 #pragma once
 
 #include <Eigen/Core>
@@ -24,10 +22,8 @@
 namespace loci::server {
 
 struct SupportTopsOptions {
-  // On (default): one observation per top. Off: furniture observations are kept whole, as the
-  // detector's mask or box gave them. With the object map's straddle rule
-  // (FusionOptions::straddle_share) it keeps two desks back to back apart (docs/results.md,
-  // session 25).
+  // On (default): one observation per top, so one box over two tables gives two. Off:
+  // furniture observations are kept whole, as the detector's mask or box gave them.
   bool enabled = true;
   // Footprint grid edge, m: coarser than depth noise and the object voxels (1-3 cm on a table
   // seen at 1-3 m), finer than any table top (0.05).
@@ -52,7 +48,7 @@ struct SupportTopsOptions {
   // each cell's points inside; when every cell with any inlier counted, that plane's one region
   // over both tops was the largest, and the two desks made one top in views from 2 m and more.
   // 0.5 (~1.25 sigma) keeps them apart out to about 2.7 m. <= 0: any inlier puts its cell on
-  // the plane (as before session 32) (0.5).
+  // the plane (0.5).
   double cell_band_share = 0.5;
 };
 

@@ -79,7 +79,7 @@ loci::v1::AskResponse AnswerOrError(const StatusOr<loci::v1::AskResponse>& answe
 }
 
 void UseMapClassPriors(const MapOptions& map, QueryAdapterOptions* options) {
-  options->query.relations.on_stand_m = map.fusion.top_loads.stand_m;
+  options->query.relations.on_stand_m = map.stand_m;
 }
 
 QueryAdapter::QueryAdapter(QueryAdapterOptions options)

@@ -82,9 +82,8 @@ struct QueryAdapterOptions {
   double replay_age_s = 3600.0;
 };
 
-// Gives the query the class priors of the map it answers on (config/classes.yaml `stand_m`,
-// read into map.fusion.top_loads): the query's "on" and the desk the map widens under what rests
-// on it allow the same stand under a monitor.
+// Gives the query the class priors of the map it answers on (config/classes.yaml `stand_m`): its
+// "on" allows for the stand under a monitor, whose points the map leaves out.
 void UseMapClassPriors(const MapOptions& map, QueryAdapterOptions* options);
 
 class QueryAdapter final : public QueryEngine {

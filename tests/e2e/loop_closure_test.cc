@@ -163,10 +163,10 @@ TEST(LoopClosure, SyntheticDriftIsCutToAThirdByTheServersPoseGraph) {
   // `loci export` replays every keyframe from its stored pose. Keyframes a solution left in place
   // (its anchor) must keep their pose, though their session's placement moved since.
   std::string yaml = ShippedServerYaml();
-  const std::string key = "confirm_llr: 2.0\n";
+  const std::string key = "confirm_belief: 0.5\n";
   const size_t at = yaml.find(key);
   ASSERT_NE(at, std::string::npos) << "config/server.yaml changed: pick another key to respell";
-  yaml.replace(at, key.size(), "confirm_llr: 2.00\n");
+  yaml.replace(at, key.size(), "confirm_belief: 0.50\n");
   std::ofstream(dir + "/respelled.yaml") << yaml;
   const std::string exported = dir + "/replayed";
   const std::string export_cmd = std::string(LOCI_BIN) + " export --db " + dir + "/loci.db" +

@@ -183,9 +183,9 @@ TEST(FusedObject, MergedPiecesMissAKeyframeOnce) {
   };
   FusedObject a = piece(1, 0.0, {1, 2, 3});
   FusedObject b = piece(2, 0.4, {2, 3, 6});
-  for (int64_t kf : {4, 5, 6}) a.Miss(kf);
-  for (int64_t kf : {4, 5}) b.Miss(kf);
-  b.Miss(3);  // already a hit: no miss
+  for (int64_t kf : {4, 5, 6}) a.Miss(kf, kf * 100000000);
+  for (int64_t kf : {4, 5}) b.Miss(kf, kf * 100000000);
+  b.Miss(3, 300000000);  // already a hit: no miss
   EXPECT_EQ(a.misses(), 3u);
   EXPECT_EQ(b.misses(), 2u);
   a.Absorb(b);
@@ -198,7 +198,7 @@ TEST(FusedObject, MergedPiecesMissAKeyframeOnce) {
   FusedObject restored = piece(1, 0.0, {});
   ASSERT_TRUE(restored.LoadState(state).ok());
   EXPECT_EQ(restored.misses(), 2u);
-  restored.Miss(5);
+  restored.Miss(5, 500000000);
   EXPECT_EQ(restored.misses(), 2u);
   state.clear_missed_keyframes();
   EXPECT_FALSE(restored.LoadState(state).ok());

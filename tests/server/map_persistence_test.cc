@@ -170,7 +170,7 @@ TEST(MapCheckpoint, RefusesACheckpointOfOtherOptionsOrBrokenBytes) {
   for (const auto& kf : views) mapper.Integrate(kf);
   const std::string checkpoint = mapper.SaveCheckpoint();
   MapOptions other = BoxWorldOptions();
-  ASSERT_TRUE(other.FromYaml(YAML::Load("fusion: {min_overlap: 0.7}")).ok());
+  ASSERT_TRUE(other.FromYaml(YAML::Load("fusion: {containment: 0.7}")).ok());
   EXPECT_NE(other.MapFingerprint(), mapper.options().MapFingerprint());
   EXPECT_EQ(other.ProductsFingerprint(), mapper.options().ProductsFingerprint());
   Mapper with_other(other);

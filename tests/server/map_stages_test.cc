@@ -341,7 +341,7 @@ MapObservation Obs(int64_t track, const Eigen::Vector3d& center, double half, in
   return o;
 }
 
-TEST(ObjectMap, AssociatesByTrackOrCentroidElseCreatesAndConfirmsAfterThree) {
+TEST(ObjectMap, AssociatesByTrackOrCentroidElseCreatesAndConfirmsAfterThreeIndependentViews) {
   FusionOptions opt;
   ObjectMap map(opt, 0.01);
   std::vector<ObjectChange> changes;
@@ -352,71 +352,40 @@ TEST(ObjectMap, AssociatesByTrackOrCentroidElseCreatesAndConfirmsAfterThree) {
   // Same track, 0.2 m away (beyond the centroid criterion, inside the track gate).
   const auto b = map.Integrate({Obs(1, {0.2, 0, 1}, 0.05, 2)}, &changes);
   EXPECT_EQ(b[0], a[0]);
-  // No track, 3 cm from the fused centroid: the centroid criterion.
-  const auto c = map.Integrate({Obs(0, {0.13, 0, 1}, 0.05, 3)}, &changes);
+  EXPECT_FALSE(map.Find(a[0])->confirmed());  // 0.3 s after the first: the same evidence
+  // No track, 2 cm from the fused centroid, a compatible size: the centroid criterion, 0.6 s
+  // after the first.
+  const auto c = map.Integrate({Obs(0, {0.12, 0, 1}, 0.10, 3)}, &changes);
   EXPECT_EQ(c[0], a[0]);
+  EXPECT_FALSE(map.Find(a[0])->confirmed());  // two independent views
+  const auto c2 = map.Integrate({Obs(0, {0.11, 0, 1}, 0.10, 5)}, &changes);
+  EXPECT_EQ(c2[0], a[0]);
   EXPECT_TRUE(map.Find(a[0])->confirmed());
-  EXPECT_EQ(map.Find(a[0])->observation_count(), 3u);
+  EXPECT_EQ(map.Find(a[0])->observation_count(), 4u);
   // Far away, other track: a new candidate.
-  const auto d = map.Integrate({Obs(2, {2, 0, 1}, 0.05, 4)}, &changes);
+  const auto d = map.Integrate({Obs(2, {2, 0, 1}, 0.05, 6)}, &changes);
   EXPECT_NE(d[0], a[0]);
   EXPECT_EQ(map.size(), 2u);
   EXPECT_EQ(map.confirmed_count(), 1u);
   // Track match beyond the gate does not associate.
-  EXPECT_EQ(map.AssociationScore(*map.Find(a[0]), Obs(1, {5, 0, 1}, 0.05, 5), {}), 0.0);
-}
-
-TEST(ObjectMap, ABurstOfDetectionsIsOnePieceOfEvidence) {
-  // Three keyframes 0.1 s apart (a blurred swing) see a "cup": hits and LLR suffice, but the
-  // detections span 0.2 s, so it stays a candidate; seen again 1 s later, it is confirmed.
-  FusionOptions opt;
-  ObjectMap map(opt, 0.01);
-  std::vector<ObjectChange> changes;
-  auto burst = [](int64_t kf, int64_t t_ns) {
-    MapObservation o = Obs(1, {0, 0, 1}, 0.05, kf);
-    o.t_ns = t_ns;
-    return o;
-  };
-  int64_t id = 0;
-  for (int64_t kf = 1; kf <= 3; ++kf) id = map.Integrate({burst(kf, kf * 100'000'000)}, &changes)[0];
-  EXPECT_EQ(map.Find(id)->observation_count(), 3u);
-  EXPECT_FALSE(map.Find(id)->confirmed());
-  id = map.Integrate({burst(4, 1'300'000'000)}, &changes)[0];
-  EXPECT_TRUE(map.Find(id)->confirmed());
-  // Off (0): the burst alone confirms.
-  opt.confirm_min_span_s = 0;
-  ObjectMap off(opt, 0.01);
-  for (int64_t kf = 1; kf <= 3; ++kf) id = off.Integrate({burst(kf, kf * 100'000'000)}, &changes)[0];
-  EXPECT_TRUE(off.Find(id)->confirmed());
-}
-
-TEST(ObjectMap, WeightedScoreRespectsThreshold) {
-  FusionOptions opt;
-  opt.score_threshold = 0.9;  // now one criterion alone is not enough
-  opt.merge_centroid_m = 0;   // isolate association from duplicate merging
-  opt.merge_containment = 2;
-  opt.assoc_containment = 1;  // and the partial-view criterion: b lies 70 % inside a
-  ObjectMap map(opt, 0.01);
-  std::vector<ObjectChange> changes;
-  const auto a = map.Integrate({Obs(1, {0, 0, 1}, 0.05, 1)}, &changes);
-  const auto b = map.Integrate({Obs(0, {0.03, 0, 1}, 0.05, 2)}, &changes);  // centroid only
-  EXPECT_NE(a[0], b[0]);
-  // Same track + close centroid: 1.0 >= 0.9. It also merges the duplicate b into a.
-  const auto c = map.Integrate({Obs(1, {0.01, 0, 1}, 0.05, 3)}, &changes);
-  EXPECT_EQ(c[0], a[0]);
+  const auto e = map.Integrate({Obs(1, {5, 0, 1}, 0.05, 7)}, &changes);
+  EXPECT_NE(e[0], a[0]);
 }
 
 TEST(ObjectMap, MergesDuplicatesThatEndUpOverlapping) {
   FusionOptions opt;
-  opt.weight_centroid = 0;  // association by track only, so two tracks make two objects
-  opt.weight_overlap = 0;
   ObjectMap map(opt, 0.01);
   std::vector<ObjectChange> changes;
   const auto a = map.Integrate({Obs(1, {0, 0, 1}, 0.10, 1)}, &changes);
-  // Another track id on a 4 cm-shifted view of the same object: the box centres are 4 cm apart,
-  // closer than merge_centroid_m, so the newer object is absorbed into the older one.
-  const auto b = map.Integrate({Obs(2, {0.04, 0, 1}, 0.10, 2)}, &changes);
-  EXPECT_EQ(b[0], a[0]);
+  const MapObservation far = Obs(2, {1.0, 0, 1}, 0.10, 2);
+  const auto b = map.Integrate({far}, &changes);
+  ASSERT_NE(b[0], a[0]);
+  // A pose correction moves the second view to 4 cm from the first: the box centres are closer
+  // than centroid_gate_m, so the newer object is absorbed into the older one.
+  MapObservation moved = Obs(2, {0.04, 0, 1}, 0.10, 2);
+  ASSERT_TRUE(map.MoveObservation(b[0], far.points_m, moved.points_m, "cup"));
+  map.MergeMoved({b[0]}, &changes);
+  EXPECT_EQ(map.Resolve(b[0]), a[0]);
   EXPECT_EQ(map.size(), 1u);
   // A MERGED change for the survivor, then a REMOVED one with the absorbed object's last state.
   ASSERT_GE(changes.size(), 2u);

@@ -1,4 +1,4 @@
-// Object observations for ObjectMap rule tests (object_rules_test.cc, object_parts_test.cc):
+// Object observations for ObjectMap tests (object_model_test.cc):
 // level rectangles and point grids as the mapper builds them, and fusion options with class
 // size priors.
 #pragma once
@@ -33,7 +33,8 @@ inline MapObservation Rect(const std::string& cls, double score, int64_t track, 
 
 inline FusionOptions WithSizes(double class_size_slack) {
   FusionOptions opt;
-  opt.max_size_m = {{"laptop", 0.6}, {"dining table", 3.5}, {"tv", 1.8}, {"book", 0.6}};
+  opt.max_size_m = {{"laptop", 0.6}, {"dining table", 3.5}, {"tv", 1.8}, {"book", 0.6},
+                   {"mouse", 0.25}};
   opt.class_size_slack = class_size_slack;
   return opt;
 }

@@ -7,6 +7,8 @@
 #include <fstream>
 #include <limits>
 
+#include "absl/strings/str_split.h"
+
 #include "common/config.h"
 #include "detection/detection_config.h"
 #include "query/query_options.h"
@@ -69,11 +71,11 @@ TEST_F(ServerOptionsKeys, ClassStandsReplaceTheBuiltInOnesAndReachTheQuery) {
   ServerOptions shipped;  // config/classes.yaml of the repository
   ASSERT_TRUE(shipped.LoadClasses().ok());
   const std::map<std::string, double> tv = {{"tv", 0.25}};
-  EXPECT_EQ(shipped.map.fusion.top_loads.stand_m, tv);
+  EXPECT_EQ(shipped.map.stand_m, tv);
   MapOptions map;
   ASSERT_TRUE(map.ClassesFromYaml(YAML::Load("stand_m: {potted plant: 0.1, tv: 0}\n")).ok());
   const std::map<std::string, double> given = {{"potted plant", 0.1}, {"tv", 0.0}};
-  EXPECT_EQ(map.fusion.top_loads.stand_m, given);  // tv 0: the built-in stand is off
+  EXPECT_EQ(map.stand_m, given);  // tv 0: the built-in stand is off
   QueryAdapterOptions query;
   UseMapClassPriors(map, &query);
   EXPECT_EQ(query.query.relations.on_stand_m, given);
@@ -94,26 +96,28 @@ TEST_F(ServerOptionsKeys, TheBottomQuantileIsReadAndOneOfHalfOrMoreIsRefused) {
   EXPECT_NE(s.message().find("fusion.bottom_quantile"), std::string::npos) << s;
 }
 
-TEST_F(ServerOptionsKeys, ObjectTopsAreReadAndBadSizesAreRefusedByName) {
-  MapOptions map;
-  ASSERT_TRUE(map.FromYaml(YAML::Load("observation:\n  object_tops:\n    classes: [book, "
-                                      "laptop]\n    min_top_area_m2: 0.02\n    min_step_m: 0.02\n"))
-                  .ok());
-  EXPECT_TRUE(map.observation.object_tops.Applies("laptop"));
-  EXPECT_FALSE(map.observation.object_tops.Applies("cup"));
-  EXPECT_DOUBLE_EQ(map.observation.object_tops.tops.min_top_area_m2, 0.02);
-  EXPECT_DOUBLE_EQ(map.observation.object_tops.min_step_m, 0.02);
-  EXPECT_FALSE(
-      MapOptions().FromYaml(YAML::Load("observation:\n  object_tops:\n    min_step_m: -1\n")).ok());
-  EXPECT_DOUBLE_EQ(map.observation.object_tops.tops.cell_m, 0.02);       // the objects' default
-  EXPECT_DOUBLE_EQ(map.observation.support_tops.min_top_area_m2, 0.08);  // furniture's, apart
-  const Status s =
-      MapOptions().FromYaml(YAML::Load("observation:\n  object_tops:\n    cell_m: 0\n"));
+TEST_F(ServerOptionsKeys, TheShippedMapOptionsAreTheLibraryDefaults) {
+  ServerOptions shipped;
+  ASSERT_TRUE(shipped.FromYamlFile(SourceDir() + "/config/server.yaml").ok());
+  EXPECT_EQ(shipped.map.ValuesYaml(), MapOptions::DefaultsYaml());
+  EXPECT_LE(MapOptions::OptionCount(), 80u);
+  // Every key has its doc line.
+  const std::vector<std::string> lines = absl::StrSplit(MapOptions::DefaultsYaml(), '\n');
+  for (const std::string& line : lines) {
+    if (line.find(": ") == std::string::npos) continue;
+    EXPECT_NE(line.find("  # "), std::string::npos) << line;
+  }
+}
+
+TEST_F(ServerOptionsKeys, AMapOptionOutsideItsBoundsIsRefusedByName) {
+  const Status s = MapOptions().FromYaml(YAML::Load("fusion:\n  p_detect: 1.5\n"));
   ASSERT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_NE(s.message().find("observation.object_tops"), std::string::npos) << s;
+  EXPECT_NE(s.message().find("map.fusion.p_detect"), std::string::npos) << s;
+  const Status t =
+      MapOptions().FromYaml(YAML::Load("observation:\n  support_tops:\n    cell_m: 0\n"));
+  EXPECT_NE(t.message().find("map.observation.support_tops.cell_m"), std::string::npos) << t;
   SetStrictConfig(true);
-  EXPECT_FALSE(
-      MapOptions().FromYaml(YAML::Load("observation:\n  object_tops:\n    enabled: true\n")).ok());
+  EXPECT_FALSE(MapOptions().FromYaml(YAML::Load("fusion:\n  straddle_share: 0.25\n")).ok());
 }
 
 TEST_F(ServerOptionsKeys, ShippedConfigFilesHaveNoUnknownKeys) {
