@@ -35,8 +35,8 @@ void ShowProgress(uint64_t done, uint64_t total) {
 Status Reprocess(const ReprocessArgs& a) {
   server::ServerOptions options;
   LOCI_RETURN_IF_ERROR(a.config.empty() ? options.LoadClasses() : options.FromYamlFile(a.config));
-  LOCI_ASSIGN_OR_RETURN(std::shared_ptr<detection::Detector> detector,
-                        server::MakeServerDetector(options, a.config));
+  LOCI_ASSIGN_OR_RETURN(std::shared_ptr<server::KeyframeDetection> detection,
+                        server::MakeServerDetection(options, a.config));
   LOCI_ASSIGN_OR_RETURN(std::unique_ptr<server::SqliteStore> store,
                         server::SqliteStore::Open(a.db));
   const auto t0 = std::chrono::steady_clock::now();
@@ -47,7 +47,7 @@ Status Reprocess(const ReprocessArgs& a) {
   load.use_checkpoint = false;
   load.progress = ShowProgress;
   LOCI_ASSIGN_OR_RETURN(server::LoadReport report,
-                        server::LoadMap(*store, &mapper, detector.get(), load));
+                        server::LoadMap(*store, &mapper, detection.get(), load));
   server::CheckpointRecord checkpoint{mapper->last_keyframe_id(), mapper->SaveCheckpoint()};
   if (!checkpoint.data.empty()) LOCI_RETURN_IF_ERROR(store->PutCheckpoint(checkpoint));
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -12,6 +12,12 @@
 
 namespace loci {
 
+float BoxIou(const cv::Rect2f& a, const cv::Rect2f& b) {
+  const float inter = (a & b).area();
+  const float uni = a.area() + b.area() - inter;
+  return uni > 0.f && inter > 0.f ? inter / uni : 0.f;
+}
+
 cv::Rect MaskRect(const cv::Rect2f& box_px, int image_width, int image_height) {
   const int x0 = static_cast<int>(std::floor(box_px.x));
   const int y0 = static_cast<int>(std::floor(box_px.y));

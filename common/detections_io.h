@@ -23,6 +23,9 @@ struct Detection2D {
   int64_t track_id = 0;        // 0 = untracked
 };
 
+// Intersection over union of two boxes; 0 when either is empty.
+float BoxIou(const cv::Rect2f& a, const cv::Rect2f& b);
+
 struct FrameDetections {
   int64_t t_ns = 0;            // stamp of the RGB image
   std::vector<Detection2D> detections;

@@ -173,10 +173,4 @@ std::vector<Candidate> PerClassNms(const std::vector<Candidate>& candidates, flo
   return kept;
 }
 
-float BoxIou(const cv::Rect2f& a, const cv::Rect2f& b) {
-  const float inter = (a & b).area();
-  const float uni = a.area() + b.area() - inter;
-  return uni > 0.f && inter > 0.f ? inter / uni : 0.f;
-}
-
 }  // namespace loci::detection

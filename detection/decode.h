@@ -47,7 +47,4 @@ StatusOr<std::vector<Candidate>> DecodeNanodet(const std::vector<cv::Mat>& outpu
 // other); result sorted by descending score.
 std::vector<Candidate> PerClassNms(const std::vector<Candidate>& candidates, float iou_threshold);
 
-// Intersection over union of two boxes; 0 when either is empty.
-float BoxIou(const cv::Rect2f& a, const cv::Rect2f& b);
-
 }  // namespace loci::detection

@@ -163,10 +163,10 @@ int main(int argc, char** argv) {
   const loci::server::ServerOptions& options = setup->options;
   const sigset_t signals = BlockShutdownSignals();
 
-  auto detector = loci::server::MakeServerDetector(options, flags.config_path);
-  if (!detector.ok()) return Fail(detector.status(), 2);
+  auto detection = loci::server::MakeServerDetection(options, flags.config_path);
+  if (!detection.ok()) return Fail(detection.status(), 2);
   // The port opens at once; the map loads behind it (health NOT_SERVING until it is in).
-  auto server = loci::server::MapServer::OpenAsync(options, nullptr, *detector);
+  auto server = loci::server::MapServer::OpenAsync(options, nullptr, *detection);
   if (!server.ok()) return Fail(server.status(), 1);
   auto grpc = loci::server::GrpcServer::Start(
       server->get(), options.listen, options.max_message_mb,

@@ -32,10 +32,10 @@ loci::v1::KeyframeAck MakeAck(int64_t seq, const Status& status) {
 }  // namespace
 
 MapServer::MapServer(const ServerOptions& options, std::shared_ptr<MapStore> store,
-                     std::shared_ptr<detection::Detector> detector)
+                     std::shared_ptr<KeyframeDetection> detection)
     : options_(options),
       store_(std::move(store)),
-      detector_(std::move(detector)),
+      detection_(std::move(detection)),
       mapper_(std::make_unique<Mapper>(options.map)),
       features_(
           std::make_unique<StoreFeatureStore>(store_.get(), options.place.features.Fingerprint())),
@@ -60,7 +60,7 @@ MapServer::MapServer(const ServerOptions& options, std::shared_ptr<MapStore> sto
 
 StatusOr<std::unique_ptr<MapServer>> MapServer::OpenAsync(
     const ServerOptions& options, std::shared_ptr<MapStore> store,
-    std::shared_ptr<detection::Detector> detector) {
+    std::shared_ptr<KeyframeDetection> detection) {
   LOCI_RETURN_IF_ERROR(options.map.Validate());
   LOCI_RETURN_IF_ERROR(options.ValidateLimits());
   LOCI_RETURN_IF_ERROR(options.place.Validate());
@@ -72,16 +72,16 @@ StatusOr<std::unique_ptr<MapServer>> MapServer::OpenAsync(
     LOCI_ASSIGN_OR_RETURN(std::unique_ptr<SqliteStore> sqlite, SqliteStore::Open(options.db_path));
     store = std::move(sqlite);
   }
-  std::unique_ptr<MapServer> server(new MapServer(options, std::move(store), std::move(detector)));
+  std::unique_ptr<MapServer> server(new MapServer(options, std::move(store), std::move(detection)));
   server->loader_ = NamedThread("loci-load", [s = server.get()] { s->LoadLoop(); });
   return server;
 }
 
 StatusOr<std::unique_ptr<MapServer>> MapServer::Open(
     const ServerOptions& options, std::shared_ptr<MapStore> store,
-    std::shared_ptr<detection::Detector> detector) {
+    std::shared_ptr<KeyframeDetection> detection) {
   LOCI_ASSIGN_OR_RETURN(std::unique_ptr<MapServer> server,
-                        OpenAsync(options, std::move(store), std::move(detector)));
+                        OpenAsync(options, std::move(store), std::move(detection)));
   LOCI_RETURN_IF_ERROR(server->WaitReady());
   return server;
 }
@@ -94,7 +94,7 @@ void MapServer::LoadLoop() {
     load_done_ = done;
     load_total_ = total;
   };
-  StatusOr<LoadReport> report = LoadMap(*store_, &mapper_, detector_.get(), load);
+  StatusOr<LoadReport> report = LoadMap(*store_, &mapper_, detection_.get(), load);
   if (report.ok()) {
     load_report_ = *report;
     replayed_ = report->keyframes();
@@ -420,6 +420,8 @@ loci::v1::KeyframeAck MapServer::Ingest(const loci::v1::Keyframe& kf,
       ++enqueued_;
     }
     OfferAhead(decoded);
+    // Detected on the detection threads while the worker maps the keyframes before it.
+    if (detection_) detection_->Prefetch(decoded);
     // Blocks while the mapping worker is behind: back-pressure on this client's stream.
     if (!queue_.Push(std::move(decoded))) {
       std::lock_guard<std::mutex> lock(progress_mu_);

@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "common/status.h"
-#include "detection/detector.h"
+#include "server/detect/keyframe_detection.h"
 #include "loci/v1/mapping.pb.h"
 #include "server/align/loop_closer.h"
 #include "server/align/robot_aligner.h"
@@ -40,15 +40,15 @@ class MapServer {
  public:
   // Opens the store (SQLite at options.db_path unless `store` is given), loads the map
   // (replay.h: checkpoint, then products or raw keyframes after it), then starts the mapping
-  // worker. `detector` may be null.
+  // worker. `detection` (server-side detection of keyframes) may be null.
   static StatusOr<std::unique_ptr<MapServer>> Open(
       const ServerOptions& options, std::shared_ptr<MapStore> store = nullptr,
-      std::shared_ptr<detection::Detector> detector = nullptr);
+      std::shared_ptr<KeyframeDetection> detection = nullptr);
   // As Open, but returns once the store is open and loads the map on a background thread:
   // until ready(), every call but these accessors answers UNAVAILABLE (CheckReady).
   static StatusOr<std::unique_ptr<MapServer>> OpenAsync(
       const ServerOptions& options, std::shared_ptr<MapStore> store = nullptr,
-      std::shared_ptr<detection::Detector> detector = nullptr);
+      std::shared_ptr<KeyframeDetection> detection = nullptr);
   // Drains the queue, stops the worker and writes a last checkpoint.
   ~MapServer();
 
@@ -131,7 +131,7 @@ class MapServer {
 
  private:
   MapServer(const ServerOptions& options, std::shared_ptr<MapStore> store,
-            std::shared_ptr<detection::Detector> detector);
+            std::shared_ptr<KeyframeDetection> detection);
   void WorkerLoop();
   // Stores keyframes' corrected poses, in the frame of the map holding them (map_row:
   // kSharedGraph, the shared base frame, or an unaligned session's island's row), and gives them
@@ -315,7 +315,7 @@ class MapServer {
 
   ServerOptions options_;
   std::shared_ptr<MapStore> store_;
-  std::shared_ptr<detection::Detector> detector_;
+  std::shared_ptr<KeyframeDetection> detection_;
   std::unique_ptr<Mapper> mapper_;
   std::unique_ptr<StoreFeatureStore> features_;  // aligner_'s, in store_
   std::unique_ptr<StoreImageSource> images_;     // aligner_'s dense refinement's, from store_

@@ -20,17 +20,17 @@ namespace loci::server {
 
 MapServer::Queued MapServer::MapQueued(MapperKeyframe& kf) {
   if (!aligner_) {
-    MapAndStoreProducts(*mapper_, kf, detector_.get(), store_.get());
+    MapAndStoreProducts(*mapper_, kf, detection_.get(), store_.get());
     return {.recognise = false, .shared_map = true};
   }
   DeclareSession(kf.session_row);
   const std::optional<SE3d> T_base_odom = aligner_->Alignment(kf.session_row);
   if (T_base_odom) {
     kf.T_base_kf = *T_base_odom * kf.T_odom_kf;  // the session may have been aligned since
-    MapAndStoreProducts(*mapper_, kf, detector_.get(), store_.get());
+    MapAndStoreProducts(*mapper_, kf, detection_.get(), store_.get());
   } else {  // held back from the shared map, mapped in its island
     const KeyframeProducts products =
-        BuildAndStoreProducts(*mapper_, kf, detector_.get(), store_.get());
+        BuildAndStoreProducts(*mapper_, kf, detection_.get(), store_.get());
     const auto [island_row, T_island_odom] = aligner_->IslandOf(kf.session_row);
     islands_->Integrate(island_row, IslandName(island_row), kf, products, T_island_odom);
   }
@@ -350,7 +350,7 @@ StatusOr<std::vector<LoadedKeyframe>> MapServer::LoadStored(const SessionRecord&
       [&](KeyframeRecord rec) -> Status {
         LoadedKeyframe kf;
         std::optional<KeyframeProducts> products = StoredProducts(
-            rec, session, *mapper_, detector_.get(), store_.get(), report, &kf.meta);
+            rec, session, *mapper_, detection_.get(), store_.get(), report, &kf.meta);
         if (!products) {
           ++report->skipped;
           return absl::OkStatus();

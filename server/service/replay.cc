@@ -12,7 +12,7 @@ namespace loci::server {
 
 std::optional<KeyframeProducts> StoredProducts(const KeyframeRecord& rec,
                                               const SessionRecord& session, const Mapper& mapper,
-                                              detection::Detector* detector, MapStore* store,
+                                              KeyframeDetection* detection, MapStore* store,
                                               LoadReport* report, MapperKeyframe* meta) {
   const std::string fingerprint = mapper.options().ProductsFingerprint();
   if (!rec.products.empty()) {
@@ -36,17 +36,17 @@ std::optional<KeyframeProducts> StoredProducts(const KeyframeRecord& rec,
     spdlog::warn("load: keyframe {} skipped: {}", rec.id, kf.status().ToString());
     return std::nullopt;
   }
-  KeyframeProducts products = BuildAndStoreProducts(mapper, *kf, detector, store);
+  KeyframeProducts products = BuildAndStoreProducts(mapper, *kf, detection, store);
   *meta = std::move(*kf);
   ++report->from_raw;
   return products;
 }
 
 bool LoadKeyframe(const KeyframeRecord& rec, const SessionRecord& session, Mapper& mapper,
-                  detection::Detector* detector, MapStore* store, LoadReport* report) {
+                  KeyframeDetection* detection, MapStore* store, LoadReport* report) {
   MapperKeyframe meta;
   const std::optional<KeyframeProducts> products =
-      StoredProducts(rec, session, mapper, detector, store, report, &meta);
+      StoredProducts(rec, session, mapper, detection, store, report, &meta);
   if (!products) return false;
   mapper.Integrate(meta, *products);
   return true;
@@ -77,7 +77,7 @@ int64_t RestoreCheckpoint(MapStore& store, std::unique_ptr<Mapper>* mapper, Load
 // checkpoint was written. They are mapped now, in id order per session.
 Status MapMissedByCheckpoint(MapStore& store, Mapper& mapper,
                              const std::map<int64_t, SessionRecord>& by_row, int64_t checkpoint_id,
-                             detection::Detector* detector, MapStore* product_store,
+                             KeyframeDetection* detection, MapStore* product_store,
                              LoadReport* report) {
   std::map<int64_t, std::vector<int64_t>> missed;  // session row -> keyframe ids
   KeyframeScan metadata;
@@ -103,7 +103,7 @@ Status MapMissedByCheckpoint(MapStore& store, Mapper& mapper,
         ids.front() - 1,
         [&](KeyframeRecord rec) -> Status {
           if (!std::binary_search(ids.begin(), ids.end(), rec.id)) return absl::OkStatus();
-          if (!LoadKeyframe(rec, by_row.at(row), mapper, detector, product_store, report)) {
+          if (!LoadKeyframe(rec, by_row.at(row), mapper, detection, product_store, report)) {
             ++report->skipped;
           }
           return absl::OkStatus();
@@ -119,16 +119,13 @@ Status MapMissedByCheckpoint(MapStore& store, Mapper& mapper,
 
 }  // namespace
 
-Status DetectIfNeeded(detection::Detector* detector, MapperKeyframe* kf) {
-  if (detector == nullptr || !kf->detections.empty()) return absl::OkStatus();
-  LOCI_ASSIGN_OR_RETURN(kf->detections, detector->Detect(kf->bgr, kf->t_ns));
-  return absl::OkStatus();
-}
-
 KeyframeProducts BuildAndStoreProducts(const Mapper& mapper, MapperKeyframe& kf,
-                                       detection::Detector* detector, MapStore* store) {
-  if (Status s = DetectIfNeeded(detector, &kf); !s.ok()) {
-    spdlog::warn("detector failed on keyframe {}: {}", kf.keyframe_id, s.ToString());
+                                       KeyframeDetection* detection, MapStore* store) {
+  if (detection != nullptr) {
+    if (Status s = detection->Apply(&kf); !s.ok()) {
+      spdlog::warn("server detector failed on keyframe {} (its own boxes kept): {}",
+                   kf.keyframe_id, s.ToString());
+    }
   }
   KeyframeProducts products = mapper.BuildProducts(kf);
   if (store != nullptr) {
@@ -143,13 +140,13 @@ KeyframeProducts BuildAndStoreProducts(const Mapper& mapper, MapperKeyframe& kf,
   return products;
 }
 
-StageTimes MapAndStoreProducts(Mapper& mapper, MapperKeyframe& kf, detection::Detector* detector,
+StageTimes MapAndStoreProducts(Mapper& mapper, MapperKeyframe& kf, KeyframeDetection* detection,
                                MapStore* store) {
-  return mapper.Integrate(kf, BuildAndStoreProducts(mapper, kf, detector, store));
+  return mapper.Integrate(kf, BuildAndStoreProducts(mapper, kf, detection, store));
 }
 
 StatusOr<LoadReport> LoadMap(MapStore& store, std::unique_ptr<Mapper>* mapper,
-                             detection::Detector* detector, const LoadOptions& options) {
+                             KeyframeDetection* detection, const LoadOptions& options) {
   LoadReport report;
   const int64_t after_id = options.use_checkpoint ? RestoreCheckpoint(store, mapper, &report) : 0;
   if (!report.checkpoint_skipped.empty()) {
@@ -178,7 +175,7 @@ StatusOr<LoadReport> LoadMap(MapStore& store, std::unique_ptr<Mapper>* mapper,
         }
         if (!it->second.aligned) {
           ++report.held;  // an unaligned robot's: stays out of the map until it is aligned
-        } else if (!LoadKeyframe(rec, it->second, **mapper, detector, product_store, &report)) {
+        } else if (!LoadKeyframe(rec, it->second, **mapper, detection, product_store, &report)) {
           ++report.skipped;
         }
         if (options.progress && ++seen % 200 == 0) options.progress(seen, total);
@@ -187,7 +184,7 @@ StatusOr<LoadReport> LoadMap(MapStore& store, std::unique_ptr<Mapper>* mapper,
       scan));
   if (options.progress) options.progress(seen, total);
   if (after_id > 0) {
-    LOCI_RETURN_IF_ERROR(MapMissedByCheckpoint(store, **mapper, by_row, after_id, detector,
+    LOCI_RETURN_IF_ERROR(MapMissedByCheckpoint(store, **mapper, by_row, after_id, detection,
                                                product_store, &report));
   }
   return report;

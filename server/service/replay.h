@@ -15,26 +15,23 @@
 #include <string>
 
 #include "common/status.h"
-#include "detection/detector.h"
+#include "server/detect/keyframe_detection.h"
 #include "server/map/mapper.h"
 #include "server/storage/map_store.h"
 
 namespace loci::server {
 
-// Runs the detector on keyframes stored without detections (when `detector` is non-null).
-Status DetectIfNeeded(detection::Detector* detector, MapperKeyframe* keyframe);
-
-// Runs the detector when needed and builds a decoded keyframe's products; stores them when
+// Detects the keyframe as `detection` wants (when non-null) and builds a decoded keyframe's products; stores them when
 // `store` is non-null (a failure to store is logged: the products are recomputed on the next
 // start).
 KeyframeProducts BuildAndStoreProducts(const Mapper& mapper, MapperKeyframe& keyframe,
-                                       detection::Detector* detector, MapStore* store);
+                                       KeyframeDetection* detection, MapStore* store);
 
 // Maps one decoded keyframe from its images (detector when needed, products, fusion) and
 // stores its products when `store` is non-null (a failure to store is logged: the products are
 // recomputed on the next start). Returns the mapping stage times.
 StageTimes MapAndStoreProducts(Mapper& mapper, MapperKeyframe& keyframe,
-                               detection::Detector* detector, MapStore* store);
+                               KeyframeDetection* detection, MapStore* store);
 
 struct LoadReport;
 
@@ -43,13 +40,13 @@ struct LoadReport;
 // integrate them with (counted in `report` as from products or from images).
 std::optional<KeyframeProducts> StoredProducts(const KeyframeRecord& rec,
                                               const SessionRecord& session, const Mapper& mapper,
-                                              detection::Detector* detector, MapStore* store,
+                                              KeyframeDetection* detection, MapStore* store,
                                               LoadReport* report, MapperKeyframe* meta);
 
 // Maps one stored keyframe from its products, or from its images (whose new products are
 // stored when `store` is non-null); false when it had to be skipped (counted in `report`).
 bool LoadKeyframe(const KeyframeRecord& rec, const SessionRecord& session, Mapper& mapper,
-                  detection::Detector* detector, MapStore* store, LoadReport* report);
+                  KeyframeDetection* detection, MapStore* store, LoadReport* report);
 
 struct LoadOptions {
   bool use_checkpoint = true;
@@ -76,6 +73,6 @@ struct LoadReport {
 // Loads the map into `*mapper` (fresh; replaced by a fresh one when a checkpoint turns out to
 // be unusable).
 StatusOr<LoadReport> LoadMap(MapStore& store, std::unique_ptr<Mapper>* mapper,
-                             detection::Detector* detector, const LoadOptions& options = {});
+                             KeyframeDetection* detection, const LoadOptions& options = {});
 
 }  // namespace loci::server

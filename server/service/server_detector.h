@@ -1,19 +1,20 @@
-// The server-side detector for keyframes stored without detections (config section `detector`,
-// `enabled: true`), shared by loci-server and `loci reprocess`.
+// The server-side detection of keyframes (config section `detector`, `enabled: true`), shared by
+// loci-server and `loci reprocess`.
 #pragma once
 
 #include <memory>
 #include <string>
 
 #include "common/status.h"
-#include "detection/detector.h"
+#include "server/detect/keyframe_detection.h"
 #include "server/service/server_options.h"
 
 namespace loci::server {
 
 // Null when the config does not enable it; FailedPrecondition when it is enabled but this build
 // has no detection module. config_path: the file the options came from (relative model paths).
-StatusOr<std::shared_ptr<detection::Detector>> MakeServerDetector(const ServerOptions& options,
+// Makes options.detector_threads detector instances.
+StatusOr<std::shared_ptr<KeyframeDetection>> MakeServerDetection(const ServerOptions& options,
                                                                   const std::string& config_path);
 
 }  // namespace loci::server

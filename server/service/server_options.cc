@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "common/config.h"
+#include "server/detect/keyframe_detection.h"
 
 namespace loci::server {
 
@@ -45,10 +46,18 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
   config_dir = std::filesystem::path(path).parent_path().string();
   if (const YAML::Node d = root["detector"]) {
     LOCI_RETURN_IF_ERROR(ReadOptional(d, "enabled", &detector_enabled));
+    LOCI_RETURN_IF_ERROR(ReadOptional(d, "mode", &detector_mode));
+    LOCI_RETURN_IF_ERROR(ReadOptional(d, "threads", &detector_threads));
+    LOCI_RETURN_IF_ERROR(ParseDetectMode(detector_mode).status());
+    if (detector_threads < 1 || detector_threads > 16) {
+      return absl::InvalidArgumentError("detector.threads must be in [1, 16]");
+    }
     detector_config = YAML::Clone(d);  // the detector's own keys (checked when it is made)
-    detector_config.remove("enabled");
+    for (const char* key : {"enabled", "mode", "threads"}) detector_config.remove(key);
     // Keyframes without detections get the server detector's: its options shape the products.
-    if (detector_enabled) map.NoteProductsInput("detector\n" + YAML::Dump(detector_config));
+    if (detector_enabled) {
+      map.NoteProductsInput("detector " + detector_mode + "\n" + YAML::Dump(detector_config));
+    }
   }
   LOCI_RETURN_IF_ERROR(LoadClasses());
   LOCI_RETURN_IF_ERROR(map.FromYaml(root["map"]));

@@ -44,9 +44,13 @@ struct ServerOptions {
   // product options (`loci reprocess` skips it).
   double raw_keep_days = -1;
   int64_t raw_keep_last = -1;
-  // Server-side detector for keyframes that arrive without detections (section `detector`:
-  // `enabled` (default false) plus the keys of detection::DetectorOptions).
+  // Server-side detector (section `detector`: `enabled` (default false), `mode` ("missing":
+  // keyframes that arrive without detections; "all": every keyframe, the robot's boxes as the
+  // fallback), `threads` (detector instances, each on its own thread, default 1), plus the keys
+  // of detection::DetectorOptions).
   bool detector_enabled = false;
+  std::string detector_mode = "missing";
+  int detector_threads = 1;
   YAML::Node detector_config;
   std::string config_dir;    // directory of the config file (relative paths)
   std::string classes_file;  // class lists; "" = <source>/config/classes.yaml

@@ -59,6 +59,21 @@ TEST_F(ServerOptionsKeys, MisspeltKeysWarnOrFailWithFileAndKey) {
       << r;
 }
 
+TEST_F(ServerOptionsKeys, DetectorModeAndThreadsAreReadAndCheckedAndNotPassedToTheDetector) {
+  ServerOptions o;
+  ASSERT_TRUE(o.FromYamlFile(Write("detector:\n  enabled: true\n  mode: all\n  threads: 2\n"
+                                   "  input_size_px: 640\n"))
+                  .ok());
+  EXPECT_EQ(o.detector_mode, "all");
+  EXPECT_EQ(o.detector_threads, 2);
+  EXPECT_FALSE(o.detector_config["mode"]);
+  EXPECT_EQ(o.detector_config["input_size_px"].as<int>(), 640);
+  const Status mode = ServerOptions().FromYamlFile(Write("detector:\n  mode: sometimes\n"));
+  EXPECT_NE(mode.message().find("sometimes"), std::string::npos) << mode;
+  const Status threads = ServerOptions().FromYamlFile(Write("detector:\n  threads: 0\n"));
+  EXPECT_NE(threads.message().find("detector.threads"), std::string::npos) << threads;
+}
+
 TEST_F(ServerOptionsKeys, ANonPositiveClassHeightFailsWithTheClassName) {
   MapOptions map;
   const Status s = map.ClassesFromYaml(YAML::Load("max_height_m:\n  cup: -0.1\n"));
@@ -99,7 +114,9 @@ TEST_F(ServerOptionsKeys, TheBottomQuantileIsReadAndOneOfHalfOrMoreIsRefused) {
 TEST_F(ServerOptionsKeys, TheShippedMapOptionsAreTheLibraryDefaults) {
   ServerOptions shipped;
   ASSERT_TRUE(shipped.FromYamlFile(SourceDir() + "/config/server.yaml").ok());
-  EXPECT_EQ(shipped.map.ValuesYaml(), MapOptions::DefaultsYaml());
+  ServerOptions library;  // the defaults, with the class lists of the shipped classes file
+  ASSERT_TRUE(library.LoadClasses().ok());
+  EXPECT_EQ(shipped.map.ValuesYaml(), library.map.ValuesYaml());
   EXPECT_LE(MapOptions::OptionCount(), 80u);
   // Every key has its doc line.
   const std::vector<std::string> lines = absl::StrSplit(MapOptions::DefaultsYaml(), '\n');

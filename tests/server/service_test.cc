@@ -35,15 +35,17 @@ class ViewDetector final : public detection::Detector {
       : by_t_ns_(std::move(by_t_ns)) {}
   StatusOr<std::vector<Detection2D>> Detect(const cv::Mat& bgr, int64_t t_ns) override {
     if (bgr.empty()) return absl::InvalidArgumentError("empty image");
-    ++calls;
+    calls.fetch_add(1);
+    if (fail) return absl::InternalError("model failed");
     auto it = by_t_ns_.find(t_ns);
     return it == by_t_ns_.end() ? std::vector<Detection2D>{} : it->second;
   }
   std::string Name() const override { return "view"; }
-  int calls = 0;
+  std::atomic<int> calls{0};
+  bool fail = false;  // set before the server starts
 
  private:
-  std::map<int64_t, std::vector<Detection2D>> by_t_ns_;
+  const std::map<int64_t, std::vector<Detection2D>> by_t_ns_;
 };
 
 class ServiceTest : public ::testing::Test {
@@ -59,12 +61,12 @@ class ServiceTest : public ::testing::Test {
   }
   void TearDown() override { Stop(); }
 
-  void Start(std::shared_ptr<detection::Detector> detector = nullptr, int max_watchers = 64) {
+  void Start(std::shared_ptr<KeyframeDetection> detection = nullptr, int max_watchers = 64) {
     ServerOptions o;
     o.db_path = db_;
     o.max_watchers = max_watchers;
     o.map.mapped_classes = {"book", "cup", "laptop"};
-    auto s = MapServer::Open(o, nullptr, std::move(detector));
+    auto s = MapServer::Open(o, nullptr, std::move(detection));
     ASSERT_TRUE(s.ok()) << s.status();
     server_ = std::move(*s);
     auto g = GrpcServer::Start(server_.get(), "127.0.0.1:0", o.max_message_mb);
@@ -467,7 +469,8 @@ TEST_F(ServiceTest, ServerDetectorRunsOnKeyframesWithoutDetections) {
   for (int i = 0; i < 6; ++i) by_t_ns[StampNs(i)] = views_[i].detections;
   auto detector = std::make_shared<ViewDetector>(by_t_ns);
   Stop();
-  Start(detector);
+  Start(std::make_shared<KeyframeDetection>(
+      std::vector<std::shared_ptr<detection::Detector>>{detector}, KeyframeDetectionOptions{}));
   const std::string session = Open();
   std::vector<Keyframe> frames;
   for (int i = 0; i < 6; ++i) {
@@ -479,6 +482,41 @@ TEST_F(ServiceTest, ServerDetectorRunsOnKeyframesWithoutDetections) {
   server_->Flush();
   EXPECT_EQ(detector->calls, 6);
   EXPECT_EQ(server_->mapper().Snapshot(true).size(), 3u);
+}
+
+// Mode "all": every keyframe is detected on the server, whatever the robot sent; when the
+// server's detector fails, the robot's boxes are mapped instead.
+TEST_F(ServiceTest, ServerDetectionInModeAllReplacesTheRobotsBoxesElseFallsBackToThem) {
+  std::map<int64_t, std::vector<Detection2D>> by_t_ns;
+  for (int i = 0; i < 6; ++i) by_t_ns[StampNs(i)] = views_[i].detections;
+  for (const bool server_fails : {false, true}) {
+    auto detector = std::make_shared<ViewDetector>(by_t_ns);
+    detector->fail = server_fails;
+    Stop();
+    for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(db_ + suffix);
+    KeyframeDetectionOptions mode_all;
+    mode_all.mode = DetectMode::kAll;
+    auto detection = std::make_shared<KeyframeDetection>(
+        std::vector<std::shared_ptr<detection::Detector>>{detector}, mode_all);
+    Start(detection);
+    const std::string session = Open();
+    std::vector<Keyframe> frames;
+    for (int i = 0; i < 6; ++i) {
+      frames.push_back(Frame(session, i));
+      // The robot's detector saw only the first object: the server's sees all three.
+      auto* robot_boxes = frames.back().mutable_detections();
+      if (!server_fails && robot_boxes->size() > 1) {
+        robot_boxes->DeleteSubrange(1, robot_boxes->size() - 1);
+      }
+    }
+    grpc::Status st;
+    ASSERT_EQ(Send(frames, &st).size(), 6u);
+    server_->Flush();
+    EXPECT_EQ(detector->calls, 6);
+    EXPECT_EQ(detection->detected(), server_fails ? 0 : 6);
+    EXPECT_EQ(detection->failed(), server_fails ? 6 : 0);
+    EXPECT_EQ(server_->mapper().Snapshot(true).size(), 3u) << "server fails: " << server_fails;
+  }
 }
 
 TEST_F(ServiceTest, OpenSessionValidatesItsRequest) {
