@@ -1,5 +1,5 @@
 // How well a detection's own pixels fill its box: the depth-support gate of an observation
-// (issue 11, per-observation quality). A dark screen seen at a slant returns no depth; its box
+// (per-observation quality). A dark screen seen at a slant returns no depth; its box
 // then holds only the wall around and behind it, and the depth mask takes that wall. Such a mask
 // is a ring: it covers the box's middle less than the box as a whole.
 #pragma once

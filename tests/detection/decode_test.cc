@@ -1,4 +1,5 @@
 // Decode and NMS on hand-made output tensors.
+#include "common/detections_io.h"
 #include "detection/decode.h"
 
 #include <gtest/gtest.h>

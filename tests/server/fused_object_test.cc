@@ -164,10 +164,10 @@ TEST(FusedObject, BoxCentreKeepsContiguousLegsAndDropsAStrayCluster) {
 }
 
 // Two pieces of one desk, both expected but not detected in keyframes 4-6, one of them
-// detected in keyframe 6. Merged, the desk missed keyframes 4 and 5 once each, not 5 times:
-// before session 42 misses were a count, and merged pieces of a rarely boxed desk summed them
-// into an existence below confirmation (fr1_rpy start 60). The list survives a checkpoint, and
-// a checkpoint that only counts misses is refused (the map is then replayed).
+// detected in keyframe 6. Merged, the desk missed keyframes 4 and 5 once each, not 5 times: a
+// miss is evidence about one keyframe, so merged pieces must not sum it into an existence
+// below confirmation. The list survives a checkpoint, and a checkpoint that only counts misses
+// is refused (the map is then replayed).
 TEST(FusedObject, MergedPiecesMissAKeyframeOnce) {
   const auto piece = [](int64_t id, double x0_m, const std::vector<int64_t>& seen_kfs) {
     FusedObject o(id, 0.01, true, LabelDistribution(13, 0.05), {0.05, 0.0, 0.0, {}, 0.03});
@@ -205,10 +205,9 @@ TEST(FusedObject, MergedPiecesMissAKeyframeOnce) {
 }
 
 
-// fr1_rpy: two books lie side by side, and 2 of the 12 boxes of the front one also held the
-// back one. The default support (a quarter of the views) keeps the back book out of the front
-// one's shape; a tenth (the default before session 46) let it stretch the box by 20 cm and move
-// the centroid 10 cm away from the camera.
+// Two books lie side by side, and 2 of the 12 boxes of the front one also hold the back one.
+// A shape cell needs a quarter of the views: that keeps the back book out of the front one's
+// shape; a tenth would let it stretch the box by 20 cm and move the centroid 10 cm away.
 TEST(FusedObject, ABookNextToAnotherInAFewLooseBoxesKeepsItsOwnShape) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<float> u(0.f, 1.f);

@@ -29,7 +29,7 @@ TEST(GraphOptions, ShippedSectionParsesStrictlyAndStatesTheDefaults) {
   const GraphOptions d;
   // The one default the server's file changes: the library solves 4-DoF when every keyframe is
   // gravity-aligned ("auto"); the server solves 6-DoF, so that two robots' odometry tilt drifts
-  // do not stand against each other in one map (docs/results.md, session 32).
+  // do not stand against each other in one map.
   EXPECT_EQ(d.dof, "auto");
   EXPECT_EQ(parsed.dof, "6dof");
   EXPECT_EQ(parsed.odometry.sigma_trans_m, d.odometry.sigma_trans_m);

@@ -1,4 +1,4 @@
-// An island's own loop closure (issue 15), on loopback gRPC: robot A maps one `loci synth`
+// An island's own loop closure, on loopback gRPC: robot A maps one `loci synth`
 // room (the shared map); robot B, whose odometry drifts (a steady yaw and translation drift,
 // as a visual odometry's), swings its camera back and forth in another room for 30 s. B is never
 // aligned, so its keyframes are mapped in an island of its own; the island's pose graph must

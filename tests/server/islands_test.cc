@@ -1,4 +1,4 @@
-// Map islands (issue 15) on loopback gRPC: robot A maps one `loci synth` room (the shared map),
+// Map islands on loopback gRPC: robot A maps one `loci synth` room (the shared map),
 // robot B another room with its own odometry. B is never aligned, and its keyframes are mapped
 // in an island of its own: its objects are as exact as a single robot's map (count error 0,
 // centroids within 2 cm, in B's own frame), FindObjects and GetObject give them with their

@@ -1,8 +1,8 @@
 // Odometry edges within a client's local map (graph.odometry.local_map_keyframes): a tracker that
 // matches every keyframe against the points of its last N keyframes errs by a bounded amount
-// between two keyframes of one window, not by a chain of independent steps. On fr1_rpy the
-// server's verified loops are noisier than that odometry (docs/results.md, sessions 47-48); with
-// consecutive edges only, the graph takes their noise into the map. Synthetic, exact truth.
+// between two keyframes of one window, not by a chain of independent steps. On a real hand-held
+// sequence the server's verified loops are noisier than that odometry; with consecutive edges
+// only, the graph takes their noise into the map. Synthetic, exact truth.
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -134,7 +134,7 @@ TEST(SupportTops, NoLevelTopOrDisabledMeansNoTops) {
   EXPECT_EQ(SupportTops(wall, Eigen::Vector3d::UnitZ(), On(), Mask()).size(), 0u);
   Points top;
   AddTop(0.0, 1.0, 0.0, 1.0, 0.7, &top);
-  EXPECT_TRUE(SupportTopsOptions{}.enabled);  // on by default (session 25)
+  EXPECT_TRUE(SupportTopsOptions{}.enabled);  // on by default
   SupportTopsOptions off;
   off.enabled = false;
   EXPECT_EQ(SupportTops(top, Eigen::Vector3d::UnitZ(), off, Mask()).size(), 0u);
