@@ -26,7 +26,7 @@ namespace loci::cli {
 namespace {
 
 struct EvalObjectsArgs {
-  std::string gt, groundtruth, db, server, config;
+  std::string gt, groundtruth, db, server, config, detector;
   std::vector<std::string> classes;
   std::string align = "positions";
   double max_match_m = 0.3;
@@ -188,6 +188,9 @@ int RunEvalObjects(const EvalObjectsArgs& a) {
   Status st = options.FromYamlFile(a.config.empty() ? SourceDir() + "/config/server.yaml"
                                                     : a.config);
   if (!st.ok()) return Fail(2, st.message());
+  // The server's detector section: its boxes shaped the stored products.
+  if (!a.detector.empty()) st = options.DetectorFromYamlFile(a.detector);
+  if (!st.ok()) return Fail(2, st.message());
   auto map = a.db.empty() ? FromServer(a.server, a.security, !a.all) : FromDb(a.db, options, !a.all);
   if (!map.ok()) return Fail(1, map.status().message());
   report::GroundTruthEvalInput in;
@@ -237,6 +240,9 @@ void RegisterEvalObjectsCommand(CLI::App& app) {
   c->add_option("--server", args->server, "evaluate a running server, HOST:PORT");
   AddSecurityOptions(c, &args->security);
   c->add_option("--config", args->config, "server YAML (map options, class lists)")
+      ->check(CLI::ExistingFile);
+  c->add_option("--detector", args->detector,
+                "the server's --detector YAML, when it ran one (its boxes shaped the products)")
       ->check(CLI::ExistingFile);
   c->add_option("--classes", args->classes,
                 "classes to evaluate (default: mapped, non-dynamic classes)");

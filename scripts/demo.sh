@@ -6,7 +6,8 @@
 # Ctrl-C, then stop it and write the exports.
 # Data: TUM_DIR, else ../shared/data/tum_fr1_rpy next to the repo, else $LOCI_DATA (a TUM folder or
 # a folder holding tum_fr1_rpy), else the 60-frame sample shipped in tests/data.
-# Environment: LOCI_DEMO_OUT (output folder, default out/demo-DATE), LOCI_DEMO_MAX_FRAMES (0 = all).
+# Environment: LOCI_DEMO_OUT (output folder, default out/demo-DATE), LOCI_DEMO_MAX_FRAMES (0 = all),
+# LOCI_SERVER_DETECTOR (a `detector:` YAML for server-side detection, loci-server --detector).
 set -euo pipefail
 
 if [ $# -lt 1 ] || [ ! -x "$1/loci-server" ] || [ ! -x "$1/loci-track" ] || [ ! -x "$1/loci" ]; then
@@ -49,10 +50,11 @@ log "output: $OUT"
 
 # The server binds a free loopback port (--listen :0) and prints "listening on HOST:PORT".
 HTTP_PORT="$(python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])' 2>/dev/null || echo 0)"
-HTTP_ARGS=()
-if [ "$HTTP_PORT" != 0 ]; then HTTP_ARGS=(--http "127.0.0.1:$HTTP_PORT"); fi
+SERVER_ARGS=()
+if [ "$HTTP_PORT" != 0 ]; then SERVER_ARGS=(--http "127.0.0.1:$HTTP_PORT"); fi
+if [ -n "${LOCI_SERVER_DETECTOR:-}" ]; then SERVER_ARGS+=(--detector "$LOCI_SERVER_DETECTOR"); fi
 "$BIN/loci-server" --config "$ROOT/config/server.yaml" --listen 127.0.0.1:0 --db "$OUT/loci.db" \
-  "${HTTP_ARGS[@]}" >"$OUT/server.out" 2>"$OUT/server.log" &
+  "${SERVER_ARGS[@]}" >"$OUT/server.out" 2>"$OUT/server.log" &
 SERVER_PID=$!
 cleanup() { kill -TERM "$SERVER_PID" 2>/dev/null || true; }
 trap cleanup EXIT

@@ -50,7 +50,7 @@ std::string ViewerDir(const std::string& flag) {
 struct Flags {
   std::string config_path, listen, db, http, query_config, viewer_dir, log_level = "info";
   bool strict_config = false, print_options = false;
-  std::string token_file;
+  std::string token_file, detector_config;
   loci::server::TlsFiles tls;
 };
 
@@ -63,6 +63,10 @@ void AddFlags(CLI::App* app, Flags* f) {
   app->add_option("--viewer-dir", f->viewer_dir,
                   "web viewer files served at http://HOST:PORT/ (off = none) [$LOCI_HOME/viewer, "
                   "else ../share/loci/viewer beside this binary]");
+  app->add_option("--detector", f->detector_config,
+                  "YAML with a `detector:` section replacing the config's (server-side "
+                  "detection, e.g. config/server-detector.yaml)")
+      ->check(CLI::ExistingFile);
   app->add_option("--query-config", f->query_config,
                   "query engine YAML (see config/query.yaml) [built-in defaults]")
       ->check(CLI::ExistingFile);
@@ -95,6 +99,9 @@ loci::StatusOr<Setup> ReadSetup(const Flags& f) {
   Setup s;
   LOCI_RETURN_IF_ERROR(f.config_path.empty() ? s.options.LoadClasses()
                                              : s.options.FromYamlFile(f.config_path));
+  if (!f.detector_config.empty()) {
+    LOCI_RETURN_IF_ERROR(s.options.DetectorFromYamlFile(f.detector_config));
+  }
   if (!f.listen.empty()) s.options.listen = f.listen;
   if (!f.db.empty()) s.options.db_path = f.db;
   if (!f.http.empty()) s.options.http = f.http;
@@ -163,7 +170,8 @@ int main(int argc, char** argv) {
   const loci::server::ServerOptions& options = setup->options;
   const sigset_t signals = BlockShutdownSignals();
 
-  auto detection = loci::server::MakeServerDetection(options, flags.config_path);
+  auto detection = loci::server::MakeServerDetection(
+      options, flags.detector_config.empty() ? flags.config_path : flags.detector_config);
   if (!detection.ok()) return Fail(detection.status(), 2);
   // The port opens at once; the map loads behind it (health NOT_SERVING until it is in).
   auto server = loci::server::MapServer::OpenAsync(options, nullptr, *detection);

@@ -8,6 +8,33 @@
 
 namespace loci::server {
 
+Status ServerOptions::ReadDetector(const YAML::Node& d) {
+  LOCI_RETURN_IF_ERROR(ReadOptional(d, "enabled", &detector_enabled));
+  LOCI_RETURN_IF_ERROR(ReadOptional(d, "mode", &detector_mode));
+  LOCI_RETURN_IF_ERROR(ReadOptional(d, "threads", &detector_threads));
+  LOCI_RETURN_IF_ERROR(ParseDetectMode(detector_mode).status());
+  if (detector_threads < 1 || detector_threads > 16) {
+    return absl::InvalidArgumentError("detector.threads must be in [1, 16]");
+  }
+  detector_config = YAML::Clone(d);  // the detector's own keys (checked when it is made)
+  for (const char* key : {"enabled", "mode", "threads"}) detector_config.remove(key);
+  // The server detector's boxes shape the products.
+  if (detector_enabled) {
+    map.NoteProductsInput("detector " + detector_mode + "\n" + YAML::Dump(detector_config));
+  }
+  return absl::OkStatus();
+}
+
+Status ServerOptions::DetectorFromYamlFile(const std::string& path) {
+  LOCI_ASSIGN_OR_RETURN(YAML::Node root, LoadYamlFile(path));
+  const ConfigFileScope scope(path);
+  LOCI_RETURN_IF_ERROR(CheckKnownKeys(root, "", {"detector"}));
+  if (!root["detector"]) {
+    return absl::InvalidArgumentError(absl::StrCat(path, ": no `detector:` section"));
+  }
+  return ReadDetector(root["detector"]);
+}
+
 Status ServerOptions::FromYamlFile(const std::string& path) {
   LOCI_ASSIGN_OR_RETURN(YAML::Node root, LoadYamlFile(path));
   const ConfigFileScope scope(path);
@@ -44,21 +71,7 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
     }
   }
   config_dir = std::filesystem::path(path).parent_path().string();
-  if (const YAML::Node d = root["detector"]) {
-    LOCI_RETURN_IF_ERROR(ReadOptional(d, "enabled", &detector_enabled));
-    LOCI_RETURN_IF_ERROR(ReadOptional(d, "mode", &detector_mode));
-    LOCI_RETURN_IF_ERROR(ReadOptional(d, "threads", &detector_threads));
-    LOCI_RETURN_IF_ERROR(ParseDetectMode(detector_mode).status());
-    if (detector_threads < 1 || detector_threads > 16) {
-      return absl::InvalidArgumentError("detector.threads must be in [1, 16]");
-    }
-    detector_config = YAML::Clone(d);  // the detector's own keys (checked when it is made)
-    for (const char* key : {"enabled", "mode", "threads"}) detector_config.remove(key);
-    // Keyframes without detections get the server detector's: its options shape the products.
-    if (detector_enabled) {
-      map.NoteProductsInput("detector " + detector_mode + "\n" + YAML::Dump(detector_config));
-    }
-  }
+  if (const YAML::Node d = root["detector"]) LOCI_RETURN_IF_ERROR(ReadDetector(d));
   LOCI_RETURN_IF_ERROR(LoadClasses());
   LOCI_RETURN_IF_ERROR(map.FromYaml(root["map"]));
   LOCI_RETURN_IF_ERROR(place.FromYaml(root["place"]));

@@ -65,6 +65,11 @@ struct ServerOptions {
   // The keyframe pose graph loop closure solves (section `graph`, server/graph/).
   GraphOptions graph;
 
+  // Reads a `detector:` section (keys above); InvalidArgument for a bad mode or thread count.
+  Status ReadDetector(const YAML::Node& detector);
+  // Replaces the detector section with the one of a file holding only `detector:` (loci-server
+  // --detector, e.g. config/server-detector.yaml).
+  Status DetectorFromYamlFile(const std::string& path);
   // Reads config/server.yaml (sections server, detector, map, place, align, sessions, graph); then the classes
   // file.
   Status FromYamlFile(const std::string& path);
