@@ -14,7 +14,7 @@
 #          as on a robot: the map depends on timing, so the runs spread)
 # Environment: LOCI_EVAL_CONFIG (server YAML, default config/server.yaml), LOCI_EVAL_CLIENT_CONFIG
 # (loci-track YAML, default config/client.yaml), LOCI_EVAL_LOG_LEVEL (loci-server --log-level,
-# default info; RUN/server.log).
+# default info; RUN/server.log), LOCI_SERVER_DETECTOR (a `detector:` YAML, loci-server --detector).
 set -euo pipefail
 
 if [ $# -lt 5 ]; then sed -n 2,18p "$0" >&2; exit 2; fi
@@ -38,8 +38,10 @@ start_server() {
   local dir="$1"
   rm -f "$dir"/loci.db*
   : >"$dir/server.out"  # before the server opens it: the loop below reads it at once
+  local detector=()
+  if [ -n "${LOCI_SERVER_DETECTOR:-}" ]; then detector=(--detector "$LOCI_SERVER_DETECTOR"); fi
   "$BIN/loci-server" --config "$CONFIG" --listen 127.0.0.1:0 --db "$dir/loci.db" \
-    --log-level "$LOG_LEVEL" \
+    --log-level "$LOG_LEVEL" "${detector[@]}" \
     >"$dir/server.out" 2>"$dir/server.log" &
   SERVER_PID=$!
   ADDR=""
