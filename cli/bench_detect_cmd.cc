@@ -1,5 +1,6 @@
-// `loci bench detect --tum DIR [--frames N] [--config FILE]`: detector speed (ms per frame,
-// median and p95, at 1 and 2 OpenCV threads) for the shipped YOLOX-Nano and NanoDet-m,
+// `loci bench detect --tum DIR [--frames N] [--config FILE] [--server-detector FILE]`: detector
+// speed (ms per frame, median and p95, at 1 and 2 OpenCV threads) for the shipped YOLOX-Nano and
+// NanoDet-m, and for the server's detector of a loci-server --detector YAML,
 // detections per frame, depth-mask time and tracker time per frame, on a TUM RGB-D folder.
 #include <algorithm>
 #include <chrono>
@@ -21,10 +22,49 @@ struct BenchDetectArgs {
   std::string tum_dir;
   int frames = 60;
   std::string config;
+  std::string server_detector;  // loci-server --detector YAML; "" = none
 };
 
 double ElapsedMs(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// Runs `opt`'s detector over the images after one warm-up forward; prints its row of the table.
+StatusOr<std::vector<std::vector<Detection2D>>> TimeDetector(
+    const detection::DetectorOptions& opt, const std::vector<cv::Mat>& images,
+    const std::vector<int64_t>& stamps) {
+  LOCI_ASSIGN_OR_RETURN(auto det, detection::MakeDetector(opt));
+  (void)det->Detect(images[0], 0);  // warm-up: the first forward allocates
+  std::vector<double> ms;
+  size_t total = 0;
+  std::vector<std::vector<Detection2D>> all;
+  for (size_t i = 0; i < images.size(); ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    LOCI_ASSIGN_OR_RETURN(std::vector<Detection2D> r, det->Detect(images[i], stamps[i]));
+    ms.push_back(ElapsedMs(t0));
+    total += r.size();
+    all.push_back(std::move(r));
+  }
+  double mean = 0.0;
+  for (double v : ms) mean += v / ms.size();
+  std::printf("%-22s %7d %10.1f %10.1f %10.1f %9.2f\n", det->Name().c_str(), opt.num_threads,
+              Percentile(ms, 0.5), Percentile(ms, 0.95), mean,
+              static_cast<double>(total) / images.size());
+  return all;
+}
+
+// The detector of a loci-server --detector YAML (its `detector:` section), as configured.
+Status TimeServerDetector(const std::string& path, const std::vector<cv::Mat>& images,
+                          const std::vector<int64_t>& stamps) {
+  LOCI_ASSIGN_OR_RETURN(YAML::Node root, LoadYamlFile(path));
+  if (!root["detector"]) return absl::InvalidArgumentError(path + ": no `detector:` section");
+  YAML::Node node = YAML::Clone(root["detector"]);
+  for (const char* key : {"enabled", "mode", "threads"}) node.remove(key);  // the server's keys
+  const ConfigFileScope scope(path);
+  LOCI_ASSIGN_OR_RETURN(detection::DetectorOptions opt,
+                        detection::DetectorOptions::FromYaml(node, SourceDir()));
+  std::printf("server detector of %s:\n", path.c_str());
+  return TimeDetector(opt, images, stamps).status();
 }
 
 int RunBenchDetect(const BenchDetectArgs& a) {
@@ -41,7 +81,9 @@ int RunBenchDetect(const BenchDetectArgs& a) {
   }
   const size_t n = std::min<size_t>(seq->frames.size(), a.frames > 0 ? a.frames : SIZE_MAX);
   std::vector<cv::Mat> images, depths;
+  std::vector<int64_t> stamps;
   for (size_t i = 0; i < n; ++i) {
+    stamps.push_back(seq->frames[i].rgb_t_ns);
     images.push_back(cv::imread(seq->frames[i].rgb_path, cv::IMREAD_COLOR));
     depths.push_back(cv::imread(seq->frames[i].depth_path, cv::IMREAD_UNCHANGED));
     if (images.back().empty()) {
@@ -72,31 +114,19 @@ int RunBenchDetect(const BenchDetectArgs& a) {
       opt.input_size_px = m.input;
       opt.nms_iou = m.nms;
       opt.num_threads = threads;
-      auto det = detection::MakeDetector(opt);
-      if (!det.ok()) {
-        std::cerr << "error: " << det.status().message() << "\n";
+      auto all = TimeDetector(opt, images, stamps);
+      if (!all.ok()) {
+        std::cerr << "error: " << all.status().message() << "\n";
         return 1;
       }
-      (void)(*det)->Detect(images[0], 0);  // warm-up: the first forward allocates
-      std::vector<double> ms;
-      size_t total = 0;
-      std::vector<std::vector<Detection2D>> all;
-      for (size_t i = 0; i < n; ++i) {
-        const auto t0 = std::chrono::steady_clock::now();
-        auto r = (*det)->Detect(images[i], seq->frames[i].rgb_t_ns);
-        ms.push_back(ElapsedMs(t0));
-        if (!r.ok()) {
-          std::cerr << "error: " << r.status().message() << "\n";
-          return 1;
-        }
-        total += r->size();
-        all.push_back(std::move(*r));
-      }
-      double mean = 0.0;
-      for (double v : ms) mean += v / ms.size();
-      std::printf("%-22s %7d %10.1f %10.1f %10.1f %9.2f\n", (*det)->Name().c_str(), threads,
-                  Percentile(ms, 0.5), Percentile(ms, 0.95), mean, static_cast<double>(total) / n);
-      if (std::string(m.type) == "yolox" && threads == 1) yolox_dets = std::move(all);
+      if (std::string(m.type) == "yolox" && threads == 1) yolox_dets = *std::move(all);
+    }
+  }
+  if (!a.server_detector.empty()) {
+    const Status s = TimeServerDetector(a.server_detector, images, stamps);
+    if (!s.ok()) {
+      std::cerr << "error: " << s.message() << "\n";
+      return 1;
     }
   }
 
@@ -135,6 +165,9 @@ void RegisterBenchDetectCommand(CLI::App& app) {
       ->check(CLI::ExistingDirectory);
   c->add_option("--frames", args->frames, "frames to run (0 = all)")->capture_default_str();
   c->add_option("--config", args->config, "detection YAML (default: config/detection.yaml)");
+  c->add_option("--server-detector", args->server_detector,
+                "also time a loci-server --detector YAML's model (config/server-detector.yaml)")
+      ->check(CLI::ExistingFile);
   c->callback([args] { ExitCode() = RunBenchDetect(*args); });
 }
 
