@@ -143,7 +143,10 @@ int64_t ObjectMap::MergeDuplicates(int64_t id, std::vector<ObjectChange>* change
       if (other_id == id) continue;
       const double d = (other.centroid_m() - self.centroid_m()).norm();
       if (!MayTouch(d, self.half_size_m(), other.half_size_m(), options_)) continue;
-      if (!self_view) self_view = ViewOf(self, &self_keys, &self_footprint);
+      if (!self_view) {
+        self_view = ViewOf(self, &self_keys, &self_footprint);
+        self_view->tracks = nullptr;  // two objects merge on geometry alone (README, step 2)
+      }
       VoxelSet keys, footprint;
       if (association_.Score(*self_view, ViewOf(other, &keys, &footprint)) == 0) continue;
       id = Merge(id, other_id, changes);
