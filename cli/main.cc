@@ -94,6 +94,7 @@ int main(int argc, char** argv) {
   loci::cli::RegisterAskCommand(app);
   loci::cli::RegisterObjectsCommands(app);
   loci::cli::RegisterBenchReportCommand(app);
+  loci::cli::RegisterBenchObjectsCommand(app);
 
   loci::cli::AllowNoSubcommand(&app);
   CLI11_PARSE(app, argc, argv);

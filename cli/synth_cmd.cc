@@ -1,4 +1,5 @@
-// `loci synth --out DIR [--seed N] [--frames N] [--objects N] [--dynamic] [--noise] ...`:
+// `loci synth --out DIR [--seed N] [--frames N] [--objects N] [--dynamic] [--noise] [--varied]
+// [--det-noise] ...`:
 // renders a synthetic TUM-layout RGB-D sequence with exact ground truth (synth/).
 #include <algorithm>
 #include <cstdio>
@@ -27,6 +28,10 @@ void RegisterSynthCommands(CLI::App& app) {
   cmd->add_flag("--dynamic", opt->dynamic, "Add a walking person (class person, dynamic)");
   cmd->add_flag("--noise", opt->depth_noise,
                 "Kinect-like depth noise, quantisation and edge dropouts (default: exact depth)");
+  cmd->add_flag("--varied", opt->varied_layout,
+                "Room size, table size and place, shelf or none and the object count from the seed");
+  cmd->add_flag("--det-noise", opt->detector_noise,
+                "Detector errors in detections.jsonl: jitter, misses, false boxes, confusions");
   cmd->add_option("--width", opt->width_px, "Image width, px (fr1 intrinsics scaled)")
       ->capture_default_str();
   cmd->add_option("--height", opt->height_px, "Image height, px")->capture_default_str();

@@ -82,6 +82,7 @@ Status WriteObjectsJson(const std::string& path, const GroundTruthScene& scene) 
                             {"aabb_max_m", Vec(g.aabb_max_m)},
                             {"on", g.on_id ? nlohmann::json(g.on_id) : nlohmann::json(nullptr)},
                             {"dynamic", g.dynamic}});
+    if (g.confidence != "high") j["objects"].back()["confidence"] = g.confidence;
   }
   std::ofstream out(path);
   if (!out) return absl::PermissionDeniedError(absl::StrCat("cannot write ", path));

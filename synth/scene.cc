@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "common/time.h"
 #include "synth/object_catalog.h"
@@ -20,6 +21,34 @@ struct Rect2 {
   bool Overlaps(const Rect2& o) const { return x0 < o.x1 && o.x0 < x1 && y0 < o.y1 && o.y0 < y1; }
   Rect2 Grown(double m) const { return {x0 - m, y0 - m, x1 + m, y1 + m}; }
 };
+
+// The scene's room, table and clutter: fixed, or drawn from their own random stream
+// (SceneOptions::varied_layout) so the fixed scenes keep their bytes.
+struct Layout {
+  Vec3d room_min_m = kRoomMin, room_max_m = kRoomMax;
+  std::optional<Vec3d> table_size_m;         // nullopt: the fixed scenes' draw
+  std::optional<Eigen::Vector2d> table_xy_m;  // likewise
+  bool shelf = true;
+  int num_objects = 0;
+};
+
+Layout MakeLayout(const SceneOptions& o) {
+  Layout l;
+  l.num_objects = o.num_objects;
+  if (!o.varied_layout) return l;
+  Rng rng(Rng::Mix(o.seed, 0x1A7007));
+  // Rooms of 4.8-7 x 4.8-6 m: the camera stands about 1.7 m in front of the table and the
+  // walking person's band (y 1.0-1.85 m) stays clear of the table and the shelf.
+  const double hx = rng.Uniform(2.4, 3.5), hy = rng.Uniform(2.4, 3.0);
+  l.room_min_m = Vec3d(-hx, -hy, 0.0);
+  l.room_max_m = Vec3d(hx, hy, rng.Uniform(2.4, 3.0));
+  // Published dining and office table sizes: 1.2-2.0 m long, 0.7-1.0 m deep, 0.72-0.78 m high.
+  l.table_size_m = Vec3d(rng.Uniform(1.2, 2.0), rng.Uniform(0.7, 1.0), rng.Uniform(0.72, 0.78));
+  l.table_xy_m = Eigen::Vector2d(rng.Uniform(-0.6, 0.6), rng.Uniform(-0.1, 0.4));
+  l.shelf = rng.Bernoulli(0.75);
+  l.num_objects = rng.UniformInt(std::min(6, o.num_objects), o.num_objects);
+  return l;
+}
 
 Rect2 Footprint(const SceneObject& o) {
   Vec3d lo, hi;
@@ -85,10 +114,10 @@ cv::Vec3b ObjectColor(int index, double hue0, Rng& rng) {
                   rng.Uniform(0.55, 0.95));
 }
 
-void AddRoom(Scene* s, Rng& rng) {
-  s->room_min_m = kRoomMin;
-  s->room_max_m = kRoomMax;
-  const Vec3d size = kRoomMax - kRoomMin;
+void AddRoom(const Layout& layout, Scene* s, Rng& rng) {
+  s->room_min_m = layout.room_min_m;
+  s->room_max_m = layout.room_max_m;
+  const Vec3d size = s->room_max_m - s->room_min_m;
   auto add = [&](TextureStyle style, const cv::Vec3b& base, double w_m, double h_m,
                  double texel_m) {
     s->textures.push_back(MakeTexture(style, base, static_cast<int>(w_m / texel_m),
@@ -104,7 +133,7 @@ void AddRoom(Scene* s, Rng& rng) {
         HueColor(rng.Uniform(0, 360), rng.Uniform(0.1, 0.35), rng.Uniform(0.7, 0.9));
     s->room_texture[2 + w] = add(TextureStyle::kWall, paint, len, size.z(), 0.005);
   }
-  s->light_world_m = Vec3d(0.0, 0.0, kRoomMax.z() - 0.15);
+  s->light_world_m = Vec3d(0.0, 0.0, s->room_max_m.z() - 0.15);
 }
 
 }  // namespace
@@ -143,14 +172,17 @@ PinholeCamera SceneCamera(const SceneOptions& options) {
           options.width_px, options.height_px};
 }
 
-SceneObject MakeTable(Scene* s, Rng& rng) {
+SceneObject MakeTable(const Layout& layout, Scene* s, Rng& rng) {
   SceneObject table;
   table.id = 1;
   table.class_name = "dining table";
   table.coco_class_id = CocoClassId(table.class_name);
-  const Vec3d table_size(rng.Uniform(1.4, 1.8), rng.Uniform(0.8, 0.95), rng.Uniform(0.72, 0.78));
+  Vec3d table_size(rng.Uniform(1.4, 1.8), rng.Uniform(0.8, 0.95), rng.Uniform(0.72, 0.78));
+  if (layout.table_size_m) table_size = *layout.table_size_m;
   table.parts = BuildTable(table_size);
-  table.T_world_obj = PoseXYYaw(rng.Uniform(-0.3, 0.3), rng.Uniform(0.1, 0.3), 0, 0);
+  Eigen::Vector2d xy(rng.Uniform(-0.3, 0.3), rng.Uniform(0.1, 0.3));
+  if (layout.table_xy_m) xy = *layout.table_xy_m;
+  table.T_world_obj = PoseXYYaw(xy.x(), xy.y(), 0, 0);
   Texturize(s, &table, TextureStyle::kWood, HueColor(rng.Uniform(15, 40), 0.6, 0.55), rng);
   return table;
 }
@@ -162,7 +194,7 @@ SceneObject MakeShelf(Scene* s, Rng& rng) {
   const Vec3d shelf_size(rng.Uniform(1.0, 1.3), rng.Uniform(0.35, 0.42), rng.Uniform(0.85, 1.0));
   shelf.parts = BuildShelf(shelf_size);
   shelf.T_world_obj =
-      PoseXYYaw(rng.Uniform(-1.2, 1.2), kRoomMax.y() - shelf_size.y() / 2 - 0.02, 0, 0);
+      PoseXYYaw(rng.Uniform(-1.2, 1.2), s->room_max_m.y() - shelf_size.y() / 2 - 0.02, 0, 0);
   Texturize(s, &shelf, TextureStyle::kWood, HueColor(rng.Uniform(0, 360), 0.4, 0.7), rng);
   return shelf;
 }
@@ -176,7 +208,8 @@ struct Supports {
   std::vector<Rect2> taken_table, taken_shelf, taken_floor;
 };
 
-Supports MakeSupports(const SceneObject& table, const SceneObject& shelf) {
+Supports MakeSupports(const Scene& s, const SceneObject& table, const SceneObject& shelf,
+                      bool with_shelf) {
   Supports u;
   Vec3d table_lo, table_hi, shelf_lo, shelf_hi;
   ObjectAabb(table, table.T_world_obj, &table_lo, &table_hi);
@@ -189,10 +222,14 @@ Supports MakeSupports(const SceneObject& table, const SceneObject& shelf) {
                   table_hi.y() - 0.03};
   u.shelf_area = {shelf_lo.x() + 0.03, shelf_lo.y() + 0.03, shelf_hi.x() - 0.03,
                   shelf_hi.y() - 0.03};
-  u.floor_area = {kRoomMin.x() + 0.4, -0.9, kRoomMax.x() - 0.4, kRoomMax.y() - 0.1};
+  u.floor_area = {s.room_min_m.x() + 0.4, -0.9, s.room_max_m.x() - 0.4, s.room_max_m.y() - 0.1};
   u.floor_forbidden = {Rect2{table_lo.x(), table_lo.y(), table_hi.x(), table_hi.y()}.Grown(0.12),
                        Rect2{shelf_lo.x(), shelf_lo.y(), shelf_hi.x(), shelf_hi.y()}.Grown(0.08),
                        Rect2{-100, kWalkBandLo, 100, kWalkBandHi}};
+  if (!with_shelf) {
+    u.shelf_area = {0, 0, -1, -1};  // nothing fits: the shelf's share goes to the others
+    u.floor_forbidden.erase(u.floor_forbidden.begin() + 1);
+  }
   return u;
 }
 
@@ -270,7 +307,7 @@ void AddPerson(const SceneOptions& options, double hue0, Scene* s) {
   person.dynamic = true;
   person.parts = BuildPerson(prng.Uniform(1.65, 1.85));
   const bool left_to_right = prng.Bernoulli(0.5);
-  const double x_end = kRoomMax.x() - 0.5;
+  const double x_end = s->room_max_m.x() - 0.5;
   person.walk_start_m =
       Vec3d(left_to_right ? prng.Uniform(-x_end, -0.5) : prng.Uniform(0.5, x_end), kWalkY, 0.0);
   person.walk_end_m = Vec3d(left_to_right ? x_end : -x_end, kWalkY, 0.0);
@@ -288,13 +325,16 @@ StatusOr<Scene> MakeScene(const SceneOptions& options) {
   s.options = options;
   s.camera = SceneCamera(options);
   Rng rng(Rng::Mix(options.seed, 0x5CE7E));
-  AddRoom(&s, rng);
+  const Layout layout = MakeLayout(options);
+  s.options.num_objects = layout.num_objects;
+  AddRoom(layout, &s, rng);
   const double hue0 = rng.Uniform(0, 360);
-  s.objects.push_back(MakeTable(&s, rng));
-  s.objects.push_back(MakeShelf(&s, rng));
-  Supports supports = MakeSupports(s.objects[0], s.objects[1]);
-  LOCI_RETURN_IF_ERROR(AddObjects(options, hue0, &supports, &s, rng));
-  if (options.dynamic) AddPerson(options, hue0, &s);
+  s.objects.push_back(MakeTable(layout, &s, rng));
+  const SceneObject shelf = MakeShelf(&s, rng);  // drawn either way: the same stream after it
+  if (layout.shelf) s.objects.push_back(shelf);
+  Supports supports = MakeSupports(s, s.objects[0], shelf, layout.shelf);
+  LOCI_RETURN_IF_ERROR(AddObjects(s.options, hue0, &supports, &s, rng));
+  if (options.dynamic) AddPerson(s.options, hue0, &s);
   const SceneObject& t = s.objects.front();
   const Vec3d target(t.T_world_obj.translation().x(), t.T_world_obj.translation().y(),
                      supports.table_z);

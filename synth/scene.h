@@ -22,6 +22,12 @@ struct SceneOptions {
   uint64_t seed = 1;         // everything (layout, textures, path, noise) follows from it
   int num_frames = 300;      // RGB-D frames, >= 1
   int num_objects = 10;      // objects besides the table, the shelf and the person, [0, 40]
+  // Varied layout (from the seed): room size, table size and place from published furniture
+  // dimensions, a shelf or none, and between min(6, num_objects) and num_objects objects. Off:
+  // the fixed 6 x 5 m room of earlier scenes (their bytes are unchanged).
+  bool varied_layout = false;
+  // Detector noise on detections.jsonl (synth/detector_noise.h); off: exact boxes and masks.
+  bool detector_noise = false;
   bool dynamic = false;      // adds a walking person (class "person", "dynamic": true)
   bool depth_noise = false;  // Kinect-like depth noise, quantisation and edge dropouts; off
                              // by default so depth is exact up to the 0.2 mm PNG step
@@ -78,7 +84,9 @@ struct Scene {
   // Room surfaces: floor, ceiling, walls x-min, x-max, y-min, y-max (indices into textures).
   int room_texture[6] = {0, 0, 0, 0, 0, 0};
   Vec3d light_world_m = Vec3d::Zero();  // point light position
-  std::vector<SceneObject> objects;     // table first, then shelf, objects, person
+  // Table first, then the shelf (when there is one), objects, person. options.num_objects is
+  // the number placed (varied_layout draws it).
+  std::vector<SceneObject> objects;
   std::vector<Texture> textures;
   CameraPath camera_path;
 };

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <mutex>
 #include <thread>
 
@@ -14,6 +15,7 @@
 #include "common/objects_json.h"
 #include "common/time.h"
 #include "synth/annotate.h"
+#include "synth/detector_noise.h"
 #include "synth/renderer.h"
 
 namespace loci::synth {
@@ -54,9 +56,25 @@ std::string OptionsYaml(const SceneOptions& o) {
   return absl::StrCat("# Options of `loci synth` that produced this folder.\nseed: ", o.seed,
                       "\nframes: ", o.num_frames, "\nobjects: ", o.num_objects,
                       "\ndynamic: ", o.dynamic ? "true" : "false",
-                      "\nnoise: ", o.depth_noise ? "true" : "false", "\nwidth: ", o.width_px,
+                      "\nnoise: ", o.depth_noise ? "true" : "false",
+                      "\nvaried_layout: ", o.varied_layout ? "true" : "false",
+                      "\ndetector_noise: ", o.detector_noise ? "true" : "false", "\nwidth: ", o.width_px,
                       "\nheight: ", o.height_px, "\nfps_hz: ", o.fps_hz,
                       "\naccel_with_motion: ", o.accel_with_motion ? "true" : "false", "\n");
+}
+
+// An object a perfect detector boxes in fewer than kSeenFrames frames (a third of a second) is
+// "low" in objects.json: evaluation neither rewards nor penalises mapping it.
+constexpr int kSeenFrames = 10;
+
+void MarkRarelySeen(const std::vector<FrameDetections>& exact, GroundTruthScene* objects) {
+  std::map<int64_t, int> frames;
+  for (const FrameDetections& f : exact) {
+    for (const Detection2D& d : f.detections) ++frames[d.track_id];
+  }
+  for (GroundTruthObject& g : objects->objects) {
+    if (frames[g.id] < kSeenFrames) g.confidence = "low";
+  }
 }
 
 Status WriteAccelerometer(const std::string& path, const std::vector<AccelSample>& samples) {
@@ -154,8 +172,13 @@ Status WriteSequence(const SceneOptions& options, const std::string& out_dir,
   LOCI_RETURN_IF_ERROR(WriteAccelerometer(d + "accelerometer.txt", MakeAccelerometer(scene)));
   LOCI_RETURN_IF_ERROR(WriteText(d + "camera.yaml", CameraYaml(scene)));
   LOCI_RETURN_IF_ERROR(WriteText(d + "synth.yaml", OptionsYaml(options)));
-  const GroundTruthScene objects = ToGroundTruth(scene);
+  GroundTruthScene objects = ToGroundTruth(scene);
+  MarkRarelySeen(detections, &objects);
   LOCI_RETURN_IF_ERROR(WriteObjectsJson(d + "objects.json", objects));
+  if (options.detector_noise) {
+    ApplyDetectorNoise(DetectorNoise{}, options.seed, options.width_px, options.height_px,
+                       &detections);
+  }
   LOCI_RETURN_IF_ERROR(WriteDetectionsJsonl(d + "detections.jsonl", detections));
 
   if (stats) {
