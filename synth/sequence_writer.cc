@@ -63,17 +63,19 @@ std::string OptionsYaml(const SceneOptions& o) {
                       "\naccel_with_motion: ", o.accel_with_motion ? "true" : "false", "\n");
 }
 
-// An object a perfect detector boxes in fewer than kSeenFrames frames (a third of a second) is
-// "low" in objects.json: evaluation neither rewards nor penalises mapping it.
+// An object a perfect detector boxes in fewer than kSeenFrames frames (a third of a second), or
+// in fewer than a tenth of a short sequence's frames, is "low" in objects.json: evaluation
+// neither rewards nor penalises mapping what the camera barely saw.
 constexpr int kSeenFrames = 10;
 
 void MarkRarelySeen(const std::vector<FrameDetections>& exact, GroundTruthScene* objects) {
+  const int seen_frames = std::min<int>(kSeenFrames, static_cast<int>(exact.size()) / 10);
   std::map<int64_t, int> frames;
   for (const FrameDetections& f : exact) {
     for (const Detection2D& d : f.detections) ++frames[d.track_id];
   }
   for (GroundTruthObject& g : objects->objects) {
-    if (frames[g.id] < kSeenFrames) g.confidence = "low";
+    if (frames[g.id] < seen_frames) g.confidence = "low";
   }
 }
 

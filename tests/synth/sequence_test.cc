@@ -79,9 +79,10 @@ TEST_F(SynthSequence, SameSeedSameBytesOtherSeedOtherScene) {
   const std::string again = TempDir("again"), other = TempDir("other");
   SceneOptions o;
   o.seed = 7;
-  o.num_frames = 3;
+  o.num_frames = kFrames;  // objects.json grades objects by how often they are seen
   ASSERT_TRUE(WriteSequence(o, again).ok());
   o.seed = 8;
+  o.num_frames = 3;
   ASSERT_TRUE(WriteSequence(o, other).ok());
   auto a = LoadTumSequence(*dir_), b = LoadTumSequence(again), c = LoadTumSequence(other);
   ASSERT_TRUE(a.ok() && b.ok() && c.ok());
