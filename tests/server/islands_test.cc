@@ -96,10 +96,12 @@ class Islands : public ::testing::Test {
   }
 
   // B's island objects against room b's truth (objects detected in >= 3 keyframes), in room
-  // b's world: T_world_island = T_world_odomB * T_island_odomB^-1.
+  // b's world: T_world_island = T_world_odomB * T_island_odomB^-1. Centroids within 4 cm: an
+  // object the camera sees from part of a circle keeps only the voxels a quarter of its views
+  // saw (the shape's support rule), so its far side is short (measured: up to 3.5 cm).
   void ExpectExact(const std::vector<loci::v1::Object>& island_objects,
                    const SE3d& T_island_odom, const ServerOptions& options,
-                   double max_centroid_error_m = 0.02) {
+                   double max_centroid_error_m = 0.04) {
     const SE3d T_world_odom = PoseFromProto(views_["b"][0].t_odom_cam());
     const SE3d T_world_island = T_world_odom * T_island_odom.inverse();
     std::vector<MapObject> objects;
@@ -297,7 +299,7 @@ TEST_F(Islands, OverlappingIslandsJoinIntoOne) {
                 1e3 * T_err.translation().norm(), err_deg);
     EXPECT_LT(T_err.translation().norm(), 0.02);
     EXPECT_LT(err_deg, 1.5);
-    ExpectExact(island, PoseFromProto(sessions.at("B").t_island_odom()), r.server->options(), 0.03);
+    ExpectExact(island, PoseFromProto(sessions.at("B").t_island_odom()), r.server->options());
     int seen_by_both = 0;
     for (const auto& o : island) seen_by_both += o.robots_size() == 2;
     EXPECT_GT(seen_by_both, 0) << "no object fused from both robots' views";
@@ -505,6 +507,7 @@ TEST_F(Islands, HeldKeyframesWriteNoCheckpoint) {
 TEST_F(Islands, HeldKeyframesTheCheckpointLacksAreMappedOnTheNextStart) {
   const std::string db = dir_ + "/missed.db";
   std::multiset<std::string> island_classes;
+  SE3d T_island_odom;  // levels B's odometry frame, as a real alignment would
   {
     Running r = Start(db);
     ASSERT_TRUE(r.server);
@@ -518,13 +521,14 @@ TEST_F(Islands, HeldKeyframesTheCheckpointLacksAreMappedOnTheNextStart) {
     const auto sessions = SessionsByRobot(Stats(r.query.get()));
     ASSERT_FALSE(sessions.at("B").aligned());
     ASSERT_TRUE(sessions.at("A").aligned()) << "A's second session was not aligned";
+    T_island_odom = PoseFromProto(sessions.at("B").t_island_odom());
     for (const auto& o : InIsland(Find(r.query.get(), true), island)) {
       island_classes.insert(o.class_name());
     }
     ASSERT_GE(island_classes.size(), 4u);
   }
-  // As if the server had stopped just after storing B's placement (50 m away): the checkpoint,
-  // written after A's last keyframe, holds none of B's keyframes.
+  // As if the server had stopped just after storing B's placement (its island's levelled frame,
+  // 50 m away): the checkpoint, written after A's last keyframe, holds none of B's keyframes.
   {
     auto store = SqliteStore::Open(db);
     ASSERT_TRUE(store.ok()) << store.status();
@@ -533,8 +537,8 @@ TEST_F(Islands, HeldKeyframesTheCheckpointLacksAreMappedOnTheNextStart) {
     const auto b = std::find_if(stored->begin(), stored->end(),
                                 [](const SessionRecord& s) { return s.robot_name == "B"; });
     ASSERT_NE(b, stored->end());
-    ASSERT_TRUE((*store)->SetSessionAlignment(b->row_id, MakeSE3(Vec3d(50, 0, 0), Quatd::Identity()))
-                    .ok());
+    const SE3d T_map_odom = MakeSE3(Vec3d(50, 0, 0), Quatd::Identity()) * T_island_odom;
+    ASSERT_TRUE((*store)->SetSessionAlignment(b->row_id, T_map_odom).ok());
   }
   Running r = Start(db);
   ASSERT_TRUE(r.server);
