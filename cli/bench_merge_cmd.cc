@@ -1,6 +1,6 @@
 // `loci bench merge [--views 60] [--objects 8] [--start 30] [--robot-hz 5] [--held N]
 // [--config FILE] [--query-ahead-backlog N]`: how fast a robot that starts anywhere joins the
-// shared map (issue 15). An in-process loci-server on loopback gRPC; robot A streams a
+// shared map. An in-process loci-server on loopback gRPC; robot A streams a
 // rendered synthetic room (a `loci synth` scene) and is mapped; then robot B, under its own
 // name, streams the same room from view --start on with its own odometry (identity at its
 // first view), paced at --robot-hz. With

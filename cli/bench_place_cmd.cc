@@ -1,5 +1,5 @@
 // `loci bench place [--tum DIR] [--sizes 1000,10000] [--queries 200] [--config FILE]`: place
-// recognition costs (server/place, issue 15) on a real TUM sequence.
+// recognition costs (server/place) on a real TUM sequence.
 //  1. Extraction: each frame's colour image is encoded as the client sends it (JPEG q90, not
 //     timed) beside its 16-bit depth PNG; ExtractFeaturesFromEncoded (decode + ORB + depth) is
 //     timed, wall clock and thread CPU. Bytes per keyframe of the stored features (LPF1).

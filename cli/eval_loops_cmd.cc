@@ -2,8 +2,7 @@
 // verified loop matches a server stored (place_matches) against the ground truth, beside the
 // odometry the robot sent between the same two keyframes. A pose graph gains from its loops only
 // where they are closer to the truth than the odometry they join; this says whether they are,
-// overall, by the match's 3D fit RMS and by the time between its keyframes (docs/results.md,
-// sessions 47 and 48).
+// overall, by the match's 3D fit RMS and by the time between its keyframes.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>

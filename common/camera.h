@@ -64,7 +64,7 @@ struct LensDistortion {
 
 // A rolling-shutter colour camera exposes its rows one after another, top to bottom: the time
 // between two rows, microseconds (0: a global shutter). Measured for the Kinect v1 of TUM
-// freiburg1 against fr1_rpy's motion capture (docs/results.md, session 38): 50 us (a 24 ms
+// freiburg1 against fr1_rpy's motion capture: 50 us (a 24 ms
 // readout of 480 rows). freiburg2 is the same Kinect model and readout mode; not measured.
 constexpr double kKinectV1LineTimeUs = 50.0;
 

@@ -21,7 +21,7 @@ void KeepLargeBlocksOnMmap(size_t bytes = 256 * 1024);
 // thread) leave pages of their own arena resident after it is freed. `loci bench ingest
 // --keyframes 2400` with loop closure ended 94.7-99.8 MB over its start with the default
 // arenas (4 runs) and 81.9-85.0 MB with one (3 runs), at the same throughput; its growth
-// figure while the queues are full is noisy either way (docs/results.md, session 13).
+// figure while the queues are full is noisy either way.
 // Threads that allocated before the call keep their arenas, so main() calls it first;
 // idempotent; a no-op on other C libraries.
 void LimitHeapArenas(int arenas = 1);

@@ -208,8 +208,8 @@ RelationResult RelationEvaluator::Below(const ObjectGeom& s, const ObjectGeom& a
   const double gap = a.bottom_z - s.box.max.z();
   const double overlap = FootprintFractionOfSmaller(s, a);
   r.confidence = 0.5 + 0.5 * Clamp01(overlap / std::max(0.6, opt_.above_min_overlap));
-  // Its centre lies under the anchor's bottom too: fr1_rpy's two desks meet with tops 3 cm
-  // apart, and the lower piece was "under" the higher one by 4 cm of overlapping boxes.
+  // Its centre lies under the anchor's bottom too: two furniture tops that meet a few cm apart in
+  // height have boxes overlapping by a few cm, which alone would put the lower under the higher.
   r.holds = gap >= -opt_.vertical_tolerance_m && overlap >= opt_.above_min_overlap &&
             s.centroid_g.z() < a.bottom_z - opt_.vertical_tolerance_m;
   r.distance_m = std::max(0.0, gap);

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Object-map figures over several runs of the demo's pipeline (issue 11 / 15 measurements):
+# Object-map figures over several runs of the demo's pipeline:
 # a fresh loci-server per run, loci-track with YOLOX-Nano (synchronous detection, so a run is
 # repeatable), then `loci eval objects --json` against objects_gt.json. One JSON per run in OUT,
 # then the mean figures (scripts/eval-summary.py), also with the map aligned by the camera

@@ -10,7 +10,7 @@ truth read OFFSET_MS after each stamp (fr1_rpy: -7, the images' clock offset):
     (chordal mean), median and RMS, also by the ground truth's angular speed;
   - the same with a constant camera-frame rotation fitted as well (the estimate's camera frame
     against the ground truth's, a hand-eye offset), and that rotation.
-The residual is the floor that any single pair of poses (such as issue 15's B-from-A) is
+The residual is the floor that any single pair of poses (such as the two-robot test's B-from-A) is
 measured against.
 """
 import math

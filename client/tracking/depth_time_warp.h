@@ -6,7 +6,7 @@
 // (Tracker::PredictedMotion) can move the depth to the colour image's instant before anything
 // uses the two together (odometry, object masks, the streamed keyframe). The pipeline does so
 // only with tracker.align_depth_time, off by default: on fr1_rpy it did not help (client
-// README, docs/results.md session 36).
+// README).
 //
 //   AlignDepthToColourTime(tracker, f.depth_t_ns, f.rgb_t_ns, &depth);  // before tracker.Track
 #pragma once

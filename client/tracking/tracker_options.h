@@ -62,7 +62,7 @@ struct TrackerOptions {
   // The pipeline moves each depth image from its own stamp to the colour image's with the
   // constant-velocity motion between them (depth_time_warp.h) when the two stamps differ. Off:
   // on fr1_rpy it left the odometry as it was (ATE 0.0272 -> 0.0270 m) and two desks fused
-  // into one table in 4 of 8 object-map runs (docs/results.md, session 36).
+  // into one table in 4 of 8 object-map runs.
   bool align_depth_time = false;
   OrbOptions orb;
   KeyframeRuleOptions keyframes;

@@ -18,7 +18,8 @@ struct LoopOptions {
   // A loop joins keyframes captured at least this far apart, s (2.0): nearer ones are odometry
   // neighbours (place.query.exclude_recent_keyframes also applies). A camera that turns fast
   // sees its first views again within seconds; a loop to them is what corrects the odometry's
-  // early drift (fr1_rpy: the first keyframe, 3.6 deg off the rest, is reached from 2.7 s on).
+  // early drift (on a real TUM sequence: the first keyframe, 3.6 deg off the rest, is reached
+  // from 2.7 s on).
   double min_gap_s = 2.0;
   // Standard deviations of a verified match as a graph edge: translation (m) and rotation (rad)
   // (0.02, 0.01). The wrong-loop guard (graph.pcm) works in these units.
@@ -36,8 +37,8 @@ struct LoopOptions {
   // The solution moves the map this many keyframes per hold of the mapping lock, newest first
   // (256; 0 = all at once): the mapping worker waits for one chunk at most (0.2-1.5 ms per
   // keyframe moved), not for the whole move (seconds at 10k keyframes). Keyframes the worker maps
-  // between chunks meet a partly moved map, which can change associations (on fr1_rpy, 64 fused
-  // a book into its neighbour); 256 keeps moves of a few hundred keyframes in one hold.
+  // between chunks meet a partly moved map, which can change associations (on a real sequence,
+  // 64 fused a book into its neighbour); 256 keeps moves of a few hundred keyframes in one hold.
   int apply_chunk_keyframes = 256;
   // An unaligned robot's keyframe verifies at most this many candidates of its own island (its
   // island's loop closure), besides the max_verify others where it may be aligned or joined (1;
@@ -70,11 +71,11 @@ struct AlignOptions {
   // sessions; each time the agreeing matches double (6, 12, 24, ...) the placement is
   // re-estimated from all of them and the session's keyframes move to it, until this many
   // matches are in (48; 0 = no refinement). One match's error grows with the camera's speed
-  // (docs/results.md): the mean of many is steadier than that of the first three.
+  // (measured): the mean of many is steadier than that of the first three.
   int refine_max_matches = 48;
   // When a robot is aligned, the keyframes the server held back enter the map this many per
   // hold of the mapping lock (8; 0 = all at once). Each is mapped from its stored products, about
-  // 10 ms (docs/results.md): the mapping worker, and through it every robot's stream, waits for
+  // 10 ms (measured): the mapping worker, and through it every robot's stream, waits for
   // one chunk, not for all of them (about 10 s for 1000 held keyframes).
   int held_chunk_keyframes = 8;
   // An unaligned robot's island map has an OctoMap of its own, in the island's frame (true; a

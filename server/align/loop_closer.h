@@ -1,4 +1,4 @@
-// Loop closure and robot merges through the keyframe pose graph (issue 15, item 4): collects
+// Loop closure and robot merges through the keyframe pose graph: collects
 // every mapped keyframe's odometry and every verified place-recognition match (robot_aligner.h),
 // and, when enough new matches are in, builds a PoseGraph (server/graph/) over the mapped
 // keyframes and solves it. The caller moves the map to the solution (Mapper::UpdateKeyframePoses).

@@ -1,4 +1,4 @@
-// Robots that start anywhere (issue 15, item 3): finds where an unaligned session's odometry
+// Robots that start anywhere: finds where an unaligned session's odometry
 // frame sits in the shared map from place recognition (server/place), and says so once enough
 // verified matches agree.
 //

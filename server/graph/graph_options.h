@@ -70,7 +70,7 @@ struct RobustLossOptions {
 // is a 3-D landmark, and each keyframe that observed it adds the residual
 // (R_map_kf^T (c_map - t_map_kf) - c_kf) / sigma_m under the loss below.
 struct LandmarkOptions {
-  bool enabled = false;      // off by default: docs/results.md "Pose graph" measures it (false)
+  bool enabled = false;      // off by default: no gain measured on a real sequence (false)
   double sigma_m = 0.05;     // standard deviation of an observed centroid, each axis, m (0.05)
   double huber_m = 0.10;     // Huber threshold on the centroid error, m (0.10)
   int min_observations = 2;  // landmarks seen by fewer keyframes are left out (2)
@@ -83,9 +83,9 @@ struct LandmarkOptions {
 // accelerometer) gets the residual ((R_map_kf * up_kf).x, .y) / sigma_rad under a Cauchy loss
 // of loss_scale sigmas: its tilt is pulled towards the measured up. With them, dof "auto"
 // solves in 6-DoF instead of 4-DoF: a visual odometry's roll and pitch drift (4.9 deg of tilt
-// between frames 0 and 300 of fr1_rpy), which the 4-DoF mode holds as if it were gravity, can
-// then follow the loops and merges, pulled to gravity; loops that agree on a wrong tilt still
-// tilt the map in part (server/graph/README.md), so it is off by default. sigma_rad 0 = off.
+// between frames 0 and 300 of a real TUM sequence), which the 4-DoF mode holds as if it were
+// gravity, can then follow the loops and merges, pulled to gravity; loops that agree on a wrong
+// tilt still tilt the map in part (server/graph/README.md), so off by default. sigma_rad 0 = off.
 struct GravityPriorOptions {
   double sigma_rad = 0.0;
   double loss_scale = 2.0;

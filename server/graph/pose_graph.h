@@ -1,4 +1,4 @@
-// loci::server::PoseGraph: the keyframe pose graph of issue 15 (server/graph/README.md).
+// loci::server::PoseGraph: the keyframe pose graph (server/graph/README.md).
 //
 //   PoseGraph graph(options);                       // options.Validate() first
 //   graph.AddKeyframe({id, robot, t_ns, T_map_kf, gravity_aligned, up_kf});  // up_kf: 0 = none

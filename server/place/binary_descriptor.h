@@ -18,8 +18,9 @@ inline Descriptor256 DescriptorRow(const cv::Mat& descriptors, int row) {
 
 // The nearest and second-nearest row of `train` to each row of `query` (both CV_8UC1 with 32
 // columns), brute force, as cv::BFMatcher(NORM_HAMMING).knnMatch with k = 2 finds them (with it,
-// verifying a fr1_rpy pair took 5.7 ms of CPU, against 24.0 ms). When two train rows are equally near, `index` is the first of them; the
-// ratio test drops such a match whichever it is, since best == second.
+// verifying a pair of real keyframes took 5.7 ms of CPU, against 24.0 ms). When two train rows
+// are equally near, `index` is the first of them; the ratio test drops such a match whichever it
+// is, since best == second.
 struct TwoNearest {
   int index = -1;    // row of train nearest; -1 when train is empty
   int best = 257;    // its Hamming distance (257: none)

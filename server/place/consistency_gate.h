@@ -1,6 +1,6 @@
-// Consistency before a loop or merge is accepted (issue 15: "consistency over at least 3
-// keyframes"; ORB-SLAM3's Atlas confirms a merge on 3 keyframes, CCM-SLAM merges on one match
-// and its users report distorted maps).
+// Consistency before a loop or merge is accepted, over at least 3 keyframes (ORB-SLAM3's Atlas
+// confirms a merge on 3 keyframes, CCM-SLAM merges on one match and its users report distorted
+// maps).
 //
 // A hypothesis names two frames whose relative transform T_x_y is to be found (for a merge:
 // two robots' odometry frames; for a loop: a robot's drifted frame against itself). Each

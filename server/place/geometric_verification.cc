@@ -77,7 +77,7 @@ std::vector<int> PnpInliers(const KeyframeFeatures& a, const KeyframeFeatures& b
                             options.pnp_confidence, inliers, cv::SOLVEPNP_SQPNP);
   } catch (const cv::Exception&) {
     // SQPnP asserts on degenerate point sets (OpenCV 4.6 sqpnp.cpp computeOmega: "more than 6
-    // null vectors", seen live on fr1_rpy); such a pair is no place match.
+    // null vectors", seen live on a real sequence); such a pair is no place match.
     return {};
   }
   if (!ok) return {};

@@ -1,4 +1,4 @@
-// Geometric verification of a place-recognition candidate before anything moves (issue 15):
+// Geometric verification of a place-recognition candidate before anything moves:
 // ORB matches (ratio test), PnP-RANSAC of keyframe b's 3D points (depth) against keyframe a's
 // keypoints, then a 3D-3D check and refinement on the PnP inliers that have depth in both
 // keyframes (Umeyama / Kabsch, Eigen::umeyama without scale, iterated on the points that agree

@@ -1,4 +1,4 @@
-// Options of place recognition and geometric verification (issue 15): the `place` section of
+// Options of place recognition and geometric verification: the `place` section of
 // config/server.yaml. Every field documents its unit and default; FromYaml reads only the keys
 // present and checks for unknown ones (common/config.h).
 #pragma once

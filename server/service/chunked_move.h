@@ -1,7 +1,7 @@
 // Moving many mapped keyframes (a pose-graph solution), or mapping many stored ones (a robot's
 // held keyframes when it is aligned), in chunks. The mapping worker takes the same lock for each
 // keyframe it maps; moving 10k keyframes in one hold would stop it for seconds (about 0.5-1.5 ms
-// per keyframe, docs/results.md), mapping 1000 held ones for about 10 s. Between two chunks the
+// per keyframe, measured), mapping 1000 held ones for about 10 s. Between two chunks the
 // lock is free, so the worker waits for one chunk at most. What a reader sees between chunks is
 // a map partly moved, or partly merged: moves go newest keyframe first, so what the robots see
 // now is corrected first.

@@ -1,4 +1,4 @@
-// Map islands (issue 15): the object maps of robot sessions that place recognition has not
+// Map islands: the object maps of robot sessions that place recognition has not
 // aligned to the shared map yet. Each such session's keyframes are mapped by a Mapper of its
 // own, in the session's own frame (its odometry frame, levelled z-up from its own gravity or
 // planes, origin at its first keyframe), so a robot that starts in a room nobody else has seen

@@ -1,4 +1,4 @@
-// Place-recognition features in the map database (issue 14): the FeatureStore the server's
+// Place-recognition features in the map database: the FeatureStore the server's
 // RobotAligner keeps each keyframe's features in (place/feature_cache.h), one place_features row
 // per keyframe in the stored form of place/feature_codec.h.
 #pragma once

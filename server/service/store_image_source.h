@@ -1,7 +1,7 @@
 // Keyframe images read back from the map database for the dense refinement of place matches
 // (place/dense_refinement.h): a candidate keyframe whose reduced images have left the aligner's
 // cache, an old keyframe or one stored before a restart, is read and decoded again (about 7 ms
-// of CPU on fr1_rpy).
+// of CPU on a real TUM sequence).
 #pragma once
 
 #include "server/place/dense_refinement.h"

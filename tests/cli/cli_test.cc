@@ -1,4 +1,4 @@
-// Every `loci` subcommand run as a process (issue 12: there were no CLI tests). The scene the
+// Every `loci` subcommand run as a process. The scene the
 // map commands need is made by `loci bench ingest --keep` (12 keyframes of a synthetic room
 // streamed into an in-process server, about 2 s), once per test process and only by the tests
 // that use it; `ask`, `objects` and `stats` talk to a real loci-server on loopback serving a copy

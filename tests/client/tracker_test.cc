@@ -94,15 +94,15 @@ TEST(TrackerTest, FullFr1RpyAteWithinTarget) {
   EXPECT_EQ(s.lost, 0);
   EXPECT_LE(s.ate_m, 0.018);
   // fr1_rpy's images are stamped on arrival, after the pose they were taken at: the odometry's
-  // orientations agree best with the ground truth some milliseconds before each stamp
-  // (docs/results.md, sessions 32 and 38), and the sequence turns at up to 125 deg/s.
+  // orientations agree best with the ground truth some milliseconds before each stamp, and the
+  // sequence turns at up to 125 deg/s.
   std::cout << "fr1_rpy: images' clock offset to the ground truth " << s.clock.offset_ns * 1e-6
             << " ms; orientation residual " << s.clock.rms_deg_at_zero << " deg at the stamps, "
             << s.clock.rms_deg << " deg at the offset\n";
   EXPECT_LT(s.clock.offset_ns, -2'000'000);
   EXPECT_GT(s.clock.offset_ns, -25'000'000);
   // The Kinect's colour camera has a rolling shutter: tracked as a global-shutter camera, the
-  // odometry errs most where the camera turns fastest (session 38: ATE 0.027 against 0.013 m).
+  // odometry errs most where the camera turns fastest (measured: ATE 0.027 against 0.013 m).
   TrackerOptions global;
   global.line_time_us = 0;
   const RunStats g = TrackTum(dir, global);
@@ -111,7 +111,7 @@ TEST(TrackerTest, FullFr1RpyAteWithinTarget) {
   EXPECT_GE(g.ate_m, 1.5 * s.ate_m);
   EXPECT_GT(g.rpe_rot_deg, s.rpe_rot_deg + 0.3);
   // The same images used as read, without removing fr1's lens distortion: the odometry turns
-  // less accurately (docs/results.md, session 17: 2.83 against 2.56 deg/s).
+  // less accurately (measured: 2.83 against 2.56 deg/s).
   TrackerOptions raw;
   raw.distortion = LensDistortion{};
   const RunStats r = TrackTum(dir, raw);

@@ -194,7 +194,7 @@ TEST(SegmentObjectDepth, LeavesOutADeskHoldingTheCentreOfALooseBox) {
   EXPECT_LT(iou_without, 0.5);  // without gravity the desk holding the centre is the object
 }
 
-// Sheets of paper lying on a desk, boxed as "book" (fr1_rpy, docs/results.md session 41): the
+// Sheets of paper lying on a desk, boxed as "book" (fr1_rpy): the
 // box's centre lies on the desk, which goes on outside the box, and nothing in the box rises
 // above it. The box shows only its support, so it gets no mask; a slab 3 cm thick does.
 TEST(SegmentObjectDepth, ABoxOverTheBareDeskHasNoMask) {

@@ -1,4 +1,4 @@
-// `loci bench merge` (issue 15): a robot that starts anywhere in the same synthetic room is
+// `loci bench merge`: a robot that starts anywhere in the same synthetic room is
 // aligned to the shared map, exactly; a robot in another room rendered by the same generator
 // (the same furniture and classes, other textures and layout: a look-alike, different place)
 // is never merged, although place recognition finds candidates there; a robot behind a backlog

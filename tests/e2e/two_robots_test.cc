@@ -1,4 +1,4 @@
-// Many robots, one map (issue 15) on real data: a TUM sequence split into robot A (the first
+// Many robots, one map on real data: a TUM sequence split into robot A (the first
 // frames) and robot B (later frames that overlap A's), each tracked by its own loci-track with
 // its own odometry starting at the identity, streaming at once to a real loci-server. B starts
 // unaligned; place recognition must align it to A's map, close to the relative transform the
@@ -223,7 +223,7 @@ struct TwoRobotBounds {
   double merge_t_m, merge_r_deg;  // B's T_map_odom (GetStats) against the truth, at the stamps
   double same_t_m, same_r_deg;    // A's and B's keyframes of one image, median
   double keyframes_t_m, keyframes_r_deg;  // server's keyframes: B's first from A's first, at the
-                                          // images' clock offset (issue 15's measure)
+                                          // images' clock offset (the target's measure)
   double joint_ate_m;                     // A's and B's server keyframes in one alignment
   bool check_duplicates;
 };
@@ -433,11 +433,11 @@ TEST(ThreeRobots, SyntheticRoomEveryRobotAlignedObjectsOnce) {
 }
 
 // The shipped sample (60 frames at 50-70 deg/s): A frames 0-39, B frames 20-59. Reached in
-// session 52 (eight runs, six of them beside a build): merge 1.05-1.37 cm, 0.98-1.21 deg; same
+// eight runs (six of them beside a build): merge 1.05-1.37 cm, 0.98-1.21 deg; same
 // images 0.63-0.96 cm, 0.20-0.40 deg; server's keyframes 0.86-1.28 cm, 0.88-1.49 deg at the
 // clock offset; joint ATE 0.0061-0.0063 m. The bounds are about twice that (CI's machine runs
-// the two robots on other timings). Duplicates are not asserted here: in one of several runs a far "chair" (a false
-// positive of the detector) was mapped once per robot 0.20 m apart (docs/results.md, session 8).
+// the two robots on other timings). Duplicates are not asserted here: in one of several runs a
+// far "chair" (a false positive of the detector) was mapped once per robot 0.20 m apart.
 TEST(TwoRobots, ShippedSampleSplitIsAligned) {
   CheckTwoRobots(kRoot + "/tests/data/tum_fr1_rpy_sample", {"A", 0, 40, "", ""},
                  {"B", 20, 0, "", ""},
@@ -451,13 +451,13 @@ TEST(TwoRobots, ShippedSampleSplitIsAligned) {
                   .check_duplicates = false});
 }
 
-// The issue's split of the full fr1_rpy: A frames 0-450, B frames 300-722. The issue's target
+// The split of the full fr1_rpy: A frames 0-450, B frames 300-722. The target
 // is 3 cm and 1 deg of the ground truth's relative transform, measured on the server's
-// keyframes (B's first from A's first) at the images' clock offset. Reached in sessions 51-52
-// (8 runs): 1.6-2.1 cm, 0.89-1.24 deg; B's merge placement 2.0-2.5 cm, 2.1-2.9 deg at the
+// keyframes (B's first from A's first) at the images' clock offset. Reached in 8 runs:
+// 1.6-2.1 cm, 0.89-1.24 deg; B's merge placement 2.0-2.5 cm, 2.1-2.9 deg at the
 // stamps; same images 0.3-0.7 cm, 0.36-0.87 deg; joint ATE 0.0131-0.0141 m. The 1 deg is not
-// held in every run, so the bound is 2 deg: it guards what is reached (with issue 15's 3 cm and
-// its 0.020 m ATE goal), not the target. Session 8 gave 4-7 cm and 3-6 deg.
+// held in every run, so the bound is 2 deg: it guards what is reached (with the target's 3 cm and
+// its 0.020 m ATE goal), not the target. An earlier merge gave 4-7 cm and 3-6 deg.
 TEST(TwoRobots, Fr1RpySplitIsAlignedAndMergedOnce) {
   const std::string tum = testing::FullTumSequence("tum_fr1_rpy", {"groundtruth.txt"});
   if (tum.empty()) GTEST_SKIP() << "no tum_fr1_rpy in $LOCI_DATA or ../shared/data";

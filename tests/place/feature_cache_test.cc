@@ -1,4 +1,4 @@
-// The feature cache in front of a store (issue 14: features out of memory), on real features of
+// The feature cache in front of a store (features out of memory), on real features of
 // the shipped TUM sample.
 #include <gtest/gtest.h>
 

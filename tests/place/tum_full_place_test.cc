@@ -125,7 +125,7 @@ TEST(TumFullPlaceTest, SlowPairsAreWithinThreeCentimetresAndOneDegree) {
 // Loop edges as the server makes them: frames 5 s or more apart whose views differ by at most
 // 20 deg, verified, then refined by the dense alignment (place.dense). The refined relative
 // poses are closer to the ground truth (measured: 30 -> 17 mm and 1.68 -> 1.41 deg median over
-// 174 pairs, docs/results.md session 17; the truth is itself uncertain by about a degree here).
+// 174 pairs; the truth is itself uncertain by about a degree here).
 TEST(TumFullPlaceTest, DenseRefinementBringsLoopEdgesCloserToTheTruth) {
   const std::string dir = FullFr1RpyDir();
   if (dir.empty()) GTEST_SKIP() << "tum_fr1_rpy not found in $LOCI_DATA or ../shared/data";

@@ -242,7 +242,7 @@ TEST_F(RelationsTest, OnTheTopSurfaceOfAFlatTopTable) {
   desk.top_surface_z_m = 0.75;
   const RelationResult r = eval_.Evaluate(RelationKind::kOn, frame_.Geom(keyboard), frame_.Geom(desk));
   EXPECT_TRUE(r.holds) << r.evidence;
-  // Nor is it under the desk (fr1_rpy, session 40: "I found the mouse under the dining table");
+  // Nor is it under the desk (fr1_rpy: "I found the mouse under the dining table");
   // a chair's seat below the top is.
   const RelationResult under =
       eval_.Evaluate(RelationKind::kUnder, frame_.Geom(keyboard), frame_.Geom(desk));
