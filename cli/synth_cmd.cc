@@ -1,7 +1,8 @@
 // `loci synth --out DIR [--seed N] [--frames N] [--objects N] [--dynamic] [--noise] [--varied]
-// [--det-noise] ...`:
+// [--det-noise] [--absent ID,...] [--days-later D] ...`:
 // renders a synthetic TUM-layout RGB-D sequence with exact ground truth (synth/).
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -15,6 +16,7 @@ void RegisterSynthCommands(CLI::App& app) {
   auto opt = std::make_shared<synth::SceneOptions>();
   auto out = std::make_shared<std::string>();
   auto gravity_only = std::make_shared<bool>(false);
+  auto later_days = std::make_shared<double>(0.0);
   CLI::App* cmd = app.add_subcommand(
       "synth",
       "Render a synthetic indoor RGB-D sequence (TUM layout) with ground-truth poses, "
@@ -32,6 +34,13 @@ void RegisterSynthCommands(CLI::App& app) {
                 "Room size, table size and place, shelf or none and the object count from the seed");
   cmd->add_flag("--det-noise", opt->detector_noise,
                 "Detector errors in detections.jsonl: jitter, misses, false boxes, confusions");
+  cmd->add_option("--absent", opt->absent_ids,
+                  "Object ids (as in objects.json) taken out of the room: a later session of it")
+      ->delimiter(',');
+  cmd->add_option("--days-later", *later_days,
+                  "Stamps start this many days after the default start (a later session)")
+      ->check(CLI::Range(0.0, 3650.0))
+      ->capture_default_str();
   cmd->add_option("--width", opt->width_px, "Image width, px (fr1 intrinsics scaled)")
       ->capture_default_str();
   cmd->add_option("--height", opt->height_px, "Image height, px")->capture_default_str();
@@ -39,8 +48,9 @@ void RegisterSynthCommands(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--accel-gravity-only", *gravity_only,
                 "accelerometer.txt holds gravity only (default: gravity + camera acceleration)");
-  cmd->callback([opt, out, gravity_only] {
+  cmd->callback([opt, out, gravity_only, later_days] {
     opt->accel_with_motion = !*gravity_only;
+    opt->start_t_ns += std::llround(*later_days * 86400.0 * 1e6) * 1000;
     synth::SequenceStats stats;
     const Status s = synth::WriteSequence(*opt, *out, &stats);
     if (!s.ok()) {

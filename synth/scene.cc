@@ -317,6 +317,26 @@ void AddPerson(const SceneOptions& options, double hue0, Scene* s) {
   s->objects.back().T_world_obj = ObjectPoseAt(*s, s->objects.back(), options.start_t_ns);
 }
 
+// Takes the objects of `ids` out of the scene; an id that is not there, or that something else
+// rests on, is an error.
+Status RemoveAbsent(const std::vector<int64_t>& ids, Scene* s) {
+  for (int64_t id : ids) {
+    const auto it = std::find_if(s->objects.begin(), s->objects.end(),
+                                 [&](const SceneObject& o) { return o.id == id; });
+    if (it == s->objects.end()) {
+      return absl::InvalidArgumentError(absl::StrCat("absent object ", id, " is not in the scene"));
+    }
+    for (const SceneObject& o : s->objects) {
+      if (o.on_id == id) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("absent object ", id, " holds object ", o.id, ": it stays"));
+      }
+    }
+    s->objects.erase(it);
+  }
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 StatusOr<Scene> MakeScene(const SceneOptions& options) {
@@ -335,6 +355,7 @@ StatusOr<Scene> MakeScene(const SceneOptions& options) {
   Supports supports = MakeSupports(s, s.objects[0], shelf, layout.shelf);
   LOCI_RETURN_IF_ERROR(AddObjects(s.options, hue0, &supports, &s, rng));
   if (options.dynamic) AddPerson(s.options, hue0, &s);
+  LOCI_RETURN_IF_ERROR(RemoveAbsent(options.absent_ids, &s));
   const SceneObject& t = s.objects.front();
   const Vec3d target(t.T_world_obj.translation().x(), t.T_world_obj.translation().y(),
                      supports.table_z);

@@ -45,6 +45,9 @@ struct SceneOptions {
   bool detect_non_coco = false;   // also emit detections (class_id -1) of non-COCO objects (shelf)
   int jpeg_quality = 95;          // rgb/*.jpg quality, [1, 100]
   int num_threads = 0;            // worker threads; 0 = std::thread::hardware_concurrency()
+  // Objects taken out of the room (ids as in objects.json): the same scene without them, for a
+  // later session of a room in which things changed. An object something rests on stays.
+  std::vector<int64_t> absent_ids;
 
   Status Validate() const;
 };

@@ -10,6 +10,7 @@
 #include <mutex>
 #include <thread>
 
+#include "absl/strings/str_join.h"
 #include "common/detections_io.h"
 #include "common/image_codec.h"
 #include "common/objects_json.h"
@@ -60,7 +61,9 @@ std::string OptionsYaml(const SceneOptions& o) {
                       "\nvaried_layout: ", o.varied_layout ? "true" : "false",
                       "\ndetector_noise: ", o.detector_noise ? "true" : "false", "\nwidth: ", o.width_px,
                       "\nheight: ", o.height_px, "\nfps_hz: ", o.fps_hz,
-                      "\naccel_with_motion: ", o.accel_with_motion ? "true" : "false", "\n");
+                      "\naccel_with_motion: ", o.accel_with_motion ? "true" : "false",
+                      "\nstart_t_ns: ", o.start_t_ns, "\nabsent: [", absl::StrJoin(o.absent_ids, ", "),
+                      "]\n");
 }
 
 // An object a perfect detector boxes in fewer than kSeenFrames frames (a third of a second), or

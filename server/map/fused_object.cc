@@ -155,26 +155,66 @@ void FusedObject::ObserveRange(double range_m) {
   }
 }
 
-FusedObject::Evidence FusedObject::EvidenceOver(int64_t window_ns) const {
+std::vector<std::pair<int64_t, bool>> FusedObject::EvidenceWindows(int64_t window_ns) const {
   std::vector<std::pair<int64_t, bool>> events;  // (t_ns, hit)
   events.reserve(hit_t_ns_.size() + missed_t_ns_.size());
   for (const auto& [kf, t_ns] : hit_t_ns_) events.emplace_back(t_ns, true);
   for (const auto& [kf, t_ns] : missed_t_ns_) events.emplace_back(t_ns, false);
   std::sort(events.begin(), events.end());
-  Evidence e;
+  std::vector<std::pair<int64_t, bool>> windows;
   for (size_t i = 0; i < events.size();) {
-    const int64_t end_ns = events[i].first + std::max<int64_t>(window_ns, 1);
+    const int64_t start_ns = events[i].first;
+    const int64_t end_ns = start_ns + std::max<int64_t>(window_ns, 1);
     bool hit = false;
     for (; i < events.size() && events[i].first < end_ns; ++i) hit |= events[i].second;
-    ++(hit ? e.hits : e.misses);
+    windows.emplace_back(start_ns, hit);
   }
+  return windows;
+}
+
+FusedObject::Evidence FusedObject::EvidenceOver(int64_t window_ns) const {
+  Evidence e;
+  for (const auto& [t_ns, hit] : EvidenceWindows(window_ns)) ++(hit ? e.hits : e.misses);
   return e;
 }
 
+namespace {
+
+// log(p / (1 - p)) of the belief `log_odds` after the thing may have been moved for dt_s.
+double Forget(double log_odds, double dt_s, double stays_s) {
+  if (stays_s <= 0 || dt_s <= 0) return log_odds;
+  const double p = 1.0 / (1.0 + std::exp(-log_odds)) * std::exp(-dt_s / stays_s);
+  return std::log(std::max(p, 1e-300) / (1 - p));
+}
+
+}  // namespace
+
 double FusedObject::ExistenceLogOdds(const ExistenceModel& m) const {
-  const Evidence e = EvidenceOver(m.window_ns);
-  return std::log(m.prior / (1 - m.prior)) + e.hits * std::log(m.p_detect / m.p_false) +
-         e.misses * std::log((1 - m.p_detect) / (1 - m.p_false));
+  const double hit = std::log(m.p_detect / m.p_false);
+  const double miss = std::log((1 - m.p_detect) / (1 - m.p_false));
+  double log_odds = std::log(m.prior / (1 - m.prior));
+  int64_t last_ns = 0;
+  bool first = true;
+  for (const auto& [t_ns, seen] : EvidenceWindows(m.window_ns)) {
+    if (!first) log_odds = Forget(log_odds, 1e-9 * static_cast<double>(t_ns - last_ns), m.stays_s);
+    first = false;
+    last_ns = t_ns;
+    log_odds += seen ? hit : miss;
+  }
+  return log_odds;
+}
+
+int64_t FusedObject::MissesSinceLastHit(std::vector<int64_t>* keyframe_ids) const {
+  int64_t last_hit_ns = std::numeric_limits<int64_t>::min();
+  for (const auto& [kf, t_ns] : hit_t_ns_) last_hit_ns = std::max(last_hit_ns, t_ns);
+  std::vector<std::pair<int64_t, int64_t>> after;  // (t_ns, keyframe)
+  for (const auto& [kf, t_ns] : missed_t_ns_) {
+    if (t_ns > last_hit_ns) after.emplace_back(t_ns, kf);
+  }
+  std::sort(after.begin(), after.end());
+  keyframe_ids->clear();
+  for (const auto& [t_ns, kf] : after) keyframe_ids->push_back(kf);
+  return after.empty() ? 0 : after.back().first;
 }
 
 void FusedObject::Miss(int64_t keyframe_id, int64_t t_ns) {

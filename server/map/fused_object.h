@@ -115,15 +115,21 @@ class FusedObject {
   // window of window_ns in which a keyframe saw the object, plus log((1 - p_detect) /
   // (1 - p_false)) per window whose keyframes should have seen it and did not. Keyframes a
   // fraction of a second apart share their viewpoint, blur and light, so a detector's hits and
-  // misses come in bursts: a window is one piece of evidence.
+  // misses come in bursts: a window is one piece of evidence. Things get moved: between two
+  // windows dt apart, the belief that the object is still there is multiplied by
+  // exp(-dt / stays_s), stays_s the mean time a thing of its class stays put (<= 0: forever), so
+  // a place seen empty a day later outweighs hours of sightings the day before.
   struct ExistenceModel {
     double prior = 0.03, p_detect = 0.5, p_false = 0.1;
     int64_t window_ns = 500'000'000;
+    double stays_s = 0;
   };
   struct Evidence {
     int hits = 0, misses = 0;  // windows
   };
   Evidence EvidenceOver(int64_t window_ns) const;
+  // The evidence windows in time order: (start, whether a keyframe in it saw the object).
+  std::vector<std::pair<int64_t, bool>> EvidenceWindows(int64_t window_ns) const;
   double ExistenceLogOdds(const ExistenceModel& m) const;
   void SetConfirmed(bool confirmed) { confirmed_ = confirmed; }
   // Hits / (hits + misses), for display.
@@ -131,6 +137,9 @@ class FusedObject {
     return observation_count() / std::max(1.0, double(observation_count()) + misses());
   }
   uint32_t misses() const { return static_cast<uint32_t>(missed_t_ns_.size()); }
+  // The keyframes that missed it after its last sighting, oldest first; returns the newest one's
+  // time (0: none).
+  int64_t MissesSinceLastHit(std::vector<int64_t>* keyframe_ids) const;
   // Up to 48 of the object's supported points (map frame), and its largest half extent, m.
   const std::vector<Eigen::Vector3d>& sample_m() const { return sample_m_; }
   double half_size_m() const { return obb_half_m_.maxCoeff(); }

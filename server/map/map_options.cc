@@ -225,23 +225,24 @@ Status MapOptions::FromYaml(const YAML::Node& node) {
 
 namespace {
 
-// `key` of the classes file: a map class name -> metres, > 0 (or >= 0 with allow_zero) and at
-// most max_m.
-Status ReadClassMetres(const YAML::Node& node, const char* key, std::map<std::string, double>* out,
+// `key` of the classes file: a map class name -> a value (metres, days), > 0 (or >= 0 with
+// allow_zero) and at most max_value.
+Status ReadClassValues(const YAML::Node& node, const char* key, std::map<std::string, double>* out,
                        bool allow_zero = false,
-                       double max_m = std::numeric_limits<double>::infinity()) {
+                       double max_value = std::numeric_limits<double>::infinity()) {
   const YAML::Node sizes = node[key];
   if (!sizes) return absl::OkStatus();
   if (!sizes.IsMap())
-    return absl::InvalidArgumentError(absl::StrCat(key, " must be a map class: metres"));
+    return absl::InvalidArgumentError(absl::StrCat(key, " must be a map class: value"));
   for (const auto& kv : sizes) {
     try {
-      const double m = kv.second.as<double>();
-      if (!((allow_zero ? m >= 0 : m > 0) && m <= max_m)) {
+      const double v = kv.second.as<double>();
+      if (!((allow_zero ? v >= 0 : v > 0) && v <= max_value)) {
         const char* low = allow_zero ? ">= 0" : "> 0";
-        throw YAML::Exception(kv.second.Mark(), absl::StrCat("must be ", low, " and <= ", max_m));
+        throw YAML::Exception(kv.second.Mark(),
+                              absl::StrCat("must be ", low, " and <= ", max_value));
       }
-      (*out)[kv.first.as<std::string>()] = m;
+      (*out)[kv.first.as<std::string>()] = v;
     } catch (const YAML::Exception& e) {
       return absl::InvalidArgumentError(
           absl::StrCat(key, ".", kv.first.as<std::string>(), ": ", e.what()));
@@ -256,12 +257,13 @@ Status MapOptions::ClassesFromYaml(const YAML::Node& node) {
   products_yaml_ += YAML::Dump(node) + "\n";
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "dynamic_classes", &dynamic_classes));
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "mapped", &mapped_classes));
-  LOCI_RETURN_IF_ERROR(ReadClassMetres(node, "max_size_m", &max_size_m));
-  LOCI_RETURN_IF_ERROR(ReadClassMetres(node, "max_height_m", &max_height_m));
-  LOCI_RETURN_IF_ERROR(ReadClassMetres(node, "max_thickness_m", &max_thickness_m));
+  LOCI_RETURN_IF_ERROR(ReadClassValues(node, "max_size_m", &max_size_m));
+  LOCI_RETURN_IF_ERROR(ReadClassValues(node, "max_height_m", &max_height_m));
+  LOCI_RETURN_IF_ERROR(ReadClassValues(node, "max_thickness_m", &max_thickness_m));
+  LOCI_RETURN_IF_ERROR(ReadClassValues(node, "stays_days", &stays_days, false, 36500.0));
   if (node["stand_m"]) {  // replaces the built-in stands; 0 turns a class's off
     stand_m.clear();
-    LOCI_RETURN_IF_ERROR(ReadClassMetres(node, "stand_m", &stand_m, true, 2.0));
+    LOCI_RETURN_IF_ERROR(ReadClassValues(node, "stand_m", &stand_m, true, 2.0));
   }
   LOCI_RETURN_IF_ERROR(ReadOptional(node, "top", &observation.mask.flat_top_classes));
   if (!mapped_classes.empty()) {

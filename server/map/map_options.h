@@ -106,6 +106,7 @@ struct FusionOptions {
   double top_margin_m = 0.03;
   std::map<std::string, double> max_size_m;
   std::map<std::string, double> max_thickness_m;
+  std::map<std::string, double> stays_s;  // mean time a thing of the class stays put, s
 };
 
 struct OctomapOptions {
@@ -146,6 +147,9 @@ struct MapOptions {
   // The stand or feet a class stands on that its points leave out, m (config/classes.yaml
   // `stand_m`: a flat panel's stand): the query's "on" allows for it. Absent = none.
   std::map<std::string, double> stand_m = {{"tv", 0.25}};
+  // Mean time a thing of the class stays where it is, days (config/classes.yaml `stays_days`):
+  // the existence belief forgets at this rate (FusedObject::ExistenceModel). Absent = forever.
+  std::map<std::string, double> stays_days;
 
   // Reads the sections cloud / observation / fusion / octomap and the class lists.
   // Fingerprints of what the stored map was made with (stored beside it; another fingerprint

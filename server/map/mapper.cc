@@ -20,6 +20,7 @@ FusionOptions FusionWithFlatTops(const MapOptions& options) {
   FusionOptions f = options.fusion;
   f.max_size_m = options.max_size_m;
   f.max_thickness_m = options.max_thickness_m;
+  for (const auto& [class_name, days] : options.stays_days) f.stays_s[class_name] = days * 86400;
   f.top_classes = options.observation.mask.flat_top_classes;
   f.top_margin_m = options.observation.mask.flat_top_margin_m;
   return f;
@@ -127,6 +128,8 @@ void Mapper::AppendEvents(const std::vector<ObjectChange>& changes,
     if (c.kind == ObjectChange::Kind::kRemoved) {  // gone: its last state, its own id
       e.object = c.removed_state;
       e.object.id = c.object_id;
+      e.evidence_keyframe_ids = c.evidence_keyframe_ids;
+      e.evidence_t_ns = c.evidence_t_ns;
       events->push_back(std::move(e));
       continue;
     }

@@ -90,6 +90,8 @@ struct ObjectEventOut {
   ObjectChange::Kind kind = ObjectChange::Kind::kUpdated;
   MapObject object;
   int64_t merged_from_id = 0;
+  std::vector<int64_t> evidence_keyframe_ids;  // ObjectChange::evidence_keyframe_ids
+  int64_t evidence_t_ns = 0;
 };
 
 class Mapper {

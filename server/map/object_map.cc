@@ -23,9 +23,11 @@ FusedObject ObjectMap::NewObject(int64_t id) const {
                       options_.bottom_quantile});
 }
 
-FusedObject::ExistenceModel ObjectMap::Existence() const {
+FusedObject::ExistenceModel ObjectMap::Existence(const FusedObject& object) const {
+  const auto stays = options_.stays_s.find(object.labels().Argmax());
   return {options_.existence_prior, options_.p_detect, options_.p_false,
-          static_cast<int64_t>(options_.evidence_window_s * 1e9)};
+          static_cast<int64_t>(options_.evidence_window_s * 1e9),
+          stays == options_.stays_s.end() ? 0.0 : stays->second};
 }
 
 bool ObjectMap::FitsClassShape(const FusedObject& object) const {
@@ -36,7 +38,7 @@ bool ObjectMap::FitsClassShape(const FusedObject& object) const {
 }
 
 double ObjectMap::Judge(FusedObject* object) const {
-  const double log_odds = object->ExistenceLogOdds(Existence());
+  const double log_odds = object->ExistenceLogOdds(Existence(*object));
   const double confirm = std::log(options_.confirm_belief / (1 - options_.confirm_belief));
   object->SetConfirmed(log_odds >= confirm && FitsClassShape(*object));
   return log_odds;
@@ -125,7 +127,7 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
                    obs.keyframe_id, obs.t_ns);
     object.ObserveRange(obs.range_m);
     Judge(&object);
-    changes->push_back({kind, id, 0, {}});
+    changes->push_back({kind, id, 0, {}, {}, 0});
     ids.push_back(MergeDuplicates(id, changes));
   }
   for (int64_t& id : ids) id = Resolve(id);
@@ -167,10 +169,10 @@ int64_t ObjectMap::Merge(int64_t a, int64_t b, std::vector<ObjectChange>* change
   const int64_t keep = std::min(a, b), drop = std::max(a, b);
   objects_.at(keep).Absorb(objects_.at(drop));
   Judge(&objects_.at(keep));
-  ObjectChange removed{ObjectChange::Kind::kRemoved, drop, 0, objects_.at(drop).Snapshot()};
+  ObjectChange removed{ObjectChange::Kind::kRemoved, drop, 0, objects_.at(drop).Snapshot(), {}, 0};
   objects_.erase(drop);
   merged_into_[drop] = keep;
-  changes->push_back({ObjectChange::Kind::kMerged, keep, drop, {}});
+  changes->push_back({ObjectChange::Kind::kMerged, keep, drop, {}, {}, 0});
   changes->push_back(std::move(removed));
   return keep;
 }
@@ -193,7 +195,7 @@ void ObjectMap::MergeMoved(const std::vector<int64_t>& object_ids,
     auto it = objects_.find(id);
     if (it == objects_.end()) continue;
     it->second.RecomputeGeometry();
-    changes->push_back({ObjectChange::Kind::kUpdated, id, 0, {}});
+    changes->push_back({ObjectChange::Kind::kUpdated, id, 0, {}, {}, 0});
   }
   for (int64_t object_id : moved) {
     const int64_t id = Resolve(object_id);
@@ -208,7 +210,7 @@ void ObjectMap::MergeMoved(const std::vector<int64_t>& object_ids,
     const bool was_confirmed = it->second.confirmed();
     Judge(&it->second);
     if (it->second.confirmed() != was_confirmed) {
-      changes->push_back({ObjectChange::Kind::kUpdated, id, 0, {}});
+      changes->push_back({ObjectChange::Kind::kUpdated, id, 0, {}, {}, 0});
     }
   }
 }
@@ -230,14 +232,16 @@ void ObjectMap::ObserveView(int64_t keyframe_id, int64_t t_ns, const KeyframeVie
     if (Judge(&object) <= remove) {
       gone.push_back(id);
     } else if (object.confirmed() != was_confirmed) {
-      changes->push_back({ObjectChange::Kind::kUpdated, id, 0, {}});
+      changes->push_back({ObjectChange::Kind::kUpdated, id, 0, {}, {}, 0});
     }
   }
   for (int64_t id : gone) {
     const FusedObject& object = objects_.at(id);
     spdlog::debug("object {} ({}, {} views, {} missed) removed: too many views missed it", id,
                   object.labels().Argmax(), object.observation_count(), object.misses());
-    changes->push_back({ObjectChange::Kind::kRemoved, id, 0, object.Snapshot()});
+    ObjectChange removed{ObjectChange::Kind::kRemoved, id, 0, object.Snapshot(), {}, 0};
+    removed.evidence_t_ns = object.MissesSinceLastHit(&removed.evidence_keyframe_ids);
+    changes->push_back(std::move(removed));
     objects_.erase(id);
   }
 }

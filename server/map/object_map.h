@@ -47,6 +47,10 @@ struct ObjectChange {
   // kRemoved: the object's last state before it went (object_id = its id, which now resolves to
   // the object that absorbed it).
   MapObject removed_state;
+  // kRemoved by its existence belief: the keyframes that should have seen it since it was last
+  // seen and did not, oldest first, and the newest one's time.
+  std::vector<int64_t> evidence_keyframe_ids;
+  int64_t evidence_t_ns = 0;
 };
 
 class ObjectMap {
@@ -104,7 +108,7 @@ class ObjectMap {
  private:
   // An empty object with the map's options.
   FusedObject NewObject(int64_t id) const;
-  FusedObject::ExistenceModel Existence() const;
+  FusedObject::ExistenceModel Existence(const FusedObject& object) const;
   // Sets whether `object` is confirmed: its belief reaches confirm_belief and its fused shape
   // fits its most likely class (class data; a fused 0.4 m "mouse" is a smeared mask). Returns
   // its existence log-odds, which decides removal.

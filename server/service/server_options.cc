@@ -142,7 +142,7 @@ Status ServerOptions::LoadClasses() {
   // dynamic_weight is loci-track's (TrackerOptions::ClassWeightsFromYaml).
   LOCI_RETURN_IF_ERROR(CheckKnownKeys(
       node, "", {"mapped", "dynamic_classes", "dynamic_weight", "max_size_m", "max_height_m",
-                 "max_thickness_m", "stand_m", "top"}));
+                 "max_thickness_m", "stand_m", "stays_days", "top"}));
   return map.ClassesFromYaml(node);
 }
 

@@ -274,6 +274,8 @@ void ToProto(const ObjectEventOut& in, int64_t t_ns, loci::v1::ObjectEvent* out)
   ToProto(in.object, out->mutable_object());
   out->set_merged_from_id(in.merged_from_id);
   out->set_t_ns(t_ns);
+  for (int64_t id : in.evidence_keyframe_ids) out->add_evidence_keyframe_ids(id);
+  out->set_evidence_t_ns(in.evidence_t_ns);
 }
 
 Status QueryService::SubscribeObjects(std::shared_ptr<ObjectEventQueue> queue) {

@@ -136,6 +136,31 @@ TEST(ObjectModel, ViewsInOneWindowAreOnePieceOfEvidence) {
   EXPECT_NEAR(missed.ExistenceLogOdds(m), prior + 3 * hit + 2 * std::log(0.5 / 0.9), 1e-9);
 }
 
+// Things get moved: sightings days old weigh less than views of the empty place now. A glance
+// an hour later that misses a cup leaves it believed; two days later, a few seconds of views
+// that miss it take the belief below removal; a class that is never moved keeps it.
+TEST(ObjectModel, OldSightingsFadeAtTheClassRate) {
+  FusedObject::ExistenceModel m;
+  m.stays_s = 0.5 * 86400;  // a cup: moved within half a day
+  const double remove = std::log(0.001 / 0.999);
+  std::vector<double> seen_s;
+  for (int i = 0; i < 40; ++i) seen_s.push_back(0.6 * i);  // 24 s of sightings
+  const FusedObject cup = CupSeenAt(seen_s);
+  EXPECT_GT(cup.ExistenceLogOdds(m), 5.0);
+  auto missed_after = [&](double gap_s, int windows) {
+    FusedObject later = cup;
+    for (int k = 0; k < windows; ++k) {
+      later.Miss(1000 + k, static_cast<int64_t>((24 + gap_s + 0.6 * k) * 1e9));
+    }
+    return later;
+  };
+  EXPECT_GT(missed_after(3600, 2).ExistenceLogOdds(m), 0.0) << "an hour later: still there";
+  EXPECT_LT(missed_after(2 * 86400, 6).ExistenceLogOdds(m), remove) << "two days later: gone";
+  FusedObject::ExistenceModel forever = m;
+  forever.stays_s = 0;
+  EXPECT_GT(missed_after(2 * 86400, 6).ExistenceLogOdds(forever), 0.0);
+}
+
 // A camera at the map origin (optical frame = map frame) sees a flat surface 1 m ahead with a
 // 10 cm mouse detected at x = -0.2 m in `hits` views 0.6 s apart; then 20 views 0.6 s apart
 // show the same place without a box. Returns whether the mouse was confirmed after the
