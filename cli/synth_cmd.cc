@@ -1,5 +1,5 @@
 // `loci synth --out DIR [--seed N] [--frames N] [--objects N] [--dynamic] [--noise] [--varied]
-// [--det-noise] [--absent ID,...] [--days-later D] ...`:
+// [--det-noise] [--absent ID,...] [--moved ID,...] [--days-later D] ...`:
 // renders a synthetic TUM-layout RGB-D sequence with exact ground truth (synth/).
 #include <algorithm>
 #include <cmath>
@@ -36,6 +36,9 @@ void RegisterSynthCommands(CLI::App& app) {
                 "Detector errors in detections.jsonl: jitter, misses, false boxes, confusions");
   cmd->add_option("--absent", opt->absent_ids,
                   "Object ids (as in objects.json) taken out of the room: a later session of it")
+      ->delimiter(',');
+  cmd->add_option("--moved", opt->moved_ids,
+                  "Object ids put elsewhere on the same support: a later session of the room")
       ->delimiter(',');
   cmd->add_option("--days-later", *later_days,
                   "Stamps start this many days after the default start (a later session)")

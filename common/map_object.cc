@@ -20,6 +20,10 @@ MapObject Transformed(MapObject o, const SE3d& T_b_a) {
   o.centroid_m = T_b_a * o.centroid_m;
   o.obb_center_m = T_b_a * o.obb_center_m;
   o.R_map_box = T_b_a.linear() * o.R_map_box;
+  for (ObjectPlaceChange& c : o.history) {
+    c.centroid_m = T_b_a * c.centroid_m;
+    c.from_m = T_b_a * c.from_m;
+  }
   const bool keeps_up = T_b_a.linear()(2, 2) > 1.0 - 1e-9;
   for (double* z_m : {&o.top_surface_z_m, &o.bottom_z_m}) {
     *z_m = keeps_up ? *z_m + T_b_a.translation().z() : std::numeric_limits<double>::quiet_NaN();

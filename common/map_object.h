@@ -14,6 +14,19 @@
 
 namespace loci {
 
+// One change of an object's place over time, in map time (the stamps of the keyframes that
+// showed it). Appeared: first confirmed, at centroid_m. Moved: seen again at centroid_m after
+// its earlier place (from_m) was seen empty. Removed: its place seen empty, no new place.
+struct ObjectPlaceChange {
+  enum class Kind { kAppeared, kMoved, kRemoved };
+  Kind kind = Kind::kAppeared;
+  int64_t t_ns = 0;
+  Eigen::Vector3d centroid_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d from_m = Eigen::Vector3d::Zero();  // kMoved: the earlier place
+  // kMoved, kRemoved: the keyframes that saw the earlier place empty, oldest first.
+  std::vector<int64_t> evidence_keyframe_ids;
+};
+
 struct MapObject {
   int64_t id = 0;
   std::string class_name;        // argmax of `labels`
@@ -48,6 +61,10 @@ struct MapObject {
   // a robot session not aligned to the shared map yet, mapped in its own frame (its odometry
   // frame levelled z-up), so its positions are not in the map frame.
   std::string island;
+  // Its place over time, oldest first (confirmed objects; empty for the others).
+  std::vector<ObjectPlaceChange> history;
+  // Map time it was found gone (0: in the map); its other fields are its last state.
+  int64_t removed_t_ns = 0;
 };
 
 // The object expressed in another frame: T_b_a maps its frame a to frame b. Centroid, oriented

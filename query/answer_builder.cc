@@ -45,6 +45,12 @@ void AnswerBuilder::Answer(const ParsedQuery& q, AskResult* r) const {
     case Intent::kNearest:
       Nearest(q, r);
       break;
+    case Intent::kChanges:
+      Changes(q, r);
+      break;
+    case Intent::kWhereBefore:
+      WhereBefore(q, r);
+      break;
   }
 }
 

@@ -30,6 +30,9 @@ class AnswerBuilder {
   void List(const ParsedQuery& q, AskResult* r) const;
   void WhichRobot(const ParsedQuery& q, AskResult* r) const;
   void Nearest(const ParsedQuery& q, AskResult* r) const;
+  // answer_changes.cc: what appeared, moved or went since a time; where an object was before.
+  void Changes(const ParsedQuery& q, AskResult* r) const;
+  void WhereBefore(const ParsedQuery& q, AskResult* r) const;
 
   // WhatRelation's subjects holding `rel` to an anchor (or an anchor pair for "between"): the
   // most confident relation of each, best first.

@@ -53,7 +53,8 @@ std::shared_ptr<const MapIndex> MapIndex::Build(std::vector<MapObject> objects,
                                                 std::optional<Vec3d> up_map,
                                                 std::vector<Viewpoint> viewpoints,
                                                 const QueryOptions& options,
-                                                const Vocabulary& vocabulary) {
+                                                const Vocabulary& vocabulary,
+                                                std::vector<MapObject> removed) {
   UpSource source = UpSource::kConfig;
   Vec3d up = options.default_up_map;
   if (up_map && up_map->allFinite() && up_map->norm() > 1e-6) {
@@ -74,6 +75,7 @@ std::shared_ptr<const MapIndex> MapIndex::Build(std::vector<MapObject> objects,
       std::remove_if(objects.begin(), objects.end(), [](const MapObject& o) { return !Finite(o); }),
       objects.end());
   index->objects_ = std::move(objects);
+  index->removed_ = std::move(removed);
   const size_t n = index->objects_.size();
   index->geoms_.reserve(n);
   index->eligible_.resize(n);

@@ -45,10 +45,13 @@ class MapIndex {
                                                std::optional<Vec3d> up_map,
                                                std::vector<Viewpoint> viewpoints,
                                                const QueryOptions& options,
-                                               const Vocabulary& vocabulary);
+                                               const Vocabulary& vocabulary,
+                                               std::vector<MapObject> removed = {});
 
   size_t size() const { return objects_.size(); }
   const MapObject& object(int i) const { return objects_[i]; }
+  // Objects found gone (MapObject::removed_t_ns), for questions about changes; not indexed.
+  const std::vector<MapObject>& removed() const { return removed_; }
   const ObjectGeom& geom(int i) const { return geoms_[i]; }
   // Passes the Ask-level filters of the options (min_object_confidence, confirmed_only).
   bool eligible(int i) const { return eligible_[i]; }
@@ -86,6 +89,7 @@ class MapIndex {
   UpSource up_source_ = UpSource::kConfig;
   Vocabulary vocabulary_;
   std::vector<MapObject> objects_;
+  std::vector<MapObject> removed_;
   std::vector<ObjectGeom> geoms_;
   std::vector<bool> eligible_;
   std::unordered_map<int64_t, int> index_of_id_;

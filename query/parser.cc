@@ -7,6 +7,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
+#include "query/change_parser.h"
 
 namespace loci::query {
 namespace {
@@ -98,6 +99,11 @@ const std::set<std::string>& AnyWords() {
                                               "everything", "anything", "something", "item",
                                               "items",      "stuff"};
   return words;
+}
+
+bool IsBeforeWord(const std::string& w) {
+  return w == "before" || w == "earlier" || w == "previously" || w == "originally" ||
+         w == "formerly" || w == "yesterday";
 }
 
 bool IsPlaceWord(const std::string& w) {
@@ -289,6 +295,10 @@ std::string IntentName(const ParsedQuery& q) {
       return "which_robot";
     case Intent::kNearest:
       return "nearest";
+    case Intent::kChanges:
+      return "changes";
+    case Intent::kWhereBefore:
+      return "where_before";
   }
   return "unknown";
 }
@@ -297,7 +307,8 @@ std::string QueryHelp(const Vocabulary& vocabulary) {
   return absl::StrCat(
       "Questions I understand: \"where is the X [on the Y]\", \"what is on the Y\", \"is there "
       "an X near the Y\", \"is the X on the Y\", \"how many Xs are there [on the Y]\", \"list all "
-      "objects\", \"which robot saw the X last\", \"what is the nearest X to the Y\". Relations: "
+      "objects\", \"which robot saw the X last\", \"what is the nearest X to the Y\", \"what "
+      "changed since 2 hours ago\", \"what is new\", \"where was the X before\". Relations: "
       "on, under, above, below, near, next to, inside, between ... and ..., nearest, left of, "
       "right of, in front of, behind. Objects: ",
       absl::StrJoin(vocabulary.classes(), ", "), "; also ",
@@ -396,8 +407,30 @@ StatusOr<ParsedQuery> ParseQuestion(std::string_view text, const Vocabulary& voc
     return absl::InvalidArgumentError(
         absl::StrCat("The question is empty. ", QueryHelp(vocabulary)));
   }
+  if (std::optional<StatusOr<ParsedQuery>> changes = ParseChangeQuestion(raw, text, vocabulary)) {
+    return *changes;
+  }
   ParsedQuery q;
   size_t skip = 0;
+  // "where was the X [before]": where it was before it moved.
+  const bool before = raw.size() > 1 && raw[0] == "where" && (raw[1] == "was" || raw[1] == "were") &&
+                      std::any_of(raw.begin(), raw.end(), IsBeforeWord);
+  if (before) {
+    std::vector<std::string> tail;
+    for (const std::string& w : raw) {
+      if (!IsBeforeWord(w)) tail.push_back(w);
+    }
+    const std::vector<std::string> t = ContentWords(tail, 1);
+    LOCI_ASSIGN_OR_RETURN(TailParser::Tail parsed,
+                          TailParser(t, vocabulary, text).Parse(0, t.size()));
+    if (!parsed.target || parsed.relation) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "Ask \"where was the X before\" with one object. ", QueryHelp(vocabulary)));
+    }
+    q.intent = Intent::kWhereBefore;
+    q.target = parsed.target;
+    return q;
+  }
   const Form form = LeadingForm(raw, &skip);
   q.first_seen = form == Form::kWhichRobot && std::count(raw.begin(), raw.end(), "first") > 0;
   const std::vector<std::string> t = ContentWords(raw, skip);

@@ -7,6 +7,11 @@
 //   list all objects / what objects are there / list the Xs           -> kList
 //   which robot saw the X [last|first] / who saw the X                -> kWhichRobot
 //   where is the nearest X [to the Y] / which X is closest to the Y   -> kNearest
+//   what changed / moved / is new / is gone [since T] [in the R]      -> kChanges
+//   where was the X before / earlier / previously                     -> kWhereBefore
+// T: "N seconds|minutes|hours|days|weeks ago", "yesterday", "today", "the last N hours", a
+// date "2026-12-05" (UTC); without one, the last day. R: a room name, which scopes nothing
+// (the map has no rooms): the whole map.
 // REL: on (top of), under/beneath, above/over, below, near/close to/by, next to/beside,
 // inside/in/within, between Y and Z, left of / right of (to the, on the ... side of),
 // in front of, behind. X, Y: class names, synonyms and plurals (vocabulary.h), "objects" /
@@ -34,6 +39,8 @@ enum class Intent {
   kList,
   kWhichRobot,
   kNearest,
+  kChanges,
+  kWhereBefore,
 };
 
 struct ObjectPhrase {
@@ -55,10 +62,17 @@ struct ParsedQuery {
   std::optional<ObjectPhrase> target;
   std::optional<RelationClause> relation;
   bool first_seen = false;  // kWhichRobot: "first" instead of "last"
+  // kChanges: changes after `since_s` before now, or after the time since_t_ns (ns since the
+  // epoch); neither: the last day. Which kinds: all, or only appearances ("what is new"), moves
+  // or removals.
+  std::optional<double> since_s;
+  std::optional<int64_t> since_t_ns;
+  enum class ChangeFilter { kAll, kNew, kMoved, kGone };
+  ChangeFilter changes = ChangeFilter::kAll;
 };
 
 // Intent name as in AskResponse.intent: "where", "what_on", "what_left_of", "exists", "check_on",
-// "count", "list", "which_robot", "nearest".
+// "count", "list", "which_robot", "nearest", "changes", "where_before".
 std::string IntentName(const ParsedQuery& query);
 
 // Parses `text`. InvalidArgument naming the unknown word(s), followed by QueryHelp().

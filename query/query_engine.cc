@@ -24,13 +24,16 @@ QueryEngine::QueryEngine(QueryOptions options)
 
 std::shared_ptr<const MapIndex> QueryEngine::Index(const MapView& view) const {
   return MapIndex::Build(std::vector<MapObject>(view.objects.begin(), view.objects.end()),
-                         view.up_map, view.viewpoints, options_, vocabulary_);
+                         view.up_map, view.viewpoints, options_, vocabulary_,
+                         std::vector<MapObject>(view.removed.begin(), view.removed.end()));
 }
 
 std::shared_ptr<const MapIndex> QueryEngine::Index(std::vector<MapObject> objects,
                                                    std::optional<Vec3d> up_map,
-                                                   std::vector<Viewpoint> viewpoints) const {
-  return MapIndex::Build(std::move(objects), up_map, std::move(viewpoints), options_, vocabulary_);
+                                                   std::vector<Viewpoint> viewpoints,
+                                                   std::vector<MapObject> removed) const {
+  return MapIndex::Build(std::move(objects), up_map, std::move(viewpoints), options_, vocabulary_,
+                         std::move(removed));
 }
 
 AskResult QueryEngine::Ask(std::string_view text, const MapView& view) const {

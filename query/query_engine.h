@@ -31,6 +31,7 @@ namespace loci::query {
 // A snapshot of the map as the caller holds it.
 struct MapView {
   std::span<const MapObject> objects;  // map frame
+  std::span<const MapObject> removed;  // objects found gone (MapObject::removed_t_ns)
   // Up direction in the map frame; nullopt = estimate (options.up_from_viewpoints) or config.
   std::optional<Vec3d> up_map;
   std::vector<Viewpoint> viewpoints;  // latest camera pose per robot, T_map_cam
@@ -65,9 +66,11 @@ class QueryEngine {
   // Indexes a snapshot (copies the objects).
   std::shared_ptr<const MapIndex> Index(const MapView& view) const;
   // Indexes a snapshot the caller hands over.
+  // `removed`: the objects found gone (MapObject::removed_t_ns), for questions about changes.
   std::shared_ptr<const MapIndex> Index(std::vector<MapObject> objects,
                                         std::optional<Vec3d> up_map = std::nullopt,
-                                        std::vector<Viewpoint> viewpoints = {}) const;
+                                        std::vector<Viewpoint> viewpoints = {},
+                                        std::vector<MapObject> removed = {}) const;
 
   // Answers `text` (builds a temporary index).
   AskResult Ask(std::string_view text, const MapView& view) const;

@@ -244,11 +244,16 @@ std::vector<ClassSpec> ShuffledClasses(Rng& rng) {
   return classes;
 }
 
+// Things used from the front are left facing the room.
+bool FacesFront(const std::string& class_name) {
+  return class_name == "tv" || class_name == "laptop" || class_name == "keyboard" ||
+         class_name == "clock";
+}
+
 // Places object `k` (0-based) on a support: the allowed one furthest behind its share (table
 // 55%, shelf 20%, floor 25%), so every scene has objects on all three; the others are fallbacks.
 bool PlaceOnSupport(const ClassSpec& spec, int k, Supports* u, SceneObject* o, Rng& rng) {
-  const bool face_front =
-      spec.name == "tv" || spec.name == "laptop" || spec.name == "keyboard" || spec.name == "clock";
+  const bool face_front = FacesFront(spec.name);
   std::vector<std::pair<double, int>> choices;
   const double n_placed = k + 1.0;
   auto deficit = [&](double share, size_t have) {
@@ -337,6 +342,36 @@ Status RemoveAbsent(const std::vector<int64_t>& ids, Scene* s) {
   return absl::OkStatus();
 }
 
+// Puts the objects of `ids` elsewhere on their own support; errors as RemoveAbsent's.
+Status MoveObjects(const SceneOptions& options, Supports* u, Scene* s) {
+  Rng rng(Rng::Mix(options.seed, 0x30E3D));
+  for (int64_t id : options.moved_ids) {
+    const auto it = std::find_if(s->objects.begin(), s->objects.end(),
+                                 [&](const SceneObject& o) { return o.id == id; });
+    if (it == s->objects.end() || it->dynamic || id == u->table_id || id == u->shelf_id) {
+      return absl::InvalidArgumentError(absl::StrCat("moved object ", id, " is not a placed object"));
+    }
+    for (const SceneObject& o : s->objects) {
+      if (o.on_id == id) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("moved object ", id, " holds object ", o.id, ": it stays"));
+      }
+    }
+    const bool face_front = FacesFront(it->class_name);
+    const bool placed =
+        it->on_id == 0
+            ? Place(&*it, u->floor_area, 0.0, false, u->floor_forbidden, &u->taken_floor, rng)
+        : it->on_id == u->table_id
+            ? Place(&*it, u->table_area, u->table_z, face_front, {}, &u->taken_table, rng)
+            : Place(&*it, u->shelf_area, u->shelf_z, face_front, {}, &u->taken_shelf, rng);
+    if (!placed) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("no free place to move object ", id, " to on its support"));
+    }
+  }
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 StatusOr<Scene> MakeScene(const SceneOptions& options) {
@@ -355,6 +390,7 @@ StatusOr<Scene> MakeScene(const SceneOptions& options) {
   Supports supports = MakeSupports(s, s.objects[0], shelf, layout.shelf);
   LOCI_RETURN_IF_ERROR(AddObjects(s.options, hue0, &supports, &s, rng));
   if (options.dynamic) AddPerson(s.options, hue0, &s);
+  LOCI_RETURN_IF_ERROR(MoveObjects(options, &supports, &s));
   LOCI_RETURN_IF_ERROR(RemoveAbsent(options.absent_ids, &s));
   const SceneObject& t = s.objects.front();
   const Vec3d target(t.T_world_obj.translation().x(), t.T_world_obj.translation().y(),

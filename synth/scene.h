@@ -48,6 +48,10 @@ struct SceneOptions {
   // Objects taken out of the room (ids as in objects.json): the same scene without them, for a
   // later session of a room in which things changed. An object something rests on stays.
   std::vector<int64_t> absent_ids;
+  // Objects put somewhere else on the same support (not overlapping where they were), drawn
+  // from their own random stream: the rest of the scene stays as it was. An object something
+  // rests on stays.
+  std::vector<int64_t> moved_ids;
 
   Status Validate() const;
 };

@@ -63,7 +63,7 @@ std::string OptionsYaml(const SceneOptions& o) {
                       "\nheight: ", o.height_px, "\nfps_hz: ", o.fps_hz,
                       "\naccel_with_motion: ", o.accel_with_motion ? "true" : "false",
                       "\nstart_t_ns: ", o.start_t_ns, "\nabsent: [", absl::StrJoin(o.absent_ids, ", "),
-                      "]\n");
+                      "]\nmoved: [", absl::StrJoin(o.moved_ids, ", "), "]\n");
 }
 
 // An object a perfect detector boxes in fewer than kSeenFrames frames (a third of a second), or

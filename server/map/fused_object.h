@@ -163,6 +163,11 @@ class FusedObject {
   }
 
   int64_t id() const { return id_; }
+  // The id it is known by: an object seen again at a new place takes the id it had at the old
+  // one (ObjectMap).
+  void set_id(int64_t id) { id_ = id; }
+  int64_t first_seen_ns() const { return first_seen_ns_; }  // map time of its first sighting
+  int64_t last_seen_ns() const { return last_seen_ns_; }
   const Eigen::Vector3d& centroid_m() const { return centroid_m_; }
   const Eigen::Vector3d& aabb_min_m() const { return aabb_min_m_; }  // map axes
   const Eigen::Vector3d& aabb_max_m() const { return aabb_max_m_; }

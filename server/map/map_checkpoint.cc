@@ -152,10 +152,54 @@ Status FusedObject::LoadState(const loci::store::v1::FusedObjectState& in) {
   return absl::OkStatus();
 }
 
+namespace {
+
+void SaveVec3(const Eigen::Vector3d& v, loci::store::v1::Vec3* out) {
+  out->set_x(v.x());
+  out->set_y(v.y());
+  out->set_z(v.z());
+}
+
+Eigen::Vector3d LoadVec3(const loci::store::v1::Vec3& v) { return {v.x(), v.y(), v.z()}; }
+
+void SaveHistory(const std::vector<ObjectPlaceChange>& history,
+                 loci::store::v1::PlaceHistoryState* out) {
+  for (const ObjectPlaceChange& c : history) {
+    loci::store::v1::PlaceChangeState* s = out->add_changes();
+    s->set_kind(static_cast<int32_t>(c.kind));
+    s->set_t_ns(c.t_ns);
+    SaveVec3(c.centroid_m, s->mutable_centroid_m());
+    SaveVec3(c.from_m, s->mutable_from_m());
+    for (int64_t id : c.evidence_keyframe_ids) s->add_evidence_keyframe_ids(id);
+  }
+}
+
+StatusOr<std::vector<ObjectPlaceChange>> LoadHistory(const loci::store::v1::PlaceHistoryState& in) {
+  std::vector<ObjectPlaceChange> out;
+  for (const auto& s : in.changes()) {
+    if (s.kind() < 0 || s.kind() > static_cast<int32_t>(ObjectPlaceChange::Kind::kRemoved)) {
+      return absl::DataLossError("checkpoint: an object's history has an unknown change kind");
+    }
+    ObjectPlaceChange c;
+    c.kind = static_cast<ObjectPlaceChange::Kind>(s.kind());
+    c.t_ns = s.t_ns();
+    c.centroid_m = LoadVec3(s.centroid_m());
+    c.from_m = LoadVec3(s.from_m());
+    c.evidence_keyframe_ids.assign(s.evidence_keyframe_ids().begin(),
+                                   s.evidence_keyframe_ids().end());
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+}  // namespace
+
 void ObjectMap::SaveState(loci::store::v1::ObjectMapState* out) const {
   out->set_next_id(next_id_);
   for (const auto& [id, object] : objects_) object.SaveState(out->add_objects());
+  for (const auto& [id, object] : gone_) object.SaveState(out->add_gone());
   for (const auto& [from, to] : merged_into_) (*out->mutable_merged_into())[from] = to;
+  for (const auto& [id, history] : history_) SaveHistory(history, &(*out->mutable_history())[id]);
 }
 
 Status ObjectMap::LoadState(const loci::store::v1::ObjectMapState& in) {
@@ -166,7 +210,17 @@ Status ObjectMap::LoadState(const loci::store::v1::ObjectMapState& in) {
     LOCI_RETURN_IF_ERROR(object.LoadState(o));
     objects_.emplace(o.id(), std::move(object));
   }
+  for (const auto& o : in.gone()) {
+    FusedObject object = NewObject(o.id());
+    LOCI_RETURN_IF_ERROR(object.LoadState(o));
+    gone_.emplace(o.id(), std::move(object));
+  }
   for (const auto& [from, to] : in.merged_into()) merged_into_[from] = to;
+  for (const auto& [id, h] : in.history()) {
+    StatusOr<std::vector<ObjectPlaceChange>> history = LoadHistory(h);
+    if (!history.ok()) return history.status();
+    history_[id] = std::move(*history);
+  }
   return absl::OkStatus();
 }
 

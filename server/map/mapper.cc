@@ -135,6 +135,9 @@ void Mapper::AppendEvents(const std::vector<ObjectChange>& changes,
     }
     if (std::optional<MapObject>& snapshot = snapshots[next++]) e.object = std::move(*snapshot);
     e.object.id = objects_.Resolve(c.object_id);
+    e.evidence_keyframe_ids = c.evidence_keyframe_ids;
+    e.evidence_t_ns = c.evidence_t_ns;
+    e.from_m = c.from_m;
     events->push_back(std::move(e));
   }
 }
@@ -359,11 +362,16 @@ std::vector<MapObject> Mapper::Snapshot(bool confirmed_only) const {
   return objects_.Snapshot(confirmed_only);
 }
 
+std::vector<MapObject> Mapper::Removed() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return objects_.Removed();
+}
+
 std::optional<MapObject> Mapper::GetObject(int64_t id, std::vector<ColoredPoint>* cloud_m,
                                            std::vector<int64_t>* keyframe_ids) const {
   std::lock_guard<std::mutex> lock(mu_);
   const FusedObject* obj = objects_.Find(objects_.Resolve(id));
-  if (obj == nullptr) return std::nullopt;
+  if (obj == nullptr) return objects_.RemovedOf(objects_.Resolve(id));  // gone: its last state
   if (cloud_m) *cloud_m = obj->Cloud();
   if (keyframe_ids) *keyframe_ids = obj->keyframes();
   return objects_.SnapshotOf(obj->id());

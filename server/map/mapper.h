@@ -92,6 +92,7 @@ struct ObjectEventOut {
   int64_t merged_from_id = 0;
   std::vector<int64_t> evidence_keyframe_ids;  // ObjectChange::evidence_keyframe_ids
   int64_t evidence_t_ns = 0;
+  Eigen::Vector3d from_m = Eigen::Vector3d::Zero();  // kMoved: ObjectChange::from_m
 };
 
 class Mapper {
@@ -146,6 +147,8 @@ class Mapper {
   void SetEventListener(std::function<void(const std::vector<ObjectEventOut>&)> listener);
 
   std::vector<MapObject> Snapshot(bool confirmed_only = false) const;
+  // The confirmed objects found gone, with their history (ObjectMap::Removed).
+  std::vector<MapObject> Removed() const;
   std::optional<MapObject> GetObject(int64_t id, std::vector<ColoredPoint>* cloud_m,
                                      std::vector<int64_t>* keyframe_ids) const;
   // Semantic cloud at voxel_m (0 = the map's voxel); `classes` empty = all, "background" selects

@@ -10,6 +10,14 @@
 
 namespace loci::server {
 
+ObjectChange ChangeOf(ObjectChange::Kind kind, int64_t object_id, int64_t merged_from_id) {
+  ObjectChange c;
+  c.kind = kind;
+  c.object_id = object_id;
+  c.merged_from_id = merged_from_id;
+  return c;
+}
+
 ObjectMap::ObjectMap(const FusionOptions& options, double voxel_m)
     : options_(options), association_(options), voxel_m_(voxel_m) {}
 
@@ -127,9 +135,10 @@ std::vector<int64_t> ObjectMap::Integrate(const std::vector<MapObservation>& obs
                    obs.keyframe_id, obs.t_ns);
     object.ObserveRange(obs.range_m);
     Judge(&object);
-    changes->push_back({kind, id, 0, {}, {}, 0});
+    changes->push_back(ChangeOf(kind, id));
     ids.push_back(MergeDuplicates(id, changes));
   }
+  TrackPlaces(changes);
   for (int64_t& id : ids) id = Resolve(id);
   return ids;
 }
@@ -169,10 +178,16 @@ int64_t ObjectMap::Merge(int64_t a, int64_t b, std::vector<ObjectChange>* change
   const int64_t keep = std::min(a, b), drop = std::max(a, b);
   objects_.at(keep).Absorb(objects_.at(drop));
   Judge(&objects_.at(keep));
-  ObjectChange removed{ObjectChange::Kind::kRemoved, drop, 0, objects_.at(drop).Snapshot(), {}, 0};
+  ObjectChange removed = ChangeOf(ObjectChange::Kind::kRemoved, drop);
+  removed.removed_state = objects_.at(drop).Snapshot();
   objects_.erase(drop);
   merged_into_[drop] = keep;
-  changes->push_back({ObjectChange::Kind::kMerged, keep, drop, {}, {}, 0});
+  // One object has one history: the survivor's, or the absorbed one's when it has none.
+  if (auto h = history_.find(drop); h != history_.end()) {
+    if (!history_.count(keep)) history_[keep] = std::move(h->second);
+    history_.erase(drop);
+  }
+  changes->push_back(ChangeOf(ObjectChange::Kind::kMerged, keep, drop));
   changes->push_back(std::move(removed));
   return keep;
 }
@@ -195,7 +210,7 @@ void ObjectMap::MergeMoved(const std::vector<int64_t>& object_ids,
     auto it = objects_.find(id);
     if (it == objects_.end()) continue;
     it->second.RecomputeGeometry();
-    changes->push_back({ObjectChange::Kind::kUpdated, id, 0, {}, {}, 0});
+    changes->push_back(ChangeOf(ObjectChange::Kind::kUpdated, id));
   }
   for (int64_t object_id : moved) {
     const int64_t id = Resolve(object_id);
@@ -210,9 +225,10 @@ void ObjectMap::MergeMoved(const std::vector<int64_t>& object_ids,
     const bool was_confirmed = it->second.confirmed();
     Judge(&it->second);
     if (it->second.confirmed() != was_confirmed) {
-      changes->push_back({ObjectChange::Kind::kUpdated, id, 0, {}, {}, 0});
+      changes->push_back(ChangeOf(ObjectChange::Kind::kUpdated, id));
     }
   }
+  TrackPlaces(changes);
 }
 
 void ObjectMap::ObserveView(int64_t keyframe_id, int64_t t_ns, const KeyframeView& view,
@@ -232,24 +248,31 @@ void ObjectMap::ObserveView(int64_t keyframe_id, int64_t t_ns, const KeyframeVie
     if (Judge(&object) <= remove) {
       gone.push_back(id);
     } else if (object.confirmed() != was_confirmed) {
-      changes->push_back({ObjectChange::Kind::kUpdated, id, 0, {}, {}, 0});
+      changes->push_back(ChangeOf(ObjectChange::Kind::kUpdated, id));
     }
   }
   for (int64_t id : gone) {
+    if (!objects_.count(id)) continue;  // adopted by an object gone before it
+    if (history_.count(id)) {  // a confirmed object: its place is empty
+      OnGone(id, changes);
+      continue;
+    }
     const FusedObject& object = objects_.at(id);
     spdlog::debug("object {} ({}, {} views, {} missed) removed: too many views missed it", id,
                   object.labels().Argmax(), object.observation_count(), object.misses());
-    ObjectChange removed{ObjectChange::Kind::kRemoved, id, 0, object.Snapshot(), {}, 0};
+    ObjectChange removed = ChangeOf(ObjectChange::Kind::kRemoved, id);
+    removed.removed_state = object.Snapshot();
     removed.evidence_t_ns = object.MissesSinceLastHit(&removed.evidence_keyframe_ids);
     changes->push_back(std::move(removed));
     objects_.erase(id);
   }
+  TrackPlaces(changes);
 }
 
 std::vector<MapObject> ObjectMap::Snapshot(bool confirmed_only) const {
   std::vector<MapObject> out;
   for (const auto& [id, object] : objects_) {
-    if (!confirmed_only || object.confirmed()) out.push_back(object.Snapshot());
+    if (!confirmed_only || object.confirmed()) out.push_back(SnapshotWithHistory(object));
   }
   return out;
 }
@@ -257,7 +280,7 @@ std::vector<MapObject> ObjectMap::Snapshot(bool confirmed_only) const {
 std::optional<MapObject> ObjectMap::SnapshotOf(int64_t id) const {
   const FusedObject* object = Find(id);
   if (object == nullptr) return std::nullopt;
-  return object->Snapshot();
+  return SnapshotWithHistory(*object);
 }
 
 std::vector<std::optional<MapObject>> ObjectMap::SnapshotsOf(

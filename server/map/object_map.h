@@ -40,7 +40,7 @@ struct MapObservation {
 };
 
 struct ObjectChange {
-  enum class Kind { kCreated, kUpdated, kMerged, kRemoved };
+  enum class Kind { kCreated, kUpdated, kMerged, kRemoved, kMoved };
   Kind kind = Kind::kUpdated;
   int64_t object_id = 0;
   int64_t merged_from_id = 0;  // kMerged: the absorbed object
@@ -51,7 +51,12 @@ struct ObjectChange {
   // seen and did not, oldest first, and the newest one's time.
   std::vector<int64_t> evidence_keyframe_ids;
   int64_t evidence_t_ns = 0;
+  // kMoved (object_id seen again at a new place; evidence as for kRemoved): its earlier place.
+  Eigen::Vector3d from_m = Eigen::Vector3d::Zero();
 };
+
+// A change with its kind and ids set, the rest empty.
+ObjectChange ChangeOf(ObjectChange::Kind kind, int64_t object_id, int64_t merged_from_id = 0);
 
 class ObjectMap {
  public:
@@ -83,6 +88,8 @@ class ObjectMap {
   void Clear() {
     objects_.clear();
     merged_into_.clear();
+    gone_.clear();
+    history_.clear();
   }
 
   // Follows merges: the id an object id lives on as (0 stays 0).
@@ -94,6 +101,10 @@ class ObjectMap {
   std::optional<MapObject> SnapshotOf(int64_t id) const;
   // Several objects as Snapshot shows them.
   std::vector<std::optional<MapObject>> SnapshotsOf(const std::vector<int64_t>& ids) const;
+  // The confirmed objects found gone (removed_t_ns set), with their history, oldest id first.
+  std::vector<MapObject> Removed() const;
+  // One of them (ids not resolved).
+  std::optional<MapObject> RemovedOf(int64_t id) const;
   size_t size() const { return objects_.size(); }
   size_t confirmed_count() const;
 
@@ -126,12 +137,30 @@ class ObjectMap {
   // Merges objects a and b into the older one (the changes as above); returns the survivor.
   int64_t Merge(int64_t a, int64_t b, std::vector<ObjectChange>* changes);
 
+  // Place history (object_history.cc). A confirmed object without history appears, or is a
+  // gone one seen again at a new place; a confirmed one whose belief falls is gone, or moved to
+  // a new one. Both append their changes.
+  void TrackPlaces(std::vector<ObjectChange>* changes);
+  void OnConfirmed(int64_t id, std::vector<ObjectChange>* changes);
+  void OnGone(int64_t id, std::vector<ObjectChange>* changes);
+  // `after` may be `before` seen again at a new place: the same likely class and size, first
+  // seen after `before` was last seen. Of several, the nearest is taken.
+  bool CouldBeMoved(const FusedObject& before, const FusedObject& after) const;
+  // `fresh_id` becomes `old_id` at its new place (`moved`: kMoved, or kAppeared when it is
+  // back where it was): kRemoved of the provisional id, then kMoved (kCreated) of old_id with
+  // the evidence that the old place was empty.
+  void Adopt(int64_t old_id, int64_t fresh_id, ObjectPlaceChange moved,
+             std::vector<ObjectChange>* changes);
+  MapObject SnapshotWithHistory(const FusedObject& object) const;
+
   FusionOptions options_;
   ObjectAssociation association_;
   double voxel_m_;
   int64_t next_id_ = 1;
   std::map<int64_t, FusedObject> objects_;
   std::unordered_map<int64_t, int64_t> merged_into_;
+  std::map<int64_t, FusedObject> gone_;  // confirmed objects found gone, by id
+  std::map<int64_t, std::vector<ObjectPlaceChange>> history_;  // by id, of objects_ and gone_
 };
 
 }  // namespace loci::server

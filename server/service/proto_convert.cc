@@ -36,6 +36,15 @@ void ToProto(const MapObject& in, loci::v1::Object* out) {
   out->set_missed_views(in.missed_views);
   out->set_existence(in.existence);
   out->set_island(in.island);
+  for (const ObjectPlaceChange& c : in.history) {
+    loci::v1::PlaceChange* h = out->add_history();
+    h->set_kind(static_cast<loci::v1::PlaceChange::Kind>(c.kind));
+    h->set_t_ns(c.t_ns);
+    ToProto(c.centroid_m, h->mutable_centroid_m());
+    ToProto(c.from_m, h->mutable_from_m());
+    for (int64_t id : c.evidence_keyframe_ids) h->add_evidence_keyframe_ids(id);
+  }
+  out->set_removed_t_ns(in.removed_t_ns);
 }
 
 MapObject FromProto(const loci::v1::Object& in) {
@@ -63,6 +72,19 @@ MapObject FromProto(const loci::v1::Object& in) {
   o.observation_count = in.observation_count();
   o.point_count = in.point_count();
   o.confirmed = in.confirmed();
+  for (const loci::v1::PlaceChange& h : in.history()) {
+    ObjectPlaceChange c;
+    c.kind = h.kind() == loci::v1::PlaceChange::MOVED     ? ObjectPlaceChange::Kind::kMoved
+             : h.kind() == loci::v1::PlaceChange::REMOVED ? ObjectPlaceChange::Kind::kRemoved
+                                                          : ObjectPlaceChange::Kind::kAppeared;
+    c.t_ns = h.t_ns();
+    c.centroid_m = GetVec(h.centroid_m());
+    c.from_m = GetVec(h.from_m());
+    c.evidence_keyframe_ids.assign(h.evidence_keyframe_ids().begin(),
+                                   h.evidence_keyframe_ids().end());
+    o.history.push_back(std::move(c));
+  }
+  o.removed_t_ns = in.removed_t_ns();
   return o;
 }
 

@@ -48,6 +48,12 @@ std::vector<MapObject> MapperSource::Objects(bool confirmed_only) const {
   return objects;
 }
 
+std::vector<MapObject> MapperSource::Removed() const {
+  std::vector<MapObject> objects = mapper_.Removed();
+  for (MapObject& o : objects) o.island = island_;
+  return objects;
+}
+
 std::vector<Eigen::Vector3f> MapperSource::CloudPoints(double voxel_m) const {
   std::vector<Eigen::Vector3f> out;
   for (const SemanticPoint& p : mapper_.Cloud(voxel_m, {})) out.push_back(p.p_m);
@@ -214,7 +220,8 @@ std::shared_ptr<const query::MapIndex> QueryAdapter::IndexFor(const QueryMapSour
   }
   std::vector<query::Viewpoint> viewpoints;
   for (const auto& [robot, pose] : poses) viewpoints.push_back({robot, pose.T_map_cam, pose.t_ns});
-  auto index = engine_.Index(source.Objects(options_.confirmed_only), up, std::move(viewpoints));
+  auto index = engine_.Index(source.Objects(options_.confirmed_only), up, std::move(viewpoints),
+                             source.Removed());
   std::lock_guard<std::mutex> lock(mu_);
   cache_[slot] = CachedIndex{std::move(key), index};
   if (slot.empty()) up_source_ = up_source;

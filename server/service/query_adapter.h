@@ -32,6 +32,8 @@ class QueryMapSource {
   // the map's version (see QueryAdapter).
   virtual std::map<std::string, RobotPose> LatestPoses() const = 0;
   virtual std::vector<MapObject> Objects(bool confirmed_only) const = 0;
+  // Objects found gone, with their history (none by default).
+  virtual std::vector<MapObject> Removed() const { return {}; }
   // Up from the clients' gravity (unit, map frame), if any client sent it.
   virtual std::optional<Vec3d> GravityUp() const = 0;
   // Map cloud at `voxel_m` for the plane-based up estimate (map frame, metres).
@@ -50,6 +52,7 @@ class MapperSource final : public QueryMapSource {
       : mapper_(mapper), island_(std::move(island)) {}
   std::map<std::string, RobotPose> LatestPoses() const override { return mapper_.LatestPoses(); }
   std::vector<MapObject> Objects(bool confirmed_only) const override;
+  std::vector<MapObject> Removed() const override;
   std::optional<Vec3d> GravityUp() const override { return mapper_.UpDirection(); }
   std::vector<Eigen::Vector3f> CloudPoints(double voxel_m) const override;
   std::string LevelledBy() const override { return mapper_.FrameSource(); }

@@ -270,6 +270,10 @@ void ToProto(const ObjectEventOut& in, int64_t t_ns, loci::v1::ObjectEvent* out)
     case ObjectChange::Kind::kRemoved:
       out->set_kind(loci::v1::ObjectEvent::REMOVED);
       break;
+    case ObjectChange::Kind::kMoved:
+      out->set_kind(loci::v1::ObjectEvent::MOVED);
+      ToProto(in.from_m, out->mutable_previous_center_m());
+      break;
   }
   ToProto(in.object, out->mutable_object());
   out->set_merged_from_id(in.merged_from_id);
