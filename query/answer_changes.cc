@@ -170,12 +170,12 @@ void AnswerBuilder::WhereBefore(const ParsedQuery& q, AskResult* r) const {
   r->count = moved;
   r->yes = moved > 0;
   if (moved == 0) {
-    r->answer = absl::StrCat(
-        named.size() == 1 ? Capitalize(ObjectRef(*named.front())) + " has" : "No " +
-                                PhraseNoun(*q.target) + " has",
-        " moved since it appeared; ", named.size() == 1 ? "it is at " + Position(*named.front())
-                                                         : "they are where they were first seen",
-        ".");
+    r->answer = named.size() == 1
+                    ? absl::StrCat(Capitalize(ObjectRef(*named.front())),
+                                   " has not moved since it appeared; it is at ",
+                                   Position(*named.front()), ".")
+                    : absl::StrCat("No ", PhraseNoun(*q.target),
+                                   " has moved since it appeared; each is where it was first seen.");
     for (const MapObject* o : named) r->objects.push_back(*o);
     return;
   }
