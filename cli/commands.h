@@ -52,6 +52,7 @@ void RegisterBenchReportCommand(CLI::App& app);
 // `loci bench objects` (cli/report/synth_objects_eval.h): the object map on varied synthetic
 // rooms with detector noise, over many seeds.
 void RegisterBenchObjectsCommand(CLI::App& app);
+void RegisterBenchChangesCommand(CLI::App& app);
 
 // `loci ask`, `loci objects`, `loci stats` (gRPC clients of a running loci-server).
 void RegisterAskCommand(CLI::App& app);

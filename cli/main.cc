@@ -95,6 +95,7 @@ int main(int argc, char** argv) {
   loci::cli::RegisterObjectsCommands(app);
   loci::cli::RegisterBenchReportCommand(app);
   loci::cli::RegisterBenchObjectsCommand(app);
+  loci::cli::RegisterBenchChangesCommand(app);
 
   loci::cli::AllowNoSubcommand(&app);
   CLI11_PARSE(app, argc, argv);
