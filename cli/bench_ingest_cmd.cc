@@ -23,7 +23,7 @@
 #include "common/malloc_tuning.h"
 #include "loci/v1/mapping.grpc.pb.h"
 #include "server/service/grpc_server.h"
-#include "server/service/map_server.h"
+#include "server/runtime/map_server.h"
 
 namespace loci::cli {
 namespace {
@@ -213,12 +213,12 @@ void PrintIngest(const BenchIngestArgs& a, size_t det_total, size_t view_count,
               a.keyframes / r.wall_s, r.wall_s,
               r.status.ok() ? "ok" : r.status.error_message().c_str(), r.failed);
   std::printf("  handler stages  validate+decode %.2f ms, store %.2f ms (gRPC thread)\n",
-              srv.validate_ms_mean(), srv.store_ms_mean());
+              srv.times().validate_ms_mean(), srv.times().store_ms_mean());
   std::printf(
       "  mapping stages  products %.2f ms, fusion %.2f ms, cloud %.2f ms, octomap %.2f ms "
       "(worker thread CPU; wall incl. waits %.2f ms)\n",
       stats.total.products_ms / n, stats.total.fusion_ms / n, stats.total.cloud_ms / n,
-      stats.total.octomap_ms / n, srv.ingest_ms_mean());
+      stats.total.octomap_ms / n, srv.times().mapping_ms_mean());
   std::printf(
       "  products detail labels %.2f, object clouds %.2f, back-projection %.2f, voxel "
       "%.2f, outliers %.2f ms (CPU)\n",

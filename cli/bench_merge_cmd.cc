@@ -31,9 +31,9 @@
 #include "loci/v1/query.grpc.pb.h"
 #include "proto/convert.h"
 #include "server/service/grpc_server.h"
-#include "server/service/map_server.h"
+#include "server/runtime/map_server.h"
 #include "server/service/query_adapter.h"
-#include "server/service/server_options.h"
+#include "server/runtime/server_options.h"
 
 namespace loci::cli {
 namespace {

@@ -10,7 +10,7 @@
 
 #include "common/time.h"
 #include "server/map/product_codec.h"
-#include "server/service/chunked_move.h"
+#include "server/runtime/chunked_move.h"
 
 namespace loci::cli {
 namespace {
@@ -61,7 +61,7 @@ Status TimeMoveWhileMapping(int64_t n, int64_t chunk_keyframes, server::Mapper& 
     return server::DecodeProducts(*bytes, fingerprint, /*with_visibility=*/false);
   };
   mapper.FlushOctomap();  // the build's OctoMap backlog would share the cores with the move
-  HandoffMutex mapping_mu;
+  FifoMutex mapping_mu;
   std::atomic<bool> moving{true};
   std::vector<double> waits_ms;
   double map_ms_total = 0;
@@ -70,7 +70,7 @@ Status TimeMoveWhileMapping(int64_t n, int64_t chunk_keyframes, server::Mapper& 
     while (moving.load()) {
       {
         const Clock::time_point asked = Clock::now();
-        std::lock_guard<HandoffMutex> lock(mapping_mu);
+        std::lock_guard<FifoMutex> lock(mapping_mu);
         waits_ms.push_back(MsSince(asked));  // also the wait for the move's last chunk
         if (!moving.load()) break;
         const Clock::time_point t0 = Clock::now();
@@ -78,7 +78,6 @@ Status TimeMoveWhileMapping(int64_t n, int64_t chunk_keyframes, server::Mapper& 
         map_ms_total += MsSince(t0);
         ++mapped;
       }
-      mapping_mu.LetWaitersIn();
     }
   });
   const server::ChunkedMoveFigures moved = server::MoveInChunks(

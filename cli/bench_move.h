@@ -1,5 +1,5 @@
 // `loci bench restart --move N [--chunk K]`: moves the last N keyframes of the built map as a
-// pose-graph solution does (MoveInChunks, server/service/chunked_move.h) while a second thread
+// pose-graph solution does (MoveInChunks, server/runtime/chunked_move.h) while a second thread
 // maps new keyframes under the same lock, as loci-server's mapping worker does, and prints the
 // move's time and how long that thread waited for the lock.
 #pragma once

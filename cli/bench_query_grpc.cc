@@ -12,7 +12,7 @@
 #include "cli/bench_stats.h"
 #include "loci/v1/query.grpc.pb.h"
 #include "server/service/grpc_server.h"
-#include "server/service/map_server.h"
+#include "server/runtime/map_server.h"
 #include "server/service/query_adapter.h"
 
 namespace loci::cli {

@@ -25,8 +25,8 @@
 #include "common/time.h"
 #include "grpc/health/v1/health.grpc.pb.h"
 #include "server/map/product_codec.h"
-#include "server/service/keyframe_decoder.h"
-#include "server/service/server_options.h"
+#include "server/runtime/keyframe_decoder.h"
+#include "server/runtime/server_options.h"
 #include "server/storage/sqlite_store.h"
 
 extern char** environ;

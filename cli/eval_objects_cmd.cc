@@ -16,10 +16,10 @@
 #include "loci/v1/query.grpc.pb.h"
 #include "proto/convert.h"
 #include "server/map/mapper.h"
-#include "server/service/proto_convert.h"
+#include "server/runtime/proto_convert.h"
 #include "server/service/query_adapter.h"
-#include "server/service/replay.h"
-#include "server/service/server_options.h"
+#include "server/runtime/replay.h"
+#include "server/runtime/server_options.h"
 #include "server/storage/sqlite_store.h"
 
 namespace loci::cli {

@@ -12,8 +12,8 @@
 #include "common/tum_io.h"
 #include "server/map/map_export.h"
 #include "server/map/mapper.h"
-#include "server/service/replay.h"
-#include "server/service/server_options.h"
+#include "server/runtime/replay.h"
+#include "server/runtime/server_options.h"
 #include "server/storage/sqlite_store.h"
 
 namespace loci::cli {

@@ -8,9 +8,9 @@
 
 #include "cli/commands.h"
 #include "common/progress.h"
-#include "server/service/replay.h"
-#include "server/service/server_detector.h"
-#include "server/service/server_options.h"
+#include "server/runtime/replay.h"
+#include "server/runtime/server_detector.h"
+#include "server/runtime/server_options.h"
 #include "server/storage/sqlite_store.h"
 
 namespace loci::cli {

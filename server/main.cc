@@ -12,9 +12,9 @@
 #include "server/http/http_api.h"
 #include "server/http/viewer_files.h"
 #include "server/service/grpc_server.h"
-#include "server/service/map_server.h"
+#include "server/runtime/map_server.h"
 #include "server/service/query_adapter.h"
-#include "server/service/server_detector.h"
+#include "server/runtime/server_detector.h"
 
 namespace {
 

@@ -24,7 +24,7 @@
 #include "server/map/mapper.h"
 #include "server/map/voxel_key.h"
 #include "server/service/query_adapter.h"
-#include "server/service/server_options.h"
+#include "server/runtime/server_options.h"
 
 namespace loci::report {
 namespace {

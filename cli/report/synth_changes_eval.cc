@@ -16,7 +16,7 @@
 #include "common/tum_io.h"
 #include "server/map/mapper.h"
 #include "server/map/visibility.h"
-#include "server/service/server_options.h"
+#include "server/runtime/server_options.h"
 #include "synth/scene.h"
 #include "synth/sequence_writer.h"
 

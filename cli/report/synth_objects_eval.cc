@@ -5,7 +5,7 @@
 #include "cli/report/report_pipeline.h"
 #include "common/config.h"
 #include "common/objects_json.h"
-#include "server/service/server_options.h"
+#include "server/runtime/server_options.h"
 #include "synth/sequence_writer.h"
 
 namespace loci::report {

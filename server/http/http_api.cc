@@ -68,6 +68,9 @@ void HandleObjects(QueryService& service, const httplib::Request& req, httplib::
   bool include_islands = false;
   if (!ReadBoolParam(req, res, "include_islands", &include_islands)) return;
   find.set_include_islands(include_islands);
+  bool include_removed = false;
+  if (!ReadBoolParam(req, res, "include_removed", &include_removed)) return;
+  find.set_include_removed(include_removed);
   if (req.has_param("limit")) {
     uint32_t limit = 0;
     if (!ParseInt(req.get_param_value("limit"), &limit)) {

@@ -109,7 +109,7 @@ class ObjectMap {
   size_t confirmed_count() const;
 
   // Ids of new objects start here (default 1). Only before the first object: a map island's
-  // objects (server/service/island_maps.h) take ids that no shared-map object takes.
+  // objects (server/runtime/island_maps.h) take ids that no shared-map object takes.
   Status SetFirstId(int64_t first_id);
 
   // Checkpoint state (map_checkpoint.cc); LoadState replaces every object.

@@ -1,6 +1,6 @@
 // Keyframe features out of memory: a keyframe's features take about 60 KB, so a map
 // cannot keep every keyframe's in memory. Each keyframe's features are written once to a
-// FeatureStore (the map database on the server, server/service/store_feature_store.h) and the
+// FeatureStore (the map database on the server, server/runtime/store_feature_store.h) and the
 // most recently used ones stay in a FeatureCache of fixed size; geometric verification reads the
 // few candidates it needs through it.
 #pragma once

@@ -8,8 +8,8 @@
 #include <utility>
 
 #include "common/time.h"
-#include "server/service/map_server.h"
-#include "server/service/proto_convert.h"
+#include "server/runtime/map_server.h"
+#include "server/runtime/proto_convert.h"
 
 namespace loci::server {
 namespace {

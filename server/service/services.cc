@@ -10,7 +10,7 @@
 #include <grpcpp/support/method_handler.h>
 
 #include "common/time.h"
-#include "server/service/proto_convert.h"
+#include "server/runtime/proto_convert.h"
 
 namespace loci::server {
 namespace {
@@ -179,6 +179,9 @@ grpc::Status QueryService::FindObjects(const loci::v1::FindObjectsRequest& req,
       objects.push_back(std::move(o));  // after the shared map's
     }
   }
+  if (req.include_removed()) {
+    for (MapObject& o : server_->mapper().Removed()) objects.push_back(std::move(o));
+  }
   for (const MapObject& o : objects) {
     if (req.limit() > 0 && resp->objects_size() >= static_cast<int>(req.limit())) break;
     if (Wanted(req, o)) ToProto(o, resp->add_objects());
@@ -283,11 +286,11 @@ void ToProto(const ObjectEventOut& in, int64_t t_ns, loci::v1::ObjectEvent* out)
 }
 
 Status QueryService::SubscribeObjects(std::shared_ptr<ObjectEventQueue> queue) {
-  return server_->Subscribe(std::move(queue));
+  return server_->events().Subscribe(std::move(queue));
 }
 
 void QueryService::UnsubscribeObjects(const std::shared_ptr<ObjectEventQueue>& queue) {
-  server_->Unsubscribe(queue);
+  server_->events().Unsubscribe(queue);
 }
 
 grpc::Status QueryService::WatchObjects(grpc::ServerContext* ctx,
@@ -296,7 +299,7 @@ grpc::Status QueryService::WatchObjects(grpc::ServerContext* ctx,
   if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
   if (Status ready = server_->CheckReady(); !ready.ok()) return ToGrpc(ready);
   auto queue = std::make_shared<ObjectEventQueue>(1024);
-  if (Status s = server_->Subscribe(queue); !s.ok()) return ToGrpc(s);
+  if (Status s = server_->events().Subscribe(queue); !s.ok()) return ToGrpc(s);
   // Initial metadata tells the client that the watch is registered: every later event comes.
   writer->SendInitialMetadata();
   while (!ctx->IsCancelled()) {
@@ -306,7 +309,7 @@ grpc::Status QueryService::WatchObjects(grpc::ServerContext* ctx,
     ToProto(*e, NowNs(), &msg);
     if (!writer->Write(msg)) break;
   }
-  server_->Unsubscribe(queue);
+  server_->events().Unsubscribe(queue);
   return grpc::Status::OK;
 }
 
@@ -328,8 +331,8 @@ grpc::Status QueryService::GetStats(loci::v1::GetStatsResponse* resp) {
   resp->set_octomap_rebuilds_skipped(s.octomap_rebuilds_skipped);
   resp->set_db_bytes(server_->store().DbBytes());
   resp->set_queue_depth(server_->queue_depth());
-  resp->set_ingest_ms_mean(server_->ingest_ms_mean());
-  resp->set_worker_longest_wait_ms(server_->worker_longest_wait_ms());
+  resp->set_ingest_ms_mean(server_->times().mapping_ms_mean());
+  resp->set_worker_longest_wait_ms(server_->times().worker_longest_wait_ms());
   resp->set_frame_up_source(server_->mapper().FrameSource());
   resp->set_frame_settled(server_->mapper().FrameSettled());
   resp->set_mapped_keyframes(s.keyframes);

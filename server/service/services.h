@@ -9,7 +9,7 @@
 #include "loci/v1/mapping.grpc.pb.h"
 #include "loci/v1/query.grpc.pb.h"
 #include "server/service/auth.h"
-#include "server/service/map_server.h"
+#include "server/runtime/map_server.h"
 #include "server/service/query_engine.h"
 
 namespace loci::server {

@@ -47,7 +47,9 @@ bool CaughtUp(const v1::GetStatsResponse& s) {
   return s.queue_depth() == 0 && s.mapped_keyframes() >= aligned_keyframes;
 }
 
-// Polls GetStats (a real signal, with a deadline) until `done` holds; the last response.
+// Polls GetStats (with a deadline) until `done` holds; the last response. Only for what the
+// server reports as counters alone: a loci-server process says when its mapping queue has
+// drained in no other way (no event, output line or blocking call).
 StatusOr<v1::GetStatsResponse> StatsWhen(v1::Query::Stub& query,
                                          bool (*done)(const v1::GetStatsResponse&)) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
@@ -57,6 +59,15 @@ StatusOr<v1::GetStatsResponse> StatsWhen(v1::Query::Stub& query,
     s = Stats(query);
   }
   return s;
+}
+
+// Blocks until the server sends its first object event (a keyframe of the map was mapped) or
+// the watch ends: cancelled when the first robot ended without one, or at its deadline.
+void FirstObjectEvent(grpc::ClientReader<v1::ObjectEvent>& events, grpc::ClientContext& watch) {
+  v1::ObjectEvent event;
+  events.Read(&event);
+  watch.TryCancel();
+  events.Finish();
 }
 
 std::map<std::string, Trajectory> MappedTrajectories(v1::Query::Stub& query) {
@@ -86,14 +97,23 @@ RobotsResult RunRobots(const std::string& tum, const std::vector<RobotRun>& robo
   if (server.port() == 0) return out;
   auto query = v1::Query::NewStub(
       grpc::CreateChannel(server.address(), grpc::InsecureChannelCredentials()));
+  // Watching before the first robot starts: its first mapped keyframe that sees an object is
+  // the event the others wait for, and its end when it has none.
+  grpc::ClientContext watch;
+  watch.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
+  auto events = query->WatchObjects(&watch, v1::WatchObjectsRequest());
+  events->WaitForInitialMetadata();  // sent once the watch is registered
   std::vector<int> rc(robots.size(), -1);
   std::vector<std::thread> threads;
   auto start = [&](size_t i) {
-    threads.emplace_back(
-        [&, i] { rc[i] = std::system(TrackCommand(tum, server.address(), robots[i]).c_str()); });
+    threads.emplace_back([&, i] {
+      rc[i] = std::system(TrackCommand(tum, server.address(), robots[i]).c_str());
+      if (i == 0) watch.TryCancel();
+    });
   };
   start(0);
-  const auto first = StatsWhen(*query, [](const v1::GetStatsResponse& s) { return s.keyframes() > 0; });
+  FirstObjectEvent(*events, watch);
+  const auto first = Stats(*query);
   EXPECT_TRUE(first.ok() && first->keyframes() > 0)
       << robots[0].name << " stored no keyframe within 120 s";
   for (size_t i = 1; i < robots.size(); ++i) start(i);

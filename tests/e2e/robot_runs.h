@@ -1,6 +1,6 @@
 // Robots streaming to a real loci-server on loopback, for the many-robot and loop-closure
 // end-to-end tests: one loci-track process per robot on a TUM folder (the first started alone,
-// the others once the server stored its first keyframe), then the server's figures.
+// the others once the server mapped its first keyframe), then the server's figures.
 #pragma once
 
 #include <map>
@@ -39,9 +39,10 @@ struct RobotsResult {
   std::map<std::string, Trajectory> mapped;     // the server's keyframe poses (map frame), by robot
 };
 
-// Starts the first robot, then, once the server has stored its first keyframe (so its session
-// is the map's origin), all the others; they stream at once. The figures are read once the
-// server has mapped every keyframe it stored (with every session aligned) or 120 s passed.
+// Starts the first robot, then, once the server has mapped its first keyframe (so its session
+// is the map's origin; the first object event says so, or the first robot's end when it sees
+// none), all the others; they stream at once. The figures are read once the server has mapped
+// every keyframe it stored (with every session aligned) or 120 s passed.
 // `config`: the server's YAML ("" = config/server.yaml).
 RobotsResult RunRobots(const std::string& tum, const std::vector<RobotRun>& robots,
                        const std::string& dir, const std::string& config = "");

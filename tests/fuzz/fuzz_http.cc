@@ -32,7 +32,7 @@
 #include "proto/convert.h"
 #include "server/http/http_api.h"
 #include "server/http/http_reply.h"
-#include "server/service/map_server.h"
+#include "server/runtime/map_server.h"
 #include "server/service/query_adapter.h"
 #include "tests/server/box_world.h"
 

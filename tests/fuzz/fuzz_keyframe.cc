@@ -18,7 +18,7 @@
 #include <opencv2/core.hpp>
 
 #include "loci/v1/mapping.pb.h"
-#include "server/service/keyframe_decoder.h"
+#include "server/runtime/keyframe_decoder.h"
 
 namespace {
 

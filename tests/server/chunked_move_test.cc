@@ -1,7 +1,7 @@
 // MoveInChunks: a pose-graph solution moves the map in chunks, newest keyframe first, each
 // under the mapping lock, and stops where its check or a chunk fails. MapInChunks: an aligned
 // robot's held keyframes are read back without the lock and mapped in chunks, oldest first.
-#include "server/service/chunked_move.h"
+#include "server/runtime/chunked_move.h"
 
 #include <gtest/gtest.h>
 
@@ -24,7 +24,7 @@ std::vector<Mapper::KeyframePoseUpdate> Updates(int64_t first_id, int64_t n) {
 }
 
 // Whether another thread could take `mu` now.
-bool FreeForAnotherThread(HandoffMutex& mu) {
+bool FreeForAnotherThread(FifoMutex& mu) {
   return std::async(std::launch::async, [&mu] {
            if (!mu.try_lock()) return false;
            mu.unlock();
@@ -33,7 +33,7 @@ bool FreeForAnotherThread(HandoffMutex& mu) {
 }
 
 TEST(MoveInChunks, MovesNewestFirstOneChunkPerHoldOfTheLock) {
-  HandoffMutex mu;
+  FifoMutex mu;
   std::vector<std::vector<int64_t>> chunks;
   std::vector<bool> lasts;
   int checks = 0;
@@ -62,7 +62,7 @@ TEST(MoveInChunks, MovesNewestFirstOneChunkPerHoldOfTheLock) {
 }
 
 TEST(MoveInChunks, AThreadWaitingForTheLockGetsItBetweenTwoChunks) {
-  HandoffMutex mu;
+  FifoMutex mu;
   std::vector<std::string> order;  // appended with mu held
   std::thread worker;
   const ChunkedMoveFigures f = MoveInChunks(
@@ -72,7 +72,7 @@ TEST(MoveInChunks, AThreadWaitingForTheLockGetsItBetweenTwoChunks) {
         if (!worker.joinable()) {
           // The mapping worker asks for the lock while the first chunk holds it.
           worker = std::thread([&] {
-            std::lock_guard<HandoffMutex> lock(mu);
+            std::lock_guard<FifoMutex> lock(mu);
             order.push_back("worker");
           });
           while (mu.waiters() == 0) std::this_thread::yield();
@@ -86,7 +86,7 @@ TEST(MoveInChunks, AThreadWaitingForTheLockGetsItBetweenTwoChunks) {
 }
 
 TEST(MoveInChunks, ZeroMeansOneHoldAndNothingToMoveTakesNone) {
-  HandoffMutex mu;
+  FifoMutex mu;
   size_t calls = 0, largest = 0;
   auto move = [&](const std::vector<Mapper::KeyframePoseUpdate>& chunk, bool) -> StatusOr<size_t> {
     ++calls;
@@ -105,7 +105,7 @@ TEST(MoveInChunks, ZeroMeansOneHoldAndNothingToMoveTakesNone) {
 }
 
 TEST(MoveInChunks, StopsWhereTheFrameChangedOrAChunkFailed) {
-  HandoffMutex mu;
+  FifoMutex mu;
   size_t moved_calls = 0;
   auto move = [&](const std::vector<Mapper::KeyframePoseUpdate>& chunk, bool) -> StatusOr<size_t> {
     ++moved_calls;
@@ -135,7 +135,7 @@ TEST(MoveInChunks, StopsWhereTheFrameChangedOrAChunkFailed) {
 
 // MapInChunks' load: the chunk's ids as keyframes (no products), read without `mu`.
 std::function<StatusOr<std::vector<LoadedKeyframe>>(int64_t, int64_t)> LoadIds(
-    HandoffMutex& mu, const std::vector<int64_t>& ids, std::vector<std::string>* order) {
+    FifoMutex& mu, const std::vector<int64_t>& ids, std::vector<std::string>* order) {
   return [&mu, ids, order](int64_t first, int64_t last) -> StatusOr<std::vector<LoadedKeyframe>> {
     EXPECT_TRUE(FreeForAnotherThread(mu)) << "keyframes are read back without the lock";
     order->push_back("load " + std::to_string(first) + "-" + std::to_string(last));
@@ -150,7 +150,7 @@ std::function<StatusOr<std::vector<LoadedKeyframe>>(int64_t, int64_t)> LoadIds(
 }
 
 TEST(MapInChunks, MapsOldestFirstReadingEachChunkWithoutTheLock) {
-  HandoffMutex mu;
+  FifoMutex mu;
   const std::vector<int64_t> ids = {3, 4, 7, 9, 12};  // other robots' keyframes in between
   std::vector<std::string> order;
   const ChunkedMoveFigures f =
@@ -169,7 +169,7 @@ TEST(MapInChunks, MapsOldestFirstReadingEachChunkWithoutTheLock) {
 }
 
 TEST(MapInChunks, AThreadWaitingForTheLockGetsItBetweenTwoChunks) {
-  HandoffMutex mu;
+  FifoMutex mu;
   std::mutex order_mu;  // the reads run without `mu`, beside the worker
   std::vector<std::string> order;
   auto note = [&](const std::string& what) {
@@ -189,7 +189,7 @@ TEST(MapInChunks, AThreadWaitingForTheLockGetsItBetweenTwoChunks) {
         note("map " + std::to_string(kf.meta.keyframe_id));
         if (!worker.joinable()) {
           worker = std::thread([&] {
-            std::lock_guard<HandoffMutex> lock(mu);
+            std::lock_guard<FifoMutex> lock(mu);
             note("worker");
           });
           while (mu.waiters() == 0) std::this_thread::yield();
@@ -210,7 +210,7 @@ TEST(MapInChunks, AThreadWaitingForTheLockGetsItBetweenTwoChunks) {
 }
 
 TEST(MapInChunks, AFailedReadStopsTheMappingAndZeroMeansOneHold) {
-  HandoffMutex mu;
+  FifoMutex mu;
   std::vector<int64_t> ids;
   for (int64_t id = 1; id <= 10; ++id) ids.push_back(id);
   std::vector<std::string> order;

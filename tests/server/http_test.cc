@@ -17,7 +17,7 @@
 #include "proto/json.h"
 #include "server/http/http_api.h"
 #include "server/service/grpc_server.h"
-#include "server/service/map_server.h"
+#include "server/runtime/map_server.h"
 #include "tests/server/box_world.h"
 #include "tests/server/keyframe_proto.h"
 

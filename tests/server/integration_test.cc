@@ -20,8 +20,8 @@
 #include "loci/v1/query.grpc.pb.h"
 #include "server/map/object_eval.h"
 #include "server/service/grpc_server.h"
-#include "server/service/map_server.h"
-#include "server/service/proto_convert.h"
+#include "server/runtime/map_server.h"
+#include "server/runtime/proto_convert.h"
 #include "server/storage/sqlite_store.h"
 #include "synth/scene.h"
 #include "synth/sequence_writer.h"
@@ -492,7 +492,7 @@ TEST_F(Integration, MovingEveryKeyframeMovesTheMapAndTheMoveSurvivesARestart) {
     const std::vector<MapObject> before = UninterruptedRun(db, &server);
     ASSERT_FALSE(before.empty());
     auto events = std::make_shared<ObjectEventQueue>(4096);
-    ASSERT_TRUE(server->Subscribe(events).ok());
+    ASSERT_TRUE(server->events().Subscribe(events).ok());
     SE3d T_move = SE3d::Identity();
     T_move.translation() = Vec3d(0.5, -0.3, 0.0);  // in the base frame
     std::vector<Mapper::KeyframePoseUpdate> updates;
@@ -533,7 +533,7 @@ TEST_F(Integration, MovingEveryKeyframeMovesTheMapAndTheMoveSurvivesARestart) {
       updated += e->kind == ObjectChange::Kind::kUpdated;
     }
     EXPECT_GE(updated, static_cast<int>(before.size()));
-    server->Unsubscribe(events);
+    server->events().Unsubscribe(events);
     moved = server->mapper().Snapshot(true);
   }  // shutdown: the checkpoint holds the moved map
   const LoadReport r = ReopenAndCompare(db, moved);

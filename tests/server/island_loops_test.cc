@@ -10,16 +10,21 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <spdlog/sinks/base_sink.h>
+#include <spdlog/spdlog.h>
+
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <filesystem>
+#include <memory>
+#include <mutex>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "common/trajectory_eval.h"
 #include "proto/convert.h"
-#include "server/service/proto_convert.h"
+#include "server/runtime/proto_convert.h"
 #include "synth/sequence_writer.h"
 #include "tests/server/island_robots.h"
 #include "tests/server/scene_stream.h"
@@ -91,17 +96,63 @@ double Ate(const Trajectory& truth, const Trajectory& estimate) {
   return ate.ok() ? ate->trans_m.rmse : 1e9;
 }
 
-// B's session in the stats once its island's graph was solved at least `solves` times, polled
-// (GetStats, a real signal) for at most 60 s; the last one seen otherwise.
-loci::v1::SessionAlignment IslandSolved(loci::v1::Query::Stub* stub, uint64_t solves) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-  loci::v1::SessionAlignment b = SessionsByRobot(Stats(stub))["B"];
-  while (b.island_optimizations() < solves && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));  // poll
-    b = SessionsByRobot(Stats(stub))["B"];
-  }
-  return b;
+// B's session in the stats. Read after Flush, it holds every solve of B's island that B's
+// keyframes made due: the aligning thread solves a graph and applies the solution before it
+// counts the keyframe as recognised, and Flush waits for that count.
+loci::v1::SessionAlignment SessionOfB(loci::v1::Query::Stub* stub) {
+  return SessionsByRobot(Stats(stub))["B"];
 }
+
+// The lines spdlog logs while alive, added to the default logger's sinks (which go on writing as
+// before): a wait on what the server does on a thread of its own, such as the solve at a start,
+// wakes on the line it logs when done. Made and destroyed while no server runs (the default
+// logger is swapped).
+class LogLines {
+ public:
+  LogLines() : previous_(spdlog::default_logger()) {
+    std::vector<spdlog::sink_ptr> sinks = previous_->sinks();
+    sinks.push_back(lines_);
+    auto logger = std::make_shared<spdlog::logger>("loci-test", sinks.begin(), sinks.end());
+    logger->set_level(spdlog::level::info);  // the lines waited on are info
+    spdlog::set_default_logger(logger);
+  }
+  ~LogLines() { spdlog::set_default_logger(previous_); }
+  LogLines(const LogLines&) = delete;
+  LogLines& operator=(const LogLines&) = delete;
+
+  // Blocks until a line holding `needle` was logged, for at most `timeout`; whether one was.
+  bool WaitFor(const std::string& needle, std::chrono::seconds timeout) {
+    return lines_->WaitFor(needle, timeout);
+  }
+
+ private:
+  class Sink : public spdlog::sinks::base_sink<std::mutex> {
+   public:
+    bool WaitFor(const std::string& needle, std::chrono::seconds timeout) {
+      std::unique_lock<std::mutex> lock(mu_);
+      return cv_.wait_for(lock, timeout,
+                          [&] { return text_.find(needle) != std::string::npos; });
+    }
+
+   protected:
+    void sink_it_(const spdlog::details::log_msg& msg) override {
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        text_.append(msg.payload.data(), msg.payload.size());
+        text_ += '\n';
+      }
+      cv_.notify_all();
+    }
+    void flush_() override {}
+
+   private:
+    std::mutex mu_;
+    std::condition_variable cv_;
+    std::string text_;
+  };
+  std::shared_ptr<spdlog::logger> previous_;
+  std::shared_ptr<Sink> lines_ = std::make_shared<Sink>();
+};
 
 // Rooms a (45 views) and b (150 views) of `loci synth`, written to a fresh folder `name`<pid>
 // (left empty when writing or reading them failed).
@@ -147,7 +198,7 @@ TEST(IslandLoops, AnUnalignedRobotsDriftIsCutToAThirdInItsIsland) {
     Stream(r.mapping.get(), "A", Rebased(a, 0, false));
     island = Stream(r.mapping.get(), "B", b_sent);
     r.server->Flush();
-    const loci::v1::SessionAlignment s = IslandSolved(r.query.get(), 1);
+    const loci::v1::SessionAlignment s = SessionOfB(r.query.get());
     ASSERT_FALSE(s.aligned()) << "room b is another place: B must stay an island";
     ASSERT_EQ(s.island(), island);
     in_island = IslandTrajectory(r.query.get(), island, "B");
@@ -208,10 +259,15 @@ TEST(IslandLoops, MatchesLeftUnsolvedAtAStopAreSolvedAtTheNextStart) {
     ASSERT_FALSE(s.aligned());
     ASSERT_EQ(s.island_optimizations(), 0u);
   }
+  // The solve at the start runs on the loading thread once the map is ready: the wait is on the
+  // line the server logs when it has applied it.
+  LogLines log;
   Running again = Start(db);
   ASSERT_TRUE(again.server);
   ASSERT_TRUE(again.server->WaitReady().ok());
-  const loci::v1::SessionAlignment s = IslandSolved(again.query.get(), 1);
+  EXPECT_TRUE(log.WaitFor("island " + island + "'s pose graph:", std::chrono::seconds(60)))
+      << "B's island was not solved at the start";
+  const loci::v1::SessionAlignment s = SessionOfB(again.query.get());
   const Trajectory in_island = IslandTrajectory(again.query.get(), island, "B");
   ASSERT_EQ(in_island.size(), b_sent.size());
   const double solved = Ate(truth, in_island);
@@ -241,7 +297,7 @@ TEST(IslandLoops, AnIslandJoiningAnotherIsPlacedByItsCorrectedKeyframes) {
   Stream(r.mapping.get(), "A", Rebased(rooms.a, 0, false));
   const std::string island = Stream(r.mapping.get(), "B", b_sent);
   r.server->Flush();
-  ASSERT_GE(IslandSolved(r.query.get(), 1).island_optimizations(), 1u);
+  ASSERT_GE(SessionOfB(r.query.get()).island_optimizations(), 1u);
   const Trajectory b_island = IslandTrajectory(r.query.get(), island, "B");
   Stream(r.mapping.get(), "C", c_sent);
   r.server->Flush();
@@ -318,7 +374,7 @@ TEST(IslandLoops, AnAlignedIslandEntersTheSharedMapAsItsLoopsCorrectedIt) {
   Stream(r.mapping.get(), "A", Rebased(a, 0, false));
   const std::string island = Stream(r.mapping.get(), "B", {sent.begin(), room_a_start});
   r.server->Flush();
-  const loci::v1::SessionAlignment in_b = IslandSolved(r.query.get(), 1);
+  const loci::v1::SessionAlignment in_b = SessionOfB(r.query.get());
   ASSERT_FALSE(in_b.aligned());
   ASSERT_GE(in_b.island_optimizations(), 1u);
   const Trajectory in_island = IslandTrajectory(r.query.get(), island, "B");

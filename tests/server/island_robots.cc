@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "proto/convert.h"
-#include "server/service/proto_convert.h"
+#include "server/runtime/proto_convert.h"
 #include "server/service/query_adapter.h"
 #include "tests/server/keyframe_proto.h"
 

@@ -11,8 +11,8 @@
 #include "loci/v1/mapping.grpc.pb.h"
 #include "loci/v1/query.grpc.pb.h"
 #include "server/service/grpc_server.h"
-#include "server/service/map_server.h"
-#include "server/service/server_options.h"
+#include "server/runtime/map_server.h"
+#include "server/runtime/server_options.h"
 #include "synth/scene.h"
 
 namespace loci::server::testing {

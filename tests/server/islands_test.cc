@@ -24,8 +24,8 @@
 #include "server/http/http_api.h"
 #include "server/map/object_eval.h"
 #include "server/service/grpc_server.h"
-#include "server/service/map_server.h"
-#include "server/service/proto_convert.h"
+#include "server/runtime/map_server.h"
+#include "server/runtime/proto_convert.h"
 #include "server/service/query_adapter.h"
 #include "server/storage/sqlite_store.h"
 #include "synth/sequence_writer.h"
@@ -240,10 +240,10 @@ TEST_F(Islands, UnalignedRobotGetsAnExactIslandMapThatAlignmentDissolves) {
   // C starts in A's room, elsewhere, with its own odometry: aligned, and no island of C stays.
   // Watchers saw C's island objects come and go.
   auto events = std::make_shared<ObjectEventQueue>(100000);
-  ASSERT_TRUE(r.server->Subscribe(events).ok());
+  ASSERT_TRUE(r.server->events().Subscribe(events).ok());
   const std::string c = Stream(r.mapping.get(), "C", Rebased(views_["a"], 20, true));
   r.server->Flush();
-  r.server->Unsubscribe(events);
+  r.server->events().Unsubscribe(events);
   events->Close();
   std::set<int64_t> created, removed;
   while (std::optional<ObjectEventOut> e = events->Pop()) {

@@ -1,5 +1,5 @@
 // LateKeyframeUpdates: keyframes mapped while the pose graph solved follow their session.
-#include "server/service/late_keyframes.h"
+#include "server/runtime/late_keyframes.h"
 
 #include <gtest/gtest.h>
 

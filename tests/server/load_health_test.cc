@@ -11,7 +11,7 @@
 #include "loci/v1/query.grpc.pb.h"
 #include "proto/channel.h"
 #include "server/service/grpc_server.h"
-#include "server/service/map_server.h"
+#include "server/runtime/map_server.h"
 #include "server/storage/sqlite_store.h"
 #include "tests/server/keyframe_proto.h"
 

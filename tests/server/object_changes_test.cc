@@ -105,10 +105,10 @@ class ObjectChanges : public ::testing::Test {
     r.server->Flush();
     v.before = Confirmed(r.query.get());
     auto events = std::make_shared<ObjectEventQueue>(100000);
-    EXPECT_TRUE(r.server->Subscribe(events).ok());
+    EXPECT_TRUE(r.server->events().Subscribe(events).ok());
     Stream(r.mapping.get(), "A", Rebased(*day3, 0, false));
     r.server->Flush();
-    r.server->Unsubscribe(events);
+    r.server->events().Unsubscribe(events);
     events->Close();
     while (std::optional<ObjectEventOut> e = events->Pop()) {
       if (e->kind == ObjectChange::Kind::kRemoved && v.before.count(e->object.id)) {

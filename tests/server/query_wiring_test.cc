@@ -20,7 +20,7 @@
 #include "server/http/http_api.h"
 #include "server/map/object_eval.h"
 #include "server/service/grpc_server.h"
-#include "server/service/map_server.h"
+#include "server/runtime/map_server.h"
 #include "server/service/query_adapter.h"
 #include "synth/sequence_writer.h"
 #include "tests/server/keyframe_proto.h"

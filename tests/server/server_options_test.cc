@@ -1,6 +1,6 @@
 // Unknown keys in the server's YAML files: misspellings warn, or fail with strict checking; the
 // shipped configuration files have none.
-#include "server/service/server_options.h"
+#include "server/runtime/server_options.h"
 
 #include <gtest/gtest.h>
 

@@ -14,7 +14,7 @@
 #include "loci/v1/mapping.grpc.pb.h"
 #include "loci/v1/query.grpc.pb.h"
 #include "server/service/grpc_server.h"
-#include "server/service/map_server.h"
+#include "server/runtime/map_server.h"
 #include "tests/server/box_world.h"
 #include "tests/server/keyframe_proto.h"
 

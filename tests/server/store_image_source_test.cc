@@ -4,7 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "common/image_codec.h"
-#include "server/service/store_image_source.h"
+#include "server/runtime/store_image_source.h"
 #include "server/storage/sqlite_store.h"
 #include "tests/support/temp_dir.h"
 

@@ -13,7 +13,7 @@
 #include <optional>
 #include <vector>
 
-#include "common/handoff_mutex.h"
+#include "common/fifo_mutex.h"
 #include "common/status.h"
 #include "server/map/mapper.h"
 
@@ -33,7 +33,7 @@ struct ChunkedMoveFigures {
 // with `mu` held (`last`: the last chunk, after which the OctoMap is rebuilt once) and returns
 // how many keyframes it moved, or the error that stops the move.
 ChunkedMoveFigures MoveInChunks(
-    std::vector<Mapper::KeyframePoseUpdate> updates, size_t chunk_keyframes, HandoffMutex& mu,
+    std::vector<Mapper::KeyframePoseUpdate> updates, size_t chunk_keyframes, FifoMutex& mu,
     const std::function<Status()>& still_valid,
     const std::function<StatusOr<size_t>(const std::vector<Mapper::KeyframePoseUpdate>&, bool last)>&
         move);
@@ -53,7 +53,7 @@ struct LoadedKeyframe {
 // with `mu` held and returns false when it skips it. A failed load stops the mapping with its
 // error (the chunks before it stay mapped).
 ChunkedMoveFigures MapInChunks(
-    const std::vector<int64_t>& ids, size_t chunk_keyframes, HandoffMutex& mu,
+    const std::vector<int64_t>& ids, size_t chunk_keyframes, FifoMutex& mu,
     const std::function<StatusOr<std::vector<LoadedKeyframe>>(int64_t first_id, int64_t last_id)>&
         load,
     const std::function<bool(const LoadedKeyframe&)>& integrate);

@@ -1,4 +1,4 @@
-#include "server/service/store_feature_store.h"
+#include "server/runtime/store_feature_store.h"
 
 #include "server/place/feature_codec.h"
 

@@ -1,4 +1,4 @@
-#include "server/service/late_keyframes.h"
+#include "server/runtime/late_keyframes.h"
 
 #include <map>
 #include <set>

@@ -11,10 +11,10 @@
 #include <set>
 
 #include "common/time.h"
-#include "server/service/chunked_move.h"
-#include "server/service/keyframe_decoder.h"
-#include "server/service/map_server.h"
-#include "server/service/replay.h"
+#include "server/runtime/chunked_move.h"
+#include "server/runtime/keyframe_decoder.h"
+#include "server/runtime/map_server.h"
+#include "server/runtime/replay.h"
 
 namespace loci::server {
 
@@ -71,7 +71,7 @@ void MapServer::ApplyOutcome(const MapperKeyframe& kf, const AlignOutcome& outco
   std::optional<JoinedIsland> joined;
   std::vector<Mapper::KeyframePoseUpdate> moves;  // refined placements
   {
-    std::lock_guard<HandoffMutex> mapping(mapping_mu_);
+    std::lock_guard<FifoMutex> mapping(mapping_mu_);
     RecordMatches(kf.session_row, outcome.matches);
     auto apply = [&](const SessionAlignment& a) {
       if (std::optional<HeldKeyframes> h = ApplyAlignment(a, &moves)) {
@@ -83,39 +83,16 @@ void MapServer::ApplyOutcome(const MapperKeyframe& kf, const AlignOutcome& outco
     if (outcome.join) joined = ApplyJoin(*outcome.join);
     // No checkpoint until they are all in: one taken between two chunks would hold a later
     // keyframe id than held keyframes it lacks, which a restart would then not map.
-    merging_held_ = !held.empty();
+    checkpointer_.HoldForMerge(!held.empty());
   }
   if (!held.empty()) MapHeldKeyframes(held);
   if (joined) MapJoinedIsland(*joined);
   if (!moves.empty()) MoveSessions(std::move(moves));
 }
 
-std::optional<SessionRecord> MapServer::SessionByRow(int64_t session_row) {
-  {
-    std::lock_guard<std::mutex> lock(sessions_mu_);
-    for (const auto& [id, s] : sessions_) {
-      if (s.row_id == session_row) return s;
-    }
-  }
-  // Not cached (a session read back after a restart): from the store.
-  auto all = store_->ListSessions();
-  if (!all.ok()) return std::nullopt;
-  for (const SessionRecord& r : *all) {
-    if (r.row_id != session_row) continue;
-    SetSessionCache(r);
-    return r;
-  }
-  return std::nullopt;
-}
-
-void MapServer::SetSessionCache(const SessionRecord& session) {
-  std::lock_guard<std::mutex> lock(sessions_mu_);
-  sessions_[session.session_id] = session;
-}
-
 void MapServer::DeclareSession(int64_t session_row) {
   if (aligner_->Known(session_row)) return;
-  std::optional<SessionRecord> s = SessionByRow(session_row);
+  std::optional<SessionRecord> s = sessions_.ByRow(session_row);
   if (!s) {
     aligner_->AddSession(session_row, std::nullopt);
     return;
@@ -126,7 +103,7 @@ void MapServer::DeclareSession(int64_t session_row) {
     if (Status st = store_->SetSessionAlignment(s->row_id, s->T_base_odom); !st.ok()) {
       spdlog::warn("session {}: alignment not stored: {}", s->session_id, st.ToString());
     }
-    SetSessionCache(*s);
+    sessions_.Put(*s);
     spdlog::info("session {} of robot {} defines the map frame", s->session_id, s->robot_name);
   }
   aligner_->AddSession(session_row, s->aligned ? std::optional<SE3d>(s->T_base_odom)
@@ -137,7 +114,7 @@ void MapServer::DeclareSession(int64_t session_row) {
 }
 
 std::string MapServer::IslandName(int64_t island_row) {
-  const std::optional<SessionRecord> s = SessionByRow(island_row);
+  const std::optional<SessionRecord> s = sessions_.ByRow(island_row);
   return s ? s->session_id : std::to_string(island_row);
 }
 
@@ -146,7 +123,7 @@ MapServer::JoinedIsland MapServer::ApplyJoin(const IslandJoin& join) {
   // carried over by any of its sessions' old and new placements, which differ by one transform).
   if (!join.T_island_odom.empty()) {
     const auto& [row, T_to_odom] = join.T_island_odom.front();
-    if (const std::optional<SessionRecord> s = SessionByRow(row)) {
+    if (const std::optional<SessionRecord> s = sessions_.ByRow(row)) {
       StoreIslandPoses(join.from_island_row, join.island_row,
                        T_to_odom * s->T_island_odom.inverse());
     }
@@ -156,13 +133,13 @@ MapServer::JoinedIsland MapServer::ApplyJoin(const IslandJoin& join) {
       spdlog::warn("session row {}: island join not stored ({}); it joins again after a restart "
                    "when it matches again", row, st.ToString());
     }
-    if (std::optional<SessionRecord> s = SessionByRow(row)) {
+    if (std::optional<SessionRecord> s = sessions_.ByRow(row)) {
       s->island_row = join.island_row;
       s->T_island_odom = T;
-      SetSessionCache(*s);
+      sessions_.Put(*s);
     }
   }
-  Publish(islands_->Drop(join.from_island_row));
+  events_.Publish(islands_->Drop(join.from_island_row));
   // Its loops are edges of the island it joined now.
   if (closer_) closer_->MoveDue(join.from_island_row, join.island_row);
   // The keyframes the worker has seen (it may map newer ones there before these are in).
@@ -180,7 +157,7 @@ void MapServer::MapJoinedIsland(const JoinedIsland& joined) {
 
 uint64_t MapServer::MapIntoIsland(int64_t session_row, int64_t island_row,
                                   const SE3d& T_island_odom, int64_t upto_keyframe_id) {
-  std::optional<SessionRecord> s = SessionByRow(session_row);
+  std::optional<SessionRecord> s = sessions_.ByRow(session_row);
   if (!s) return 0;
   const std::string name = IslandName(island_row);
   auto in_island = [&](int64_t id) {
@@ -209,9 +186,30 @@ uint64_t MapServer::MapIntoIsland(int64_t session_row, int64_t island_row,
   return f.moved;
 }
 
+void MapServer::OfferAhead(const MapperKeyframe& kf) {
+  const int backlog = options_.align.query_ahead_backlog;
+  if (!aligner_ || backlog <= 0) return;
+  if (queue_.size() + align_queue_.size() < static_cast<size_t>(backlog)) return;
+  if (!aligner_->Known(kf.session_row) || aligner_->Alignment(kf.session_row)) return;
+  ahead_.Offer(kf);
+}
+
+void MapServer::QueryAhead(const MapperKeyframe& kf) {
+  const AlignOutcome outcome =
+      Guarded(kf, "place recognition ahead of the backlog", [&](const AlignKeyframe& in) {
+        return aligner_->QueryAhead(in, kf.bgr, kf.depth_m, kf.camera);
+      });
+  ahead_.NoteOutcome(kf.session_row, !outcome.matches.empty() && !outcome.alignment);
+  if (outcome.alignment) {
+    spdlog::info("session row {} aligned at keyframe {}, recognised ahead of {} waiting keyframes",
+                 kf.session_row, kf.keyframe_id, queue_.size() + align_queue_.size());
+  }
+  if (outcome.alignment || !outcome.matches.empty()) ApplyOutcome(kf, outcome);
+}
+
 std::optional<MapServer::HeldKeyframes> MapServer::ApplyAlignment(
     const SessionAlignment& a, std::vector<Mapper::KeyframePoseUpdate>* moves) {
-  std::optional<SessionRecord> s = SessionByRow(a.session_row);
+  std::optional<SessionRecord> s = sessions_.ByRow(a.session_row);
   if (!s) return std::nullopt;
   s->T_base_odom = a.T_base_odom;
   s->aligned = true;
@@ -219,14 +217,14 @@ std::optional<MapServer::HeldKeyframes> MapServer::ApplyAlignment(
     spdlog::warn("session {}: alignment not stored ({}); it aligns again after a restart",
                  s->session_id, st.ToString());
   }
-  SetSessionCache(*s);
+  sessions_.Put(*s);
   // Its island's objects now enter the shared map (with the island's other sessions, which are
   // aligned with it).
   const int64_t island_row = s->island_row != 0 ? s->island_row : s->row_id;
   if (!a.refined) {
     StoreIslandPoses(island_row, kSharedGraph, s->T_base_odom * s->T_island_odom.inverse());
   }
-  Publish(islands_->Drop(island_row));
+  events_.Publish(islands_->Drop(island_row));
   // The island's loops are edges of the shared map's pose graph now.
   if (closer_) closer_->MoveDue(island_row, kSharedGraph);
   if (a.refined) {
@@ -290,21 +288,10 @@ void MapServer::MapHeldKeyframes(const std::vector<HeldKeyframes>& sessions) {
     all.longest_hold_ms = std::max(all.longest_hold_ms, f.longest_hold_ms);
   }
   {
-    std::lock_guard<HandoffMutex> mapping(mapping_mu_);
-    merging_held_ = false;
     // The keyframes just mapped have ids below the last checkpoint's: checkpoint now, so a
     // restart does not lose them from the map (a restart also maps those a checkpoint lacks).
-    // Not while the OctoMap rebuilds, which the worker would wait for: it checkpoints after.
-    since_checkpoint_ += all.moved;
-    if (mapper_->OctomapRebuilding()) {
-      checkpoint_due_ = true;  // MaybeCheckpoint takes it after the rebuild
-    } else if (Status c = Checkpoint(); !c.ok()) {
-      spdlog::warn("checkpoint: {}", c.ToString());
-    } else {
-      since_checkpoint_ = 0;
-      checkpoint_due_ = false;
-      last_checkpoint_ = std::chrono::steady_clock::now();
-    }
+    std::lock_guard<FifoMutex> mapping(mapping_mu_);
+    checkpointer_.WriteAfterMerge(all.moved);
   }
   std::lock_guard<std::mutex> lock(held_merge_mu_);
   held_merge_stats_.last_ms = MsSince(start);
@@ -508,7 +495,7 @@ void MapServer::ReindexFromImages(const KeyframeRecord& rec, ReindexCounts* coun
     return;
   }
   DeclareSession(rec.session_row);
-  std::optional<SessionRecord> session = SessionByRow(rec.session_row);
+  std::optional<SessionRecord> session = sessions_.ByRow(rec.session_row);
   if (!session) return;
   auto kf = DecodeKeyframe(rec, *session);
   if (!kf.ok()) return;  // validated on ingest; a corrupt row is skipped

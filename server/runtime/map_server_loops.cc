@@ -19,9 +19,9 @@
 #include <map>
 
 #include "common/malloc_tuning.h"
-#include "server/service/chunked_move.h"
-#include "server/service/late_keyframes.h"
-#include "server/service/map_server.h"
+#include "server/runtime/chunked_move.h"
+#include "server/runtime/late_keyframes.h"
+#include "server/runtime/map_server.h"
 
 namespace loci::server {
 namespace {
@@ -113,14 +113,14 @@ MapServer::SolveTarget MapServer::SharedTarget() {
     return std::shared_ptr<const Mapper>(std::shared_ptr<const Mapper>(), mapper_.get());
   };
   t.place = [this](int64_t row, const SE3d& T_base_odom) {
-    std::optional<SessionRecord> s = SessionByRow(row);
+    std::optional<SessionRecord> s = sessions_.ByRow(row);
     if (!s) return;
     s->T_base_odom = T_base_odom;
     aligner_->SetAlignment(row, T_base_odom);
     if (Status st = store_->SetSessionAlignment(row, T_base_odom); !st.ok()) {
       spdlog::warn("session {}: corrected placement not stored: {}", s->session_id, st.ToString());
     }
-    SetSessionCache(*s);
+    sessions_.Put(*s);
   };
   t.move = [this](const std::vector<Mapper::KeyframePoseUpdate>& chunk, bool last) {
     StatusOr<size_t> moved = UpdateKeyframePosesLocked(chunk, /*rebuild_octomap=*/last);
@@ -145,7 +145,7 @@ MapServer::SolveTarget MapServer::IslandTarget(int64_t island_row) {
     return island ? island->map : nullptr;
   };
   t.place = [this, island_row](int64_t row, const SE3d& T_island_odom) {
-    std::optional<SessionRecord> s = SessionByRow(row);
+    std::optional<SessionRecord> s = sessions_.ByRow(row);
     if (!s) return;
     s->island_row = island_row;
     s->T_island_odom = T_island_odom;
@@ -154,7 +154,7 @@ MapServer::SolveTarget MapServer::IslandTarget(int64_t island_row) {
       spdlog::warn("session {}: corrected island placement not stored: {}", s->session_id,
                    st.ToString());
     }
-    SetSessionCache(*s);
+    sessions_.Put(*s);
   };
   t.move = [this, island_row](const std::vector<Mapper::KeyframePoseUpdate>& chunk, bool last) {
     StatusOr<size_t> moved =
@@ -180,7 +180,7 @@ void MapServer::CloseLoops(const SolveTarget& target) {
   std::vector<CentroidObservation> centroids;
   bool gravity = false;
   {
-    std::lock_guard<HandoffMutex> mapping(mapping_mu_);
+    std::lock_guard<FifoMutex> mapping(mapping_mu_);
     map = target.map();
     if (!map || !reindexed_ || !map->FrameSettled()) return;
     const int64_t size = target.graph == kSharedGraph
@@ -223,7 +223,7 @@ void MapServer::ApplySolution(const SolveTarget& target, const std::shared_ptr<c
   std::vector<Mapper::KeyframePoseUpdate> updates;
   size_t late = 0;
   {
-    std::lock_guard<HandoffMutex> mapping(mapping_mu_);
+    std::lock_guard<FifoMutex> mapping(mapping_mu_);
     if (Status st = same_frame(); !st.ok()) {
       spdlog::warn("pose graph solution dropped: {}", st.ToString());
       return;

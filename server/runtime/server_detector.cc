@@ -1,4 +1,4 @@
-#include "server/service/server_detector.h"
+#include "server/runtime/server_detector.h"
 
 #include <spdlog/spdlog.h>
 

@@ -1,4 +1,4 @@
-#include "server/service/proto_convert.h"
+#include "server/runtime/proto_convert.h"
 
 #include "common/se3.h"
 

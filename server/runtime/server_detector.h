@@ -7,7 +7,7 @@
 
 #include "common/status.h"
 #include "server/detect/keyframe_detection.h"
-#include "server/service/server_options.h"
+#include "server/runtime/server_options.h"
 
 namespace loci::server {
 

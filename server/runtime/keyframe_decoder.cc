@@ -1,4 +1,4 @@
-#include "server/service/keyframe_decoder.h"
+#include "server/runtime/keyframe_decoder.h"
 
 #include <cmath>
 

@@ -1,4 +1,4 @@
-#include "server/service/chunked_move.h"
+#include "server/runtime/chunked_move.h"
 
 #include <algorithm>
 #include <chrono>
@@ -10,7 +10,7 @@ namespace loci::server {
 using Clock = std::chrono::steady_clock;
 
 ChunkedMoveFigures MoveInChunks(
-    std::vector<Mapper::KeyframePoseUpdate> updates, size_t chunk_keyframes, HandoffMutex& mu,
+    std::vector<Mapper::KeyframePoseUpdate> updates, size_t chunk_keyframes, FifoMutex& mu,
     const std::function<Status()>& still_valid,
     const std::function<StatusOr<size_t>(const std::vector<Mapper::KeyframePoseUpdate>&, bool last)>&
         move) {
@@ -22,11 +22,10 @@ ChunkedMoveFigures MoveInChunks(
   ChunkedMoveFigures f;
   const Clock::time_point start = Clock::now();
   for (size_t begin = 0; begin < updates.size(); begin += step) {
-    if (begin > 0) mu.LetWaitersIn();
     const std::vector<Mapper::KeyframePoseUpdate> chunk(
         updates.begin() + static_cast<std::ptrdiff_t>(begin),
         updates.begin() + static_cast<std::ptrdiff_t>(std::min(begin + step, updates.size())));
-    std::lock_guard<HandoffMutex> lock(mu);
+    std::lock_guard<FifoMutex> lock(mu);
     const Clock::time_point held = Clock::now();
     f.status = still_valid();
     const bool last = begin + step >= updates.size();
@@ -44,7 +43,7 @@ ChunkedMoveFigures MoveInChunks(
 }
 
 ChunkedMoveFigures MapInChunks(
-    const std::vector<int64_t>& ids, size_t chunk_keyframes, HandoffMutex& mu,
+    const std::vector<int64_t>& ids, size_t chunk_keyframes, FifoMutex& mu,
     const std::function<StatusOr<std::vector<LoadedKeyframe>>(int64_t first_id, int64_t last_id)>&
         load,
     const std::function<bool(const LoadedKeyframe&)>& integrate) {
@@ -58,8 +57,7 @@ ChunkedMoveFigures MapInChunks(
       f.status = loaded.status();
       break;
     }
-    if (begin > 0) mu.LetWaitersIn();
-    std::lock_guard<HandoffMutex> lock(mu);
+    std::lock_guard<FifoMutex> lock(mu);
     const Clock::time_point held = Clock::now();
     for (const LoadedKeyframe& kf : *loaded) f.moved += integrate(kf) ? 1 : 0;
     f.longest_hold_ms = std::max(f.longest_hold_ms, MsSince(held));

@@ -1,4 +1,4 @@
-#include "server/service/island_maps.h"
+#include "server/runtime/island_maps.h"
 
 #include <absl/strings/str_cat.h>
 #include <spdlog/spdlog.h>

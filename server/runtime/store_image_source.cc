@@ -1,6 +1,6 @@
-#include "server/service/store_image_source.h"
+#include "server/runtime/store_image_source.h"
 
-#include "server/service/keyframe_decoder.h"
+#include "server/runtime/keyframe_decoder.h"
 
 namespace loci::server {
 StatusOr<std::optional<place::KeyframeImages>> StoreImageSource::Read(int64_t keyframe_id) {

@@ -1,4 +1,4 @@
-#include "server/service/server_options.h"
+#include "server/runtime/server_options.h"
 
 #include <filesystem>
 #include <vector>

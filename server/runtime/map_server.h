@@ -1,6 +1,9 @@
-// The server core, independent of the transport: sessions, keyframe ingest (validate, store in
-// one transaction, acknowledge), the bounded queue to the mapping worker thread, and object
-// event fan-out. The gRPC services are thin wrappers around it.
+// The server's runtime, independent of the transport: it composes the stages, each owning its
+// state: the ingest gate (sessions, validation, storage, acks: ingest_gate.h), the bounded
+// queue to the mapping worker thread (the shared map and the islands), the aligning thread
+// (place recognition, alignment decisions, pose-graph solves: map_server_align.cc,
+// map_server_loops.cc), the checkpointer (checkpointer.h) and the object-event fan-out
+// (event_fanout.h). The gRPC and HTTP services (server/service, server/http) are thin adapters.
 #pragma once
 
 #include <atomic>
@@ -11,7 +14,6 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <semaphore>
 #include <set>
 #include <thread>
 #include <vector>
@@ -22,19 +24,25 @@
 #include "server/align/loop_closer.h"
 #include "server/align/robot_aligner.h"
 #include "common/bounded_queue.h"
-#include "common/handoff_mutex.h"
+#include "common/fifo_mutex.h"
 #include "server/map/mapper.h"
-#include "server/service/chunked_move.h"
-#include "server/service/island_maps.h"
-#include "server/service/replay.h"
-#include "server/service/server_options.h"
-#include "server/service/store_feature_store.h"
-#include "server/service/store_image_source.h"
+#include "server/runtime/ahead_queries.h"
+#include "server/runtime/checkpointer.h"
+#include "server/runtime/chunked_move.h"
+#include "server/runtime/event_fanout.h"
+#include "server/runtime/ingest_gate.h"
+#include "server/runtime/ingest_times.h"
+#include "server/runtime/island_maps.h"
+#include "server/runtime/pipeline_progress.h"
+#include "server/runtime/readiness.h"
+#include "server/runtime/replay.h"
+#include "server/runtime/server_options.h"
+#include "server/runtime/session_cache.h"
+#include "server/runtime/store_feature_store.h"
+#include "server/runtime/store_image_source.h"
 #include "server/storage/map_store.h"
 
 namespace loci::server {
-
-using ObjectEventQueue = BoundedQueue<ObjectEventOut>;
 
 class MapServer {
  public:
@@ -54,12 +62,12 @@ class MapServer {
 
   // Whether the map is loaded and the server takes calls; OK, or UNAVAILABLE saying why not
   // (loading, with progress, or the load error).
-  bool ready() const { return ready_; }
-  Status CheckReady() const;
+  bool ready() const { return readiness_.ready(); }
+  Status CheckReady() const { return readiness_.Check(); }
   // Blocks until the map is loaded or failed to load; the load's status.
-  Status WaitReady();
+  Status WaitReady() { return readiness_.Wait(); }
   // `fn` runs once the map is loaded (at once when it already is), on the loading thread.
-  void OnReady(std::function<void()> fn);
+  void OnReady(std::function<void()> fn) { readiness_.OnReady(std::move(fn)); }
   const LoadReport& load_report() const { return load_report_; }
   // Moves mapped keyframes to corrected poses (T_base_kf) and re-derives what they touch
   // (Mapper::UpdateKeyframePoses) between two mapped keyframes, reading their products from the
@@ -83,10 +91,8 @@ class MapServer {
   // Blocks until every keyframe queued so far has been mapped.
   void Flush();
 
-  // Object events are copied into every subscribed queue (dropped when a queue is full).
-  // RESOURCE_EXHAUSTED beyond options().max_watchers subscribers.
-  Status Subscribe(std::shared_ptr<ObjectEventQueue> queue);
-  void Unsubscribe(const std::shared_ptr<ObjectEventQueue>& queue);
+  // Object events go to every queue subscribed here (at most options().max_watchers).
+  EventFanout& events() { return events_; }
 
   const Mapper& mapper() const { return *mapper_; }
   // The object maps of the sessions not aligned yet (nullptr when align.enabled is false).
@@ -94,7 +100,7 @@ class MapServer {
   MapStore& store() { return *store_; }
   const ServerOptions& options() const { return options_; }
   // Keyframes waiting for the mapping worker or for place recognition.
-  size_t queue_depth() const { return queue_.size() + align_pending_; }
+  size_t queue_depth() const { return queue_.size() + progress_.recognition_pending(); }
   uint64_t replayed_keyframes() const { return replayed_; }
   // Robot alignment (nullptr when align.enabled is false): its statistics.
   std::optional<AlignStats> align_stats() const;
@@ -117,17 +123,10 @@ class MapServer {
     double longest_hold_ms = 0;       // ... since start
   };
   HeldMergeStats held_merge_stats() const;
-  // Mean mapping time per keyframe mapped by the worker since start (replay excluded), ms.
-  double ingest_ms_mean() const;
-  // The longest the mapping worker waited for the mapping lock since start, ms (a chunk of a
-  // pose-graph move or of a robot's held keyframes, a checkpoint).
-  double worker_longest_wait_ms() const { return worker_longest_wait_ms_; }
   // Checkpoints written since start.
-  uint64_t checkpoints_written() const { return checkpoints_written_; }
-  // Mean time of the handler-side stages per accepted keyframe, ms: validation with image
-  // decoding (thread CPU time), and the storage transaction (wall time).
-  double validate_ms_mean() const;
-  double store_ms_mean() const;
+  uint64_t checkpoints_written() const { return checkpointer_.written(); }
+  // Mean stage times per keyframe since start (validation, storage, mapping; ingest_times.h).
+  const IngestTimes& times() const { return times_; }
 
  private:
   MapServer(const ServerOptions& options, std::shared_ptr<MapStore> store,
@@ -164,10 +163,6 @@ class MapServer {
   // Ingest: keeps a copy of an unaligned session's keyframe as its newest, to be queried ahead
   // of the backlog (AlignOptions::query_ahead_backlog) when at least that many keyframes wait.
   void OfferAhead(const MapperKeyframe& kf);
-  // Aligning thread: the newest offered keyframe of one session, when one is due: at once for
-  // a session whose last keyframe queried ahead verified a match (it sees the shared map) or
-  // when none wait, else after kRecognisedPerAhead keyframes recognised in order.
-  std::optional<MapperKeyframe> TakeAhead();
   void QueryAhead(const MapperKeyframe& kf);
   // Tells the aligner about a session on its first keyframe; the map's first keyframe makes its
   // session the origin.
@@ -288,8 +283,6 @@ class MapServer {
   // Stored matches into the loop closer (loading thread, while re-indexing); those found by a
   // keyframe in `unsolved` (keyframe id -> its graph) count towards that graph's next solve.
   void LoadPlaceMatches(const std::map<int64_t, int64_t>& unsolved);
-  std::optional<SessionRecord> SessionByRow(int64_t session_row);
-  void SetSessionCache(const SessionRecord& session);
   void LoadLoop();
   // After the map is loaded: maps the stored keyframes of every unaligned session into its
   // island (loading thread, before the worker starts).
@@ -297,21 +290,6 @@ class MapServer {
   // After the map is loaded: every stored session with keyframes is declared to the aligner,
   // with its placement or island, before a keyframe or a join can need it (loading thread).
   void DeclareStoredSessions();
-  void FinishLoad(const Status& status);
-  // Checkpoints when checkpoint_keyframes or checkpoint_interval_s have passed since the shared
-  // map last changed (worker thread). `shared_map_changed`: this keyframe was mapped into it (a
-  // held keyframe is mapped in its island only, which a checkpoint does not hold).
-  void MaybeCheckpoint(bool shared_map_changed);
-  // Drops raw images as server.raw_keep_days / raw_keep_last say (after a checkpoint).
-  Status ApplyRetention();
-  StatusOr<SessionRecord> FindSession(const std::string& session_id,
-                                      const std::string* only_robot = nullptr);
-  // Validates under a decode slot, then checks the stamp against the session's last keyframe.
-  StatusOr<KeyframeRecord> Validate(const loci::v1::Keyframe& kf, const SessionRecord& session,
-                                    MapperKeyframe* decoded);
-  Status CheckStampOrder(const KeyframeRecord& record);
-  void NoteStored(const KeyframeRecord& record);
-  void Publish(const std::vector<ObjectEventOut>& events);
 
   ServerOptions options_;
   std::shared_ptr<MapStore> store_;
@@ -322,73 +300,37 @@ class MapServer {
   std::unique_ptr<RobotAligner> aligner_;  // used by the worker thread only (Stats: any)
   std::unique_ptr<LoopCloser> closer_;     // with aligner_ and align.loops.enabled
   std::unique_ptr<IslandMaps> islands_;    // with aligner_
+
+  // The stages' own state.
+  Readiness readiness_;
+  EventFanout events_;
+  SessionCache sessions_;
+  IngestTimes times_;
+  IngestGate gate_;
+  Checkpointer checkpointer_;  // its counters guarded by mapping_mu_ once the worker runs
+  PipelineProgress progress_;
+  AheadQueries ahead_;
+
+  // The loading thread (LoadLoop, then Reindex).
+  std::thread loader_;
+  std::atomic<bool> stop_loading_{false};
+  LoadReport load_report_;
+  uint64_t replayed_ = 0;
   std::atomic<bool> reindexed_{false};
+
+  // Held by the worker per keyframe, and by the aligning thread per chunk of a move or merge.
+  FifoMutex mapping_mu_;
+  BoundedQueue<MapperKeyframe> queue_;  // to the mapping worker
+  std::thread worker_;
+  std::atomic<int64_t> worker_last_id_{0};  // the last keyframe the worker mapped or held
+  std::atomic<int64_t> first_live_id_{0};   // the first keyframe ingested since the start
+
+  BoundedQueue<MapperKeyframe> align_queue_;  // mapped or held keyframes, with their images
+  std::thread align_thread_;
+  std::mutex close_loops_mu_;  // one CloseLoops at a time (aligning and loading threads)
   std::atomic<uint64_t> merged_keyframes_{0};
   mutable std::mutex held_merge_mu_;
   HeldMergeStats held_merge_stats_;  // guarded by held_merge_mu_
-  uint64_t replayed_ = 0;
-
-  std::thread loader_;
-  std::atomic<bool> stop_loading_{false};
-  std::atomic<bool> ready_{false};
-  std::atomic<uint64_t> load_done_{0}, load_total_{0};
-  mutable std::mutex ready_mu_;
-  std::condition_variable ready_cv_;
-  bool load_finished_ = false;  // guarded by ready_mu_
-  Status load_status_;          // guarded by ready_mu_
-  std::vector<std::function<void()>> ready_callbacks_;  // guarded by ready_mu_
-  LoadReport load_report_;
-  // Keyframes mapped (or moved) and time since the last checkpoint; guarded by mapping_mu_
-  // once the worker runs.
-  uint64_t since_checkpoint_ = 0;
-  // While an aligned robot's held keyframes enter the map (MapHeldKeyframes) the worker does
-  // not checkpoint; guarded by mapping_mu_.
-  bool merging_held_ = false;
-  // A checkpoint fell due while the OctoMap was rebuilding: the worker takes it on its first
-  // keyframe after the rebuild; guarded by mapping_mu_.
-  bool checkpoint_due_ = false;
-  std::chrono::steady_clock::time_point last_checkpoint_ = std::chrono::steady_clock::now();
-  std::mutex checkpoint_mu_;  // one checkpoint at a time
-  std::atomic<uint64_t> checkpoints_written_{0};
-  std::mutex close_loops_mu_;  // one CloseLoops at a time (aligning and loading threads)
-  HandoffMutex mapping_mu_;   // held by the worker per keyframe and by UpdateKeyframePoses
-  // Held from storing a keyframe until it is queued, so the worker maps keyframes in id order
-  // (the order a restart loads them in).
-  std::mutex ingest_order_mu_;
-
-  std::mutex sessions_mu_;
-  std::map<std::string, SessionRecord> sessions_;  // cache by session_id
-  std::map<int64_t, LastStamp> last_stamp_;        // by session row; filled on first use
-
-  std::counting_semaphore<256> decode_slots_;
-
-  BoundedQueue<MapperKeyframe> queue_;
-  std::thread worker_;
-  BoundedQueue<MapperKeyframe> align_queue_;  // mapped or held keyframes, with their images
-  std::thread align_thread_;
-  std::atomic<uint64_t> align_pending_{0};    // pushed, not yet through RecognisePlace
-  std::mutex ahead_mu_;
-  std::map<int64_t, MapperKeyframe> ahead_;   // by session row: its newest offered keyframe
-  std::set<int64_t> ahead_matched_;           // sessions whose last ahead query verified a match
-  int recognised_since_ahead_ = 0;            // aligning thread only
-  std::atomic<int64_t> worker_last_id_{0};    // the last keyframe the worker mapped or held
-  std::atomic<int64_t> first_live_id_{0};     // the first keyframe ingested since the start
-  std::mutex progress_mu_;
-  std::condition_variable progress_cv_;
-  uint64_t enqueued_ = 0;  // guarded by progress_mu_
-  uint64_t mapped_ = 0;    // guarded by progress_mu_
-  uint64_t aligned_through_ = 0;  // keyframes through place recognition; guarded by progress_mu_
-  uint64_t align_enqueued_ = 0;   // guarded by progress_mu_
-  // Stage time sums (ms), added with fetch_add by every ingest stream and the worker.
-  std::atomic<double> mapping_ms_total_{0};
-  std::atomic<uint64_t> mapping_count_{0};
-  std::atomic<double> worker_longest_wait_ms_{0};
-  std::atomic<double> validate_ms_total_{0};
-  std::atomic<double> store_ms_total_{0};
-  std::atomic<uint64_t> accepted_count_{0};
-
-  std::mutex watchers_mu_;
-  std::vector<std::shared_ptr<ObjectEventQueue>> watchers_;
 };
 
 }  // namespace loci::server

@@ -1,4 +1,4 @@
-#include "server/service/replay.h"
+#include "server/runtime/replay.h"
 
 #include <spdlog/spdlog.h>
 
@@ -6,7 +6,7 @@
 #include <map>
 
 #include "server/map/product_codec.h"
-#include "server/service/keyframe_decoder.h"
+#include "server/runtime/keyframe_decoder.h"
 
 namespace loci::server {
 
