@@ -174,8 +174,7 @@ def check_no_console_errors(driver):
 
 
 def page_objects(driver):
-    """The page's live objects (found gone ones, drawn as ghosts, left out), id -> class."""
-    return {o["id"]: o["className"] for o in viewer(driver, "objects") or [] if not o.get("gone")}
+    return {o["id"]: o["className"] for o in viewer(driver, "objects") or []}
 
 
 def check_scene_matches(driver, server, what):
@@ -284,7 +283,7 @@ def check_candidates_toggle(driver, server):
         fail("candidates are shown before the box is ticked")
 
     def shown_is(want):
-        page = {o["id"]: o["shown"] for o in viewer(driver, "objects") if not o.get("gone")}
+        page = {o["id"]: o["shown"] for o in viewer(driver, "objects")}
         return page == want and all(label_displayed(driver, i) == s for i, s in want.items())
     wait_until(f"only the confirmed objects drawn (candidates {candidates} hidden)",
                lambda: shown_is(confirmed), 10)
