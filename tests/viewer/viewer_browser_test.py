@@ -174,7 +174,8 @@ def check_no_console_errors(driver):
 
 
 def page_objects(driver):
-    return {o["id"]: o["className"] for o in viewer(driver, "objects") or []}
+    """The page's live objects (found gone ones, drawn as ghosts, left out), id -> class."""
+    return {o["id"]: o["className"] for o in viewer(driver, "objects") or [] if not o.get("gone")}
 
 
 def check_scene_matches(driver, server, what):
@@ -283,7 +284,7 @@ def check_candidates_toggle(driver, server):
         fail("candidates are shown before the box is ticked")
 
     def shown_is(want):
-        page = {o["id"]: o["shown"] for o in viewer(driver, "objects")}
+        page = {o["id"]: o["shown"] for o in viewer(driver, "objects") if not o.get("gone")}
         return page == want and all(label_displayed(driver, i) == s for i, s in want.items())
     wait_until(f"only the confirmed objects drawn (candidates {candidates} hidden)",
                lambda: shown_is(confirmed), 10)
