@@ -25,6 +25,8 @@ for arg in "$@"; do
   esac
 done
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+# shellcheck source=lib/server.sh
+. "$ROOT/scripts/lib/server.sh"
 START_S=$(date +%s.%N)
 log() { printf '\033[1;32m[demo]\033[0m %s\n' "$*" >&2; }
 elapsed() { awk -v a="$START_S" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }'; }
@@ -58,14 +60,7 @@ if [ -n "${LOCI_SERVER_DETECTOR:-}" ]; then SERVER_ARGS+=(--detector "$LOCI_SERV
 SERVER_PID=$!
 cleanup() { kill -TERM "$SERVER_PID" 2>/dev/null || true; }
 trap cleanup EXIT
-ADDR=""
-for _ in $(seq 1 300); do
-  ADDR="$(sed -n 's/^listening on //p' "$OUT/server.out" | head -1)"
-  [ -n "$ADDR" ] && break
-  if ! kill -0 "$SERVER_PID" 2>/dev/null; then log "loci-server died:"; cat "$OUT/server.log" >&2; exit 1; fi
-  sleep 0.1
-done
-[ -n "$ADDR" ] || { log "loci-server did not start within 30 s"; exit 1; }
+ADDR="$(wait_listening "$SERVER_PID" "$OUT/server.out" "$OUT/server.log")" || exit 1
 log "loci-server (pid $SERVER_PID) listening on $ADDR, log $OUT/server.log"
 if [ "$HTTP_PORT" != 0 ]; then
   log "web viewer: http://127.0.0.1:$HTTP_PORT/ (live while the demo runs; --serve keeps it up)"

@@ -29,6 +29,8 @@ CLIENT_CONFIG="${LOCI_EVAL_CLIENT_CONFIG:-$ROOT/config/client.yaml}"
 LOG_LEVEL="${LOCI_EVAL_LOG_LEVEL:-info}"
 MODEL="$ROOT/models/yolox_nano/yolox_nano.onnx"
 mkdir -p "$OUT"
+# shellcheck source=lib/server.sh
+. "$ROOT/scripts/lib/server.sh"
 
 SERVER_PID=""
 trap '[ -n "$SERVER_PID" ] && kill -TERM "$SERVER_PID" 2>/dev/null || true' EXIT
@@ -44,15 +46,7 @@ start_server() {
     --log-level "$LOG_LEVEL" "${detector[@]}" \
     >"$dir/server.out" 2>"$dir/server.log" &
   SERVER_PID=$!
-  ADDR=""
-  for _ in $(seq 1 300); do
-    ADDR="$(sed -n 's/^listening on //p' "$dir/server.out" | head -1)"
-    [ -n "$ADDR" ] && return 0
-    kill -0 "$SERVER_PID" 2>/dev/null || { cat "$dir/server.log" >&2; exit 1; }
-    sleep 0.1
-  done
-  echo "loci-server did not start" >&2
-  exit 1
+  ADDR="$(wait_listening "$SERVER_PID" "$dir/server.out" "$dir/server.log")" || exit 1
 }
 
 track() {  # track ROBOT LOGFILE [loci-track options...]
