@@ -67,7 +67,7 @@ Status CreatePrivateFile(const std::string& path) {
 SqliteStore::SqliteStore(std::string path, SqliteStoreOptions options)
     : path_(std::move(path)),
       options_(options),
-      readers_([this] { return OpenConnection(); },
+      readers_([this] { return OpenConnection(); }, [](sqlite3* db) { sqlite3_close_v2(db); },
                static_cast<size_t>(std::max(0, options.max_idle_readers))) {}
 
 SqliteStore::~SqliteStore() { sqlite3_close_v2(writer_); }
