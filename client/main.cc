@@ -24,7 +24,7 @@ namespace {
 
 struct Args {
   std::string tum_dir, server = "127.0.0.1:50051", robot = "robot", config, trajectory, keyframes;
-  std::string poses, detections, model;
+  std::string poses, detections, model, site;
   ChannelSecurity security;
   bool offline = false, no_progress = false, live = false, strict_config = false;
   int start_frame = 0;
@@ -122,6 +122,7 @@ int Run(const Args& a) {
   MapClientOptions& mopt = config->streaming;
   mopt.server = a.server;
   mopt.robot_name = a.robot;
+  mopt.site = a.site;
   mopt.security = a.security.WithEnvironment();
   DetectionSetup det;
   if (auto f = SetUpDetection(a, topt, &det)) {
@@ -193,6 +194,9 @@ int main(int argc, char** argv) {
       ->required();
   app.add_option("--server", a.server, "loci-server HOST:PORT")->capture_default_str();
   app.add_option("--robot", a.robot, "robot name")->capture_default_str();
+  app.add_option("--site", a.site,
+                 "the site (map) the robot maps; the server refuses another site's robots "
+                 "[the server's site]");
   app.add_option("--token", a.security.token, "bearer token (default: $LOCI_TOKEN)");
   app.add_option("--tls-ca", a.security.tls_ca_file,
                  "CA certificate (PEM) of a TLS server (default: $LOCI_TLS_CA; none: plaintext)");

@@ -1,8 +1,12 @@
-// `loci-server`: the loci mapping server (gRPC Mapping + Query services, SQLite persistence).
+// `loci-server`: the loci mapping server (gRPC Mapping + Query services; the map in SQLite or,
+// shared by several servers, in PostgreSQL).
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <atomic>
+#include <unistd.h>
+
 #include <csignal>
 #include <iostream>
 
@@ -15,6 +19,7 @@
 #include "server/runtime/map_server.h"
 #include "server/service/query_adapter.h"
 #include "server/runtime/server_detector.h"
+#include "server/runtime/store_opener.h"
 
 namespace {
 
@@ -48,7 +53,8 @@ std::string ViewerDir(const std::string& flag) {
 
 // The command line.
 struct Flags {
-  std::string config_path, listen, db, http, query_config, viewer_dir, log_level = "info";
+  std::string config_path, listen, db, store, site, http, query_config, viewer_dir,
+      log_level = "info";
   bool strict_config = false, print_options = false;
   std::string token_file, detector_config;
   loci::server::TlsFiles tls;
@@ -59,6 +65,12 @@ void AddFlags(CLI::App* app, Flags* f) {
       ->check(CLI::ExistingFile);
   app->add_option("--listen", f->listen, "gRPC address HOST:PORT [127.0.0.1:50051]");
   app->add_option("--db", f->db, "SQLite database file [./loci.db]");
+  app->add_option("--store", f->store,
+                  "the map store: sqlite:FILE, or postgresql://USER@HOST:PORT/DB shared by "
+                  "several servers (one writer per site; a second one waits as a standby) "
+                  "[SQLite at --db]");
+  app->add_option("--site", f->site,
+                  "the site (map) to serve in a PostgreSQL store, [a-z0-9_-]{1,40} [default]");
   app->add_option("--http", f->http, "HTTP/JSON API address HOST:PORT or off [off]");
   app->add_option("--viewer-dir", f->viewer_dir,
                   "web viewer files served at http://HOST:PORT/ (off = none) [$LOCI_HOME/viewer, "
@@ -104,6 +116,8 @@ loci::StatusOr<Setup> ReadSetup(const Flags& f) {
   }
   if (!f.listen.empty()) s.options.listen = f.listen;
   if (!f.db.empty()) s.options.db_path = f.db;
+  if (!f.store.empty()) s.options.store = f.store;
+  if (!f.site.empty()) s.options.site = f.site;
   if (!f.http.empty()) s.options.http = f.http;
   if (f.tls.cert_file.empty() != f.tls.key_file.empty()) {
     return absl::InvalidArgumentError("--tls-cert and --tls-key go together");
@@ -127,6 +141,27 @@ sigset_t BlockShutdownSignals() {
   sigaddset(&signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
   return signals;
+}
+
+// Whether SIGINT or SIGTERM arrived (they are blocked, so they wait as pending).
+bool ShutdownPending() {
+  sigset_t pending;
+  sigpending(&pending);
+  return sigismember(&pending, SIGINT) == 1 || sigismember(&pending, SIGTERM) == 1;
+}
+
+// A standby's wait for the site's lease: logged when the holder changes; a signal ends it.
+bool StandBy(const loci::server::ServerOptions& options, const loci::server::LeaseHolder& h) {
+  static std::string logged;
+  const std::string who = h.holder + "@" + std::to_string(h.epoch);
+  if (who != logged) {
+    spdlog::info(
+        "standby: site '{}' is mapped by {} at {} (lease epoch {}, expires in {:.1f} s); "
+        "taking over when the lease lapses",
+        options.site, h.holder, h.address.empty() ? "?" : h.address, h.epoch, h.expires_in_s);
+    logged = who;
+  }
+  return !ShutdownPending();
 }
 
 int Fail(const loci::Status& status, int code) {
@@ -174,7 +209,14 @@ int main(int argc, char** argv) {
       options, flags.detector_config.empty() ? flags.config_path : flags.detector_config);
   if (!detection.ok()) return Fail(detection.status(), 2);
   // The port opens at once; the map loads behind it (health NOT_SERVING until it is in).
-  auto server = loci::server::MapServer::OpenAsync(options, nullptr, *detection);
+  auto opened = loci::server::OpenServerStore(
+      options, [&](const loci::server::LeaseHolder& h) { return StandBy(options, h); });
+  if (!opened.ok()) {
+    const bool stopped = opened.status().code() == absl::StatusCode::kCancelled;
+    if (stopped) spdlog::info("signal while standing by: shutting down");
+    return stopped ? 0 : Fail(opened.status(), 1);
+  }
+  auto server = loci::server::MapServer::OpenAsync(options, opened->store, *detection);
   if (!server.ok()) return Fail(server.status(), 1);
   auto grpc = loci::server::GrpcServer::Start(
       server->get(), options.listen, options.max_message_mb,
@@ -193,7 +235,20 @@ int main(int argc, char** argv) {
     http_api = std::move(*h);
   }
   AnnounceAddresses(options, (*grpc)->port(), http_api.get(), viewer_served);
-  spdlog::info("loci-server: db {}; loading the map", options.db_path);
+  spdlog::info("loci-server: {}; loading the map", opened->description);
+  // A writer that loses its site's lease stops at once: another server maps the site now.
+  std::atomic<bool> lease_lost{false};
+  if (opened->lease) {
+    const std::string host = options.listen.substr(0, options.listen.rfind(':'));
+    if (auto s = opened->lease->Announce(host + ":" + std::to_string((*grpc)->port())); !s.ok()) {
+      spdlog::warn("{}", s.ToString());
+    }
+    opened->lease->StartRenewing([&lease_lost](const loci::Status& s) {
+      spdlog::error("{}: stopping, nothing more is written", s.ToString());
+      lease_lost = true;
+      kill(getpid(), SIGTERM);
+    });
+  }
 
   int sig = 0;
   sigwait(&signals, &sig);
@@ -203,5 +258,6 @@ int main(int argc, char** argv) {
   (*server)->Flush();
   grpc->reset();
   server->reset();
-  return 0;
+  opened->lease.reset();  // released: a standby takes over at once
+  return lease_lost ? 3 : 0;
 }

@@ -87,6 +87,7 @@ struct MapClient::Impl {
     req.set_depth_scale(depth_scale);
     req.set_client_version(opt.client_version);
     req.set_resume(resume);
+    req.set_site(opt.site);
     v1::OpenSessionResponse resp;
     grpc::ClientContext ctx;
     ctx.set_deadline(DeadlineIn(opt.rpc_timeout_s));

@@ -34,6 +34,7 @@ namespace loci {
 struct MapClientOptions {
   std::string server = "127.0.0.1:50051";  // HOST:PORT of loci-server
   std::string robot_name = "robot";        // [A-Za-z0-9_.-]{1,64}
+  std::string site;                        // the site the robot maps; "" = the server's
   int max_unacked = 16;                    // keyframes sent or queued without ack (back-pressure)
   double initial_backoff_s = 0.1;          // first reconnect delay, doubled up to max_backoff_s
   double max_backoff_s = 2.0;

@@ -107,6 +107,23 @@ SiteLease::~SiteLease() {
   PQfinish(conn_);
 }
 
+Status SiteLease::Announce(const std::string& address) {
+  // Its own connection: the renewing thread owns conn_.
+  LOCI_ASSIGN_OR_RETURN(PGconn * conn, pg::Connect(uri_, ""));
+  auto r = Exec(conn,
+                "UPDATE public.loci_site_leases SET address = $4 WHERE site = $1 AND holder = $2"
+                " AND epoch = $3",
+                Params().Text(site_).Text(holder_).Int(epoch_).Text(address),
+                "announce the writer's address");
+  PQfinish(conn);
+  if (!r.ok()) return r.status();
+  if (r->affected() != 1) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("site '", site_, "': the writer lease was lost before it was announced"));
+  }
+  return absl::OkStatus();
+}
+
 void SiteLease::StartRenewing(std::function<void(const Status&)> lost) {
   renewer_ = std::thread([this, lost = std::move(lost)]() mutable { RenewLoop(std::move(lost)); });
 }

@@ -55,6 +55,8 @@ class SiteLease {
   SiteLease& operator=(const SiteLease&) = delete;
 
   SiteFence fence() const { return {holder_, epoch_}; }
+  // Records where robots reach this server (known once its port is bound).
+  Status Announce(const std::string& address);
   // Renews on a thread until destroyed; `lost` is called once (from that thread) when a renewal
   // finds the lease taken over, or none succeeded for ttl_s.
   void StartRenewing(std::function<void(const Status&)> lost);

@@ -58,6 +58,11 @@ StatusOr<loci::v1::OpenSessionResponse> IngestGate::OpenSession(
     return absl::InvalidArgumentError(
         absl::StrCat("robot_name '", req.robot_name(), "' must match [A-Za-z0-9_.-]{1,64}"));
   }
+  if (!req.site().empty() && req.site() != options_.site) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "this server maps site '", options_.site, "', not '", req.site(),
+        "': connect to that site's server"));
+  }
   loci::v1::OpenSessionResponse resp;
   resp.set_server_version(kServerVersion);
   if (req.resume()) {

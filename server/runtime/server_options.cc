@@ -43,12 +43,16 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
   if (const YAML::Node s = root["server"]) {
     LOCI_RETURN_IF_ERROR(CheckKnownKeys(
         s, "server",
-        {"listen", "db", "http", "max_message_mb", "queue_capacity", "max_detections",
+        {"listen", "db", "store", "site", "lease_ttl_s", "lease_renew_s", "http", "max_message_mb", "queue_capacity", "max_detections",
          "max_image_px", "map_extent_m", "max_future_s", "stamp_backwards_ms", "decode_slots",
          "max_watchers", "classes_file", "max_event_clients", "checkpoint_keyframes",
          "checkpoint_interval_s", "raw_keep_days", "raw_keep_last"}));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "listen", &listen));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "db", &db_path));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "store", &store));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "site", &site));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "lease_ttl_s", &lease_ttl_s));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "lease_renew_s", &lease_renew_s));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "http", &http));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "max_message_mb", &max_message_mb));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "queue_capacity", &queue_capacity));
@@ -123,6 +127,11 @@ Status ServerOptions::ValidateLimits() const {
   if (checkpoint_keyframes < 1 || !(checkpoint_interval_s > 0)) {
     return absl::InvalidArgumentError(
         "server.checkpoint_keyframes must be >= 1 and server.checkpoint_interval_s > 0");
+  }
+  if (!(lease_ttl_s >= 1 && lease_ttl_s <= 3600 && lease_renew_s > 0 &&
+        lease_renew_s < lease_ttl_s)) {
+    return absl::InvalidArgumentError(
+        "server.lease_ttl_s must be in [1, 3600] and server.lease_renew_s in (0, lease_ttl_s)");
   }
   if (!(raw_keep_days == -1 || raw_keep_days >= 0) || raw_keep_last < -1) {
     return absl::InvalidArgumentError(

@@ -18,6 +18,17 @@ namespace loci::server {
 struct ServerOptions {
   std::string listen = "127.0.0.1:50051";  // gRPC address, HOST:PORT (port 0 = any free port)
   std::string db_path = "loci.db";         // SQLite database file
+  // Where the map is stored: "" = SQLite at db_path; "sqlite:FILE"; or a PostgreSQL database
+  // (postgresql://USER@HOST:PORT/DB or a libpq key=value string), shared by several servers.
+  std::string store;
+  // The site (map) this server maps in a PostgreSQL store: [a-z0-9_-]{1,40} ("default"). Robots
+  // that name another site in OpenSession are refused.
+  std::string site = "default";
+  // The site's writer lease in a PostgreSQL store: it lasts lease_ttl_s after each renewal,
+  // renewed every lease_renew_s; a standby takes over within about lease_ttl_s of the writer's
+  // death (6 s, 1.5 s).
+  double lease_ttl_s = 6.0;
+  double lease_renew_s = 1.5;
   std::string http = "off";                // HTTP/JSON API address HOST:PORT or "off"
   int max_message_mb = 64;                 // largest gRPC message accepted, MiB (64)
   int queue_capacity = 32;                 // keyframes waiting for the mapping worker (32)

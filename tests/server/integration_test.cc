@@ -25,6 +25,7 @@
 #include "server/storage/sqlite_store.h"
 #include "synth/scene.h"
 #include "synth/sequence_writer.h"
+#include "tests/server/grpc_stream.h"
 #include "tests/server/keyframe_proto.h"
 #include "tests/server/scene_stream.h"
 #include "tests/support/server_process.h"
@@ -87,28 +88,10 @@ class Integration : public ::testing::Test {
     return o;
   }
 
-  // Writes keyframes [begin, end) without waiting for acks and SIGKILLs the server after
-  // writing keyframe kill_at; acknowledged seqs go to *acked.
   static void StreamAndKill(loci::v1::Mapping::Stub* stub, const std::string& session, int begin,
                             int end, int kill_at, loci::testing::ServerProcess* server,
                             std::set<int64_t>* acked) {
-    grpc::ClientContext ctx;
-    auto stream = stub->StreamKeyframes(&ctx);
-    std::thread reader([&] {
-      loci::v1::KeyframeAck ack;
-      while (stream->Read(&ack)) {
-        if (ack.status().code() == 0) acked->insert(ack.seq());
-      }
-    });
-    for (int i = begin; i < end; ++i) {
-      loci::v1::Keyframe kf = (*keyframes_)[i];
-      kf.set_session_id(session);
-      if (!stream->Write(kf)) break;
-      if (i == kill_at) server->Stop(SIGKILL);
-    }
-    stream->WritesDone();
-    reader.join();
-    stream->Finish();
+    testing::StreamAndKill(stub, session, *keyframes_, begin, end, kill_at, server, acked);
   }
 
   // Checks the map a database loads to against `reference` (ids, classes, evidence, centroids
@@ -147,44 +130,17 @@ class Integration : public ::testing::Test {
     return (*server)->load_report();
   }
 
-  // Streams keyframes [begin, end) on one stream, waiting for each ack.
   static std::vector<loci::v1::KeyframeAck> Stream(loci::v1::Mapping::Stub* stub,
                                                    const std::string& session, int begin, int end) {
-    grpc::ClientContext ctx;
-    auto stream = stub->StreamKeyframes(&ctx);
-    std::vector<loci::v1::KeyframeAck> acks;
-    for (int i = begin; i < end; ++i) {
-      loci::v1::Keyframe kf = (*keyframes_)[i];
-      kf.set_session_id(session);
-      if (!stream->Write(kf)) break;
-      loci::v1::KeyframeAck ack;
-      if (!stream->Read(&ack)) break;
-      acks.push_back(ack);
-    }
-    stream->WritesDone();
-    stream->Finish();
-    return acks;
+    return testing::StreamAcked(stub, session, *keyframes_, begin, end);
   }
 
   static std::string OpenSession(loci::v1::Mapping::Stub* stub, bool resume, int64_t* last) {
-    grpc::ClientContext ctx;
-    loci::v1::OpenSessionResponse resp;
-    const grpc::Status s = stub->OpenSession(
-        &ctx, testing::OpenRequest("robot1", PinholeCamera::TumFr1(), resume), &resp);
-    EXPECT_TRUE(s.ok()) << s.error_message();
-    if (last) *last = resp.last_stored_seq();
-    return resp.session_id();
+    return testing::OpenSessionOn(stub, "robot1", resume, last);
   }
 
   static std::vector<MapObject> Confirmed(loci::v1::Query::Stub* stub) {
-    grpc::ClientContext ctx;
-    loci::v1::FindObjectsRequest req;
-    req.set_confirmed_only(true);
-    loci::v1::FindObjectsResponse resp;
-    EXPECT_TRUE(stub->FindObjects(&ctx, req, &resp).ok());
-    std::vector<MapObject> out;
-    for (const auto& o : resp.objects()) out.push_back(FromProto(o));
-    return out;
+    return testing::ConfirmedObjects(stub);
   }
 
   // Runs the whole stream through an in-process server; returns its confirmed objects.

@@ -1,0 +1,31 @@
+// Opens the server's map store from its options: SQLite (embedded, the default) or a site of a
+// PostgreSQL database, where only the holder of the site's writer lease maps it. A second server
+// for the same site waits here as a standby until the lease lapses, then takes over.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "common/status.h"
+#include "server/postgres/site_lease.h"
+#include "server/runtime/server_options.h"
+#include "server/storage/map_store.h"
+
+namespace loci::server {
+
+struct OpenedStore {
+  std::shared_ptr<MapStore> store;
+  std::unique_ptr<SiteLease> lease;  // PostgreSQL: this server's writer lease; SQLite: null
+  std::string description;           // for the log: "SQLite loci.db", "PostgreSQL site a (...)"
+};
+
+// Whether `store` names a PostgreSQL database.
+bool IsPostgresStore(const std::string& store);
+
+// `waiting` is called while another server holds the site's lease; returning false gives up
+// (Cancelled). The lease's fence is set on the store: its writes stop once the lease is lost.
+StatusOr<OpenedStore> OpenServerStore(const ServerOptions& options,
+                                      const std::function<bool(const LeaseHolder&)>& waiting);
+
+}  // namespace loci::server
