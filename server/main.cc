@@ -209,8 +209,15 @@ int main(int argc, char** argv) {
       options, flags.detector_config.empty() ? flags.config_path : flags.detector_config);
   if (!detection.ok()) return Fail(detection.status(), 2);
   // The port opens at once; the map loads behind it (health NOT_SERVING until it is in).
+  // A writer that loses its site's lease stops at once: another server maps the site now.
+  std::atomic<bool> lease_lost{false};
   auto opened = loci::server::OpenServerStore(
-      options, [&](const loci::server::LeaseHolder& h) { return StandBy(options, h); });
+      options, [&](const loci::server::LeaseHolder& h) { return StandBy(options, h); },
+      [&lease_lost](const loci::Status& s) {
+        spdlog::error("{}: stopping, nothing more is written", s.ToString());
+        lease_lost = true;
+        kill(getpid(), SIGTERM);
+      });
   if (!opened.ok()) {
     const bool stopped = opened.status().code() == absl::StatusCode::kCancelled;
     if (stopped) spdlog::info("signal while standing by: shutting down");
@@ -236,18 +243,11 @@ int main(int argc, char** argv) {
   }
   AnnounceAddresses(options, (*grpc)->port(), http_api.get(), viewer_served);
   spdlog::info("loci-server: {}; loading the map", opened->description);
-  // A writer that loses its site's lease stops at once: another server maps the site now.
-  std::atomic<bool> lease_lost{false};
   if (opened->lease) {
     const std::string host = options.listen.substr(0, options.listen.rfind(':'));
     if (auto s = opened->lease->Announce(host + ":" + std::to_string((*grpc)->port())); !s.ok()) {
       spdlog::warn("{}", s.ToString());
     }
-    opened->lease->StartRenewing([&lease_lost](const loci::Status& s) {
-      spdlog::error("{}: stopping, nothing more is written", s.ToString());
-      lease_lost = true;
-      kill(getpid(), SIGTERM);
-    });
   }
 
   int sig = 0;

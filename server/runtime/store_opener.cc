@@ -26,7 +26,8 @@ bool IsPostgresStore(const std::string& store) {
 }
 
 StatusOr<OpenedStore> OpenServerStore(const ServerOptions& options,
-                                      const std::function<bool(const LeaseHolder&)>& waiting) {
+                                      const std::function<bool(const LeaseHolder&)>& waiting,
+                                      std::function<void(const Status&)> lost) {
   OpenedStore out;
   if (!IsPostgresStore(options.store)) {
     std::string path = options.db_path;
@@ -51,6 +52,7 @@ StatusOr<OpenedStore> OpenServerStore(const ServerOptions& options,
   LOCI_ASSIGN_OR_RETURN(out.lease,
                         SiteLease::Acquire(options.store, options.site, lease_options, waiting));
   pg->SetFence(out.lease->fence());
+  out.lease->StartRenewing(std::move(lost));
   out.description = absl::StrCat("PostgreSQL ", Redacted(options.store), ", site '",
                                  options.site, "' (writer lease epoch ",
                                  out.lease->fence().epoch, ")");

@@ -24,8 +24,10 @@ struct OpenedStore {
 bool IsPostgresStore(const std::string& store);
 
 // `waiting` is called while another server holds the site's lease; returning false gives up
-// (Cancelled). The lease's fence is set on the store: its writes stop once the lease is lost.
+// (Cancelled). Once it holds the lease, the lease renews itself and calls `lost` (from its
+// thread) if it is lost anyway; the lease's fence is set on the store, so its writes stop then.
 StatusOr<OpenedStore> OpenServerStore(const ServerOptions& options,
-                                      const std::function<bool(const LeaseHolder&)>& waiting);
+                                      const std::function<bool(const LeaseHolder&)>& waiting,
+                                      std::function<void(const Status&)> lost);
 
 }  // namespace loci::server
