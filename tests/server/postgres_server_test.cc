@@ -4,6 +4,7 @@
 // refusing the other site's robots. Loop closure is off: the maps are compared exactly.
 #include <grpcpp/create_channel.h>
 #include <gtest/gtest.h>
+#include <libpq-fe.h>
 #include <signal.h>
 #include <sys/wait.h>
 
@@ -239,6 +240,20 @@ TEST_F(PostgresServer, StandbyTakesOverAfterSigkillWithNothingAcknowledgedLost) 
   ASSERT_EQ(static_cast<int>(seqs.size()), n);
   std::sort(seqs.begin(), seqs.end());
   for (int i = 0; i < n; ++i) EXPECT_EQ(seqs[i], i);
+}
+
+// A writer whose lease another server took (here: the row's epoch bumped by hand, as a takeover
+// after a long pause would) stops with exit status 3 and writes nothing more.
+TEST_F(PostgresServer, AWriterThatLostItsLeaseStops) {
+  ServerProcess writer(Process("lab"));
+  ASSERT_GT(writer.port(), 0);
+  PGconn* c = PQconnectdb(pg_->Uri().c_str());
+  PGresult* r = PQexec(c, "UPDATE loci_site_leases SET epoch = epoch + 1 WHERE site = 'lab'");
+  EXPECT_EQ(PQresultStatus(r), PGRES_COMMAND_OK) << PQresultErrorMessage(r);
+  PQclear(r);
+  PQfinish(c);
+  const int status = writer.Stop(0);  // waits: the server ends by itself
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 3) << "wait status " << status;
 }
 
 TEST_F(PostgresServer, TwoSitesMappedAtOnceByTwoServers) {
