@@ -19,6 +19,7 @@
 
 #include "absl/strings/str_format.h"
 #include "cli/bench_stats.h"
+#include "cli/bench_traffic.h"
 #include "cli/bench_views.h"
 #include "cli/commands.h"
 #include "common/config.h"
@@ -43,78 +44,6 @@ struct BenchLoadArgs {
   int objects = 8;
   std::string config;  // "" = config/server.yaml
 };
-
-struct Latencies {
-  std::mutex mu;
-  std::vector<double> ask_ms, find_ms;
-  std::atomic<uint64_t> errors{0};
-};
-
-// One robot: a session and one stream, paced at robot_hz, until `stop`.
-void RobotLoop(const std::shared_ptr<grpc::Channel>& channel, int index,
-               const std::vector<loci::v1::Keyframe>& views, const BenchLoadArgs& a,
-               const std::atomic<bool>& stop, std::atomic<uint64_t>* acked,
-               std::atomic<uint64_t>* errors) {
-  auto stub = loci::v1::Mapping::NewStub(channel);
-  grpc::ClientContext open_ctx;
-  loci::v1::OpenSessionResponse session;
-  if (!stub->OpenSession(&open_ctx, BenchOpenRequest("robot" + std::to_string(index), 5000.0),
-                         &session)
-           .ok()) {
-    ++*errors;
-    return;
-  }
-  grpc::ClientContext ctx;
-  auto stream = stub->StreamKeyframes(&ctx);
-  std::thread reader([&] {
-    loci::v1::KeyframeAck ack;
-    while (stream->Read(&ack)) ack.status().code() == 0 ? ++*acked : ++*errors;
-  });
-  const auto period = std::chrono::duration<double>(a.robot_hz > 0 ? 1.0 / a.robot_hz : 0.0);
-  auto next = Clock::now();
-  for (int64_t i = 0; !stop; ++i) {
-    if (!stream->Write(NthKeyframe(views, i, session.session_id()))) break;
-    next += std::chrono::duration_cast<Clock::duration>(period);
-    std::this_thread::sleep_until(next);  // pacing of a robot's keyframe rate
-  }
-  stream->WritesDone();
-  reader.join();
-  if (!stream->Finish().ok()) ++*errors;
-}
-
-// One query client: Ask and FindObjects in turn until `stop`.
-void ClientLoop(const std::shared_ptr<grpc::Channel>& channel, double client_hz,
-                const std::atomic<bool>& stop, Latencies* out) {
-  auto stub = loci::v1::Query::NewStub(channel);
-  static const char* kQuestions[] = {"where is the cup", "what is on the table",
-                                     "how many laptops are there", "list all objects"};
-  const auto period = std::chrono::duration<double>(client_hz > 0 ? 1.0 / client_hz : 0.0);
-  auto next = Clock::now();
-  for (int i = 0; !stop; ++i) {
-    next += std::chrono::duration_cast<Clock::duration>(period);
-    grpc::ClientContext ctx;
-    ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
-    const auto t0 = Clock::now();
-    grpc::Status s;
-    if (i % 2 == 0) {
-      loci::v1::AskRequest req;
-      req.set_text(kQuestions[(i / 2) % 4]);
-      loci::v1::AskResponse resp;
-      s = stub->Ask(&ctx, req, &resp);
-    } else {
-      loci::v1::FindObjectsResponse resp;
-      s = stub->FindObjects(&ctx, loci::v1::FindObjectsRequest(), &resp);
-    }
-    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-    // INVALID_ARGUMENT is an answer ("no cup in the map" on an empty map), not a failure.
-    if (!s.ok() && s.error_code() != grpc::StatusCode::INVALID_ARGUMENT) ++out->errors;
-    {
-      std::lock_guard<std::mutex> lock(out->mu);
-      (i % 2 == 0 ? out->ask_ms : out->find_ms).push_back(ms);
-    }
-    std::this_thread::sleep_until(next);  // pacing of a client's calls (none when unpaced)
-  }
-}
 
 int RunBenchLoad(const BenchLoadArgs& a) {
   const std::string dir =
@@ -167,12 +96,12 @@ int RunBenchLoad(const BenchLoadArgs& a) {
   for (int r = 0; r < a.robots; ++r) {
     // A channel per robot and client: separate connections, as separate machines would have.
     auto channel = grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
-    threads.emplace_back(RobotLoop, channel, r, std::cref(*views), std::cref(a), std::cref(stop),
-                         &acked, &ingest_errors);
+    threads.emplace_back(RobotLoop, channel, "robot" + std::to_string(r), "",
+                         std::cref(*views), a.robot_hz, std::cref(stop), &acked, &ingest_errors);
   }
   for (int c = 0; c < a.clients; ++c) {
     auto channel = grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
-    threads.emplace_back(ClientLoop, channel, a.client_hz, std::cref(stop), &lat);
+    threads.emplace_back(ClientLoop, channel, a.client_hz, false, std::cref(stop), &lat);
   }
   const auto t0 = Clock::now();
   for (double t = 10; t <= a.seconds + 1e-9; t += 10) {

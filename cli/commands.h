@@ -34,11 +34,14 @@ void RegisterEvalObjectsCommand(CLI::App& app);
 void RegisterEvalLoopsCommand(CLI::App& app);
 void RegisterBenchIngestCommand(CLI::App& app);
 void RegisterBenchLoadCommand(CLI::App& app);
+void RegisterBenchFleetCommand(CLI::App& app);
 // `loci bench merge`: time for a robot that starts anywhere to join the map (server/align/).
 void RegisterBenchMergeCommand(CLI::App& app);
 // `loci reprocess` and `loci bench restart` (server/: products, checkpoints, restart).
 void RegisterReprocessCommand(CLI::App& app);
 void RegisterBenchRestartCommand(CLI::App& app);
+// `loci migrate`: a SQLite map into an empty PostgreSQL site, every id kept (server/postgres/).
+void RegisterMigrateCommand(CLI::App& app);
 // `loci bench graph` (server/graph/): pose-graph solve time and ATE on synthetic loops.
 void RegisterBenchGraphCommand(CLI::App& app);
 

@@ -82,8 +82,10 @@ int main(int argc, char** argv) {
   loci::cli::RegisterEvalLoopsCommand(app);
   loci::cli::RegisterBenchIngestCommand(app);
   loci::cli::RegisterBenchLoadCommand(app);
+  loci::cli::RegisterBenchFleetCommand(app);
   loci::cli::RegisterBenchMergeCommand(app);
   loci::cli::RegisterReprocessCommand(app);
+  loci::cli::RegisterMigrateCommand(app);
   loci::cli::RegisterBenchRestartCommand(app);
   loci::cli::RegisterBenchGraphCommand(app);
   loci::cli::RegisterDetectCommand(app);

@@ -108,6 +108,30 @@ StatusOr<std::string> PostgresStore::SchemaOfSite(const std::string& site) {
   return absl::StrCat("site_", absl::StrReplaceAll(site, {{"-", "_"}}));
 }
 
+Status PostgresStore::DropSite(const std::string& uri, const std::string& site) {
+  LOCI_ASSIGN_OR_RETURN(std::string schema, SchemaOfSite(site));
+  LOCI_ASSIGN_OR_RETURN(PGconn * conn, pg::Connect(uri, ""));
+  Status s;
+  {
+    pg::Transaction tx(conn);
+    s = tx.status();
+    if (s.ok()) {
+      s = ExecScript(conn, absl::StrCat("DROP SCHEMA IF EXISTS ", schema, " CASCADE"),
+                     "drop site schema");
+    }
+    for (const char* table : {"public.loci_site_leases", "public.loci_sites"}) {
+      if (s.ok()) {
+        s = Exec(conn, absl::StrCat("DELETE FROM ", table, " WHERE site = $1"),
+                 Params().Text(site), "forget the site")
+                .status();
+      }
+    }
+    if (s.ok()) s = tx.Commit();
+  }
+  PQfinish(conn);
+  return s;
+}
+
 size_t PostgresStore::open_connections() const {
   return readers_.open_count() + (writer_ != nullptr ? 1 : 0);
 }

@@ -50,6 +50,8 @@ class PostgresStore final : public MapStore {
   // The schema of a site ("site_" + the name with '-' as '_'), or InvalidArgument.
   static StatusOr<std::string> SchemaOfSite(const std::string& site);
   const std::string& site() const { return options_.site; }
+  // Deletes a site: its schema with every table, its lease and its row in loci_sites.
+  static Status DropSite(const std::string& uri, const std::string& site);
   // Every later write checks that `fence` still holds the site's lease (nullopt: no check).
   void SetFence(std::optional<SiteFence> fence);
 
@@ -91,6 +93,20 @@ class PostgresStore final : public MapStore {
 
   // Connections open now: the writer and the pooled readers.
   size_t open_connections() const;
+
+  // --- Import (loci migrate) -------------------------------------------------------------------
+  // Copies a map from another store keeping its ids, because products, checkpoints and place
+  // matches refer to keyframe ids (postgres_import.cc). Meant for an empty site; each call is
+  // one write transaction behind the fence, like every other write.
+  //
+  // Stores `s` with its own row_id and session_id; closed_ns is set exactly when !s.open.
+  Status ImportSession(const SessionRecord& s, std::optional<int64_t> closed_ns);
+  // Stores `kf` (images, detections, pose and metadata; not its products or corrected pose)
+  // with its own id and the time it was first stored.
+  Status ImportKeyframe(const KeyframeRecord& kf, int64_t stored_ns);
+  // Moves the id sequences of sessions, keyframes and checkpoints past the imported ids, so
+  // later inserts continue after them.
+  Status FinishImport();
 
  private:
   PostgresStore(std::string uri, std::string schema, PostgresStoreOptions options);
