@@ -25,6 +25,7 @@
 #include "common/time.h"
 #include "grpc/health/v1/health.grpc.pb.h"
 #include "server/map/product_codec.h"
+#include "server/runtime/checkpointer.h"
 #include "server/runtime/keyframe_decoder.h"
 #include "server/runtime/server_options.h"
 #include "server/storage/sqlite_store.h"
@@ -101,7 +102,7 @@ Status BuildDatabase(const BenchRestartArgs& a, const std::vector<loci::v1::Keyf
     LOCI_RETURN_IF_ERROR(store->PutProducts(inserted.keyframe_id, fingerprint, v.products_bytes));
     if (i + 1 == a.keyframes - a.tail) {
       LOCI_RETURN_IF_ERROR(
-          store->PutCheckpoint({mapper.last_keyframe_id(), mapper.SaveCheckpoint()}));
+          store->PutCheckpoint(server::MakeCheckpoint(mapper)));
     }
     if ((i + 1) % 1000 == 0 || i + 1 == a.keyframes) {
       const double s = std::chrono::duration<double>(Clock::now() - t0).count();

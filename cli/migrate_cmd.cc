@@ -177,6 +177,8 @@ StatusOr<MigrateCounts> Copy(server::SqliteStore& src, sqlite3* raw, server::Pos
   }
   LOCI_ASSIGN_OR_RETURN(std::optional<server::CheckpointRecord> checkpoint, src.LatestCheckpoint());
   if (checkpoint) {
+    // The object table goes with the checkpoint that wrote it.
+    LOCI_ASSIGN_OR_RETURN(checkpoint->objects, src.ListObjects());
     LOCI_RETURN_IF_ERROR(dst.PutCheckpoint(*checkpoint));
     counts.checkpoint_keyframe = checkpoint->last_keyframe_id;
   }

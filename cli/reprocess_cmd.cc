@@ -8,6 +8,7 @@
 
 #include "cli/commands.h"
 #include "common/progress.h"
+#include "server/runtime/checkpointer.h"
 #include "server/runtime/replay.h"
 #include "server/runtime/server_detector.h"
 #include "server/runtime/server_options.h"
@@ -48,7 +49,7 @@ Status Reprocess(const ReprocessArgs& a) {
   load.progress = ShowProgress;
   LOCI_ASSIGN_OR_RETURN(server::LoadReport report,
                         server::LoadMap(*store, &mapper, detection.get(), load));
-  server::CheckpointRecord checkpoint{mapper->last_keyframe_id(), mapper->SaveCheckpoint()};
+  const server::CheckpointRecord checkpoint = server::MakeCheckpoint(*mapper);
   if (!checkpoint.data.empty()) LOCI_RETURN_IF_ERROR(store->PutCheckpoint(checkpoint));
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const server::MapperStats stats = mapper->Stats();

@@ -85,6 +85,7 @@ class PostgresStore final : public MapStore {
   StatusOr<std::vector<PlaceMatchRecord>> ListPlaceMatches() override;
   Status PutCheckpoint(const CheckpointRecord& checkpoint) override;
   StatusOr<std::optional<CheckpointRecord>> LatestCheckpoint() override;
+  StatusOr<std::vector<ObjectRecord>> ListObjects() override;
   Status DeleteCheckpoints() override;
   StatusOr<uint64_t> DropRawImages(int64_t before_stored_ns, int64_t keep_last) override;
   StatusOr<StorageBytes> Bytes() override;

@@ -22,6 +22,10 @@
 
 namespace loci::server {
 
+// A checkpoint of `mapper`'s map with its object table; empty data while the map frame is not
+// settled.
+CheckpointRecord MakeCheckpoint(const Mapper& mapper);
+
 class Checkpointer {
  public:
   // `mapper`: the server's (a load may replace the Mapper it holds).

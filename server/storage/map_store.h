@@ -91,10 +91,27 @@ struct KeyframeScan {
   std::optional<int64_t> last_id;      // only keyframes with id <= this
 };
 
+// One object of the shared map as other tools read it: the object table, in the map frame.
+struct ObjectRecord {
+  int64_t id = 0;
+  std::string class_name;
+  double confidence = 0;
+  bool confirmed = false;
+  Vec3d centroid_m = Vec3d::Zero();
+  Vec3d min_m = Vec3d::Zero();  // axis-aligned box
+  Vec3d max_m = Vec3d::Zero();
+  uint32_t observation_count = 0;
+  int64_t last_seen_ns = 0;
+  int64_t removed_t_ns = 0;  // 0: in the map
+};
+
 // A checkpoint of the derived map.
 struct CheckpointRecord {
   int64_t last_keyframe_id = 0;
   std::string data;  // loci.store.v1.MapperCheckpoint
+  // The shared map's objects at the checkpoint: they replace the object table in the same
+  // transaction (LatestCheckpoint does not read them back; ListObjects does).
+  std::vector<ObjectRecord> objects;
 };
 
 // Bytes the database spends, by kind (payload bytes, without SQLite's overhead).
@@ -181,6 +198,8 @@ class MapStore {
   virtual StatusOr<std::vector<PlaceMatchRecord>> ListPlaceMatches() = 0;
   virtual Status PutCheckpoint(const CheckpointRecord& checkpoint) = 0;
   virtual StatusOr<std::optional<CheckpointRecord>> LatestCheckpoint() = 0;
+  // The object table as the latest checkpoint wrote it, by id.
+  virtual StatusOr<std::vector<ObjectRecord>> ListObjects() = 0;
   virtual Status DeleteCheckpoints() = 0;
   // Retention: empties the images of keyframes that have products and match the policy
   // (older than before_ns, or all but the newest keep_last); returns how many were emptied.

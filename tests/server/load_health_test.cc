@@ -81,6 +81,7 @@ class GatedStore final : public MapStore {
   StatusOr<std::optional<CheckpointRecord>> LatestCheckpoint() override {
     return inner_->LatestCheckpoint();
   }
+  StatusOr<std::vector<ObjectRecord>> ListObjects() override { return inner_->ListObjects(); }
   Status DeleteCheckpoints() override { return inner_->DeleteCheckpoints(); }
   StatusOr<uint64_t> DropRawImages(int64_t before, int64_t keep) override {
     return inner_->DropRawImages(before, keep);

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <set>
 #include <thread>
 
@@ -166,6 +167,21 @@ TEST_F(PostgresServer, SameMapAsSqliteLiveAndAfterARestart) {
   ExpectSameObjects(from_sqlite, from_pg);
   EXPECT_EQ(sqlite_points, pg_points);
   EXPECT_GT(pg_points, 0u);
+  {  // The shutdown's checkpoint wrote the object table: every confirmed object is in it.
+    auto pg = PostgresStore::Open(pg_->Uri());
+    ASSERT_TRUE(pg.ok()) << pg.status();
+    auto table = (*pg)->ListObjects();
+    ASSERT_TRUE(table.ok()) << table.status();
+    std::map<int64_t, ObjectRecord> by_id;
+    for (const ObjectRecord& r : *table) by_id[r.id] = r;
+    for (const MapObject& o : from_pg) {
+      ASSERT_TRUE(by_id.count(o.id)) << "object " << o.id << " not in the object table";
+      EXPECT_TRUE(by_id[o.id].confirmed);
+      EXPECT_EQ(by_id[o.id].class_name, o.class_name);
+      EXPECT_LT((by_id[o.id].centroid_m - o.centroid_m).norm(), 1e-9);
+      EXPECT_LT((by_id[o.id].min_m - o.aabb_min_m).norm(), 1e-9);
+    }
+  }
 
   // A restart loads the map the shutdown checkpointed, from each store.
   for (int which = 0; which < 2; ++which) {

@@ -92,8 +92,8 @@ TEST_F(PostgresSites, KeyframePositionsAreSpatiallyIndexedPoints) {
             "3");  // seq 2, 3, 4
   EXPECT_EQ(Sql("SELECT ST_AsText(position_base) FROM site_default.keyframe_poses"),
             "POINT Z (5 6 7)");
-  EXPECT_EQ(Sql("SELECT count(*) FROM pg_indexes WHERE schemaname = 'site_default' AND indexdef"
-                " LIKE '%USING gist%'"),
+  EXPECT_EQ(Sql("SELECT count(*) FROM pg_indexes WHERE schemaname = 'site_default' AND"
+                " tablename IN ('keyframes', 'keyframe_poses') AND indexdef LIKE '%USING gist%'"),
             "2");
 }
 
@@ -152,6 +152,31 @@ TEST_F(PostgresSites, OneWriterPerSiteAndTheOldWriterIsFencedOut) {
                                    [](const LeaseHolder&) { return false; });
   ASSERT_TRUE(fourth.ok()) << fourth.status();
   EXPECT_EQ((*fourth)->fence().epoch, 3);
+}
+
+// The object table's boxes answer spatial questions in SQL: which objects meet a box.
+TEST_F(PostgresSites, ObjectBoxesAreSpatiallyIndexed) {
+  auto store = PostgresStore::Open(uri_);
+  ASSERT_TRUE(store.ok()) << store.status();
+  CheckpointRecord checkpoint{1, "x", {}};
+  for (int i = 0; i < 5; ++i) {  // 40 cm boxes every metre along x
+    checkpoint.objects.push_back(ObjectRecord{.id = i + 1,
+                                              .class_name = i % 2 ? "chair" : "table",
+                                              .centroid_m = Vec3d(i, 0, 0.4),
+                                              .min_m = Vec3d(i - 0.2, -0.2, 0),
+                                              .max_m = Vec3d(i + 0.2, 0.2, 0.8)});
+  }
+  ASSERT_TRUE((*store)->PutCheckpoint(checkpoint).ok());
+  EXPECT_EQ(Sql("SELECT string_agg(id::text, ',' ORDER BY id) FROM site_default.objects WHERE"
+                " box &&& ST_3DMakeBox(ST_MakePoint(0.9, -1, 0), ST_MakePoint(3.1, 1, 1))"),
+            "2,3,4");
+  // Above the boxes: nothing (the index is 3D).
+  EXPECT_EQ(Sql("SELECT count(*) FROM site_default.objects WHERE box &&& ST_3DMakeBox("
+                "ST_MakePoint(0.9, -1, 1), ST_MakePoint(3.1, 1, 2))"),
+            "0");
+  EXPECT_EQ(Sql("SELECT count(*) FROM pg_indexes WHERE schemaname = 'site_default' AND"
+                " tablename = 'objects' AND indexdef LIKE '%gist_geometry_ops_nd%'"),
+            "2");
 }
 
 TEST_F(PostgresSites, UnreachableDatabaseIsAClearError) {

@@ -253,11 +253,40 @@ TEST_P(MapStoreContract, ProductsPosesAndRetention) {
   EXPECT_EQ((*(*store)->Bytes()).products, 0u);
 }
 
+// The object table a checkpoint writes, in the map frame; the next checkpoint replaces it.
+ObjectRecord Cup(int64_t id, double x) {
+  return ObjectRecord{.id = id,
+                      .class_name = "cup",
+                      .confidence = 0.75,
+                      .confirmed = true,
+                      .centroid_m = Vec3d(x, 2, 0.8),
+                      .min_m = Vec3d(x - 0.04, 1.96, 0.75),
+                      .max_m = Vec3d(x + 0.04, 2.04, 0.85),
+                      .observation_count = 12,
+                      .last_seen_ns = 1'700'000'000'000'000'000 + id,
+                      .removed_t_ns = id == 3 ? 1'800'000'000'000'000'000 : 0};
+}
+
 TEST_P(MapStoreContract, CheckpointsKeepOnlyTheLatest) {
   auto store = Fresh("checkpoints");
   ASSERT_TRUE(store.ok()) << store.status();
-  ASSERT_TRUE((*store)->PutCheckpoint({4, std::string(100, 'a')}).ok());
-  ASSERT_TRUE((*store)->PutCheckpoint({9, std::string(10, 'b')}).ok());
+  EXPECT_TRUE((*(*store)->ListObjects()).empty());
+  ASSERT_TRUE((*store)->PutCheckpoint({4, std::string(100, 'a'), {Cup(1, 0.5), Cup(2, 1.5)}}).ok());
+  ASSERT_TRUE((*store)->PutCheckpoint({9, std::string(10, 'b'), {Cup(3, -1.0), Cup(1, 0.6)}}).ok());
+  auto objects = (*store)->ListObjects();
+  ASSERT_TRUE(objects.ok()) << objects.status();
+  ASSERT_EQ(objects->size(), 2u);  // the second checkpoint's
+  const ObjectRecord& one = (*objects)[0];
+  EXPECT_EQ(one.id, 1);
+  EXPECT_EQ(one.class_name, "cup");
+  EXPECT_DOUBLE_EQ(one.confidence, 0.75);
+  EXPECT_TRUE(one.confirmed);
+  EXPECT_TRUE(one.centroid_m.isApprox(Vec3d(0.6, 2, 0.8)));
+  EXPECT_TRUE(one.min_m.isApprox(Vec3d(0.56, 1.96, 0.75)));
+  EXPECT_TRUE(one.max_m.isApprox(Vec3d(0.64, 2.04, 0.85)));
+  EXPECT_EQ(one.observation_count, 12u);
+  EXPECT_EQ(one.last_seen_ns, Cup(1, 0).last_seen_ns);
+  EXPECT_EQ((*objects)[1].removed_t_ns, Cup(3, 0).removed_t_ns);
   auto latest = (*store)->LatestCheckpoint();
   ASSERT_TRUE(latest.ok() && latest->has_value()) << latest.status();
   EXPECT_EQ((*latest)->last_keyframe_id, 9);
