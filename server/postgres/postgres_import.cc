@@ -52,39 +52,7 @@ Status PostgresStore::ImportSession(const SessionRecord& s, std::optional<int64_
 
 Status PostgresStore::ImportKeyframe(const KeyframeRecord& kf, int64_t stored_ns) {
   if (kf.id <= 0) return absl::InvalidArgumentError("import keyframe: needs its id");
-  FrameDetections frame;
-  frame.t_ns = kf.t_ns;
-  frame.detections = kf.detections;
-  const std::string detections_json = DetectionsToJsonLine(frame);
-  return Write([&](PGconn* c) {
-    return Exec(c,
-                "INSERT INTO keyframes(id, session, seq, t_ns, tx, ty, tz, qw, qx, qy, qz, fx,"
-                " fy, cx, cy, width_px, height_px, depth_scale, has_gravity, gx, gy, gz, segment,"
-                " tracking_inliers, rgb_jpeg, depth_png, detections, stored_ns, position_odom)"
-                " VALUES($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16,"
-                " $17, $18, $19, $20, $21, $22, $23, $24, $25, $26, $27, $28,"
-                " ST_MakePoint($5, $6, $7))",
-                Params()
-                    .Int(kf.id)
-                    .Int(kf.session_row)
-                    .Int(kf.seq)
-                    .Int(kf.t_ns)
-                    .Pose(kf.T_odom_cam)
-                    .Camera(kf.camera)
-                    .Real(kf.depth_scale)
-                    .Bool(kf.has_gravity)
-                    .Real(kf.gravity_cam.x())
-                    .Real(kf.gravity_cam.y())
-                    .Real(kf.gravity_cam.z())
-                    .Int(kf.segment)
-                    .Int(kf.tracking_inliers)
-                    .Bytes(kf.rgb_jpeg)
-                    .Bytes(kf.depth_png)
-                    .Text(detections_json)
-                    .Int(stored_ns),
-                absl::StrCat("import keyframe ", kf.id))
-        .status();
-  });
+  return Write([&](PGconn* c) { return InsertKeyframeRow(c, kf, true, stored_ns).status(); });
 }
 
 Status PostgresStore::FinishImport() {

@@ -360,11 +360,47 @@ Status PostgresStore::SetSessionIsland(int64_t session_row, int64_t island_row,
   });
 }
 
-StatusOr<InsertResult> PostgresStore::InsertKeyframe(const KeyframeRecord& kf) {
+StatusOr<int64_t> PostgresStore::InsertKeyframeRow(PGconn* conn, const KeyframeRecord& kf,
+                                                  bool keep_id, int64_t stored_ns) {
   FrameDetections frame;
   frame.t_ns = kf.t_ns;
   frame.detections = kf.detections;
-  const std::string detections_json = DetectionsToJsonLine(frame);
+  Params p;
+  if (keep_id) p.Int(kf.id);
+  p.Int(kf.session_row)
+      .Int(kf.seq)
+      .Int(kf.t_ns)
+      .Pose(kf.T_odom_cam)
+      .Camera(kf.camera)
+      .Real(kf.depth_scale)
+      .Bool(kf.has_gravity)
+      .Real(kf.gravity_cam.x())
+      .Real(kf.gravity_cam.y())
+      .Real(kf.gravity_cam.z())
+      .Int(kf.segment)
+      .Int(kf.tracking_inliers)
+      .Bytes(kf.rgb_jpeg)
+      .Bytes(kf.depth_png)
+      .Text(DetectionsToJsonLine(frame))
+      .Int(stored_ns);
+  std::string values;
+  for (size_t i = 1; i <= p.size(); ++i) absl::StrAppend(&values, "$", i, ", ");
+  const int tx = keep_id ? 5 : 4;  // the parameter of T_odom_cam's x
+  LOCI_ASSIGN_OR_RETURN(
+      Result r,
+      Exec(conn,
+           absl::StrCat("INSERT INTO keyframes(", keep_id ? "id, " : "",
+                        "session, seq, t_ns, tx, ty, tz, qw, qx, qy, qz, fx, fy, cx, cy,"
+                        " width_px, height_px, depth_scale, has_gravity, gx, gy, gz, segment,"
+                        " tracking_inliers, rgb_jpeg, depth_png, detections, stored_ns,"
+                        " position_odom) VALUES(",
+                        values, "ST_MakePoint($", tx, ", $", tx + 1, ", $", tx + 2,
+                        ")) RETURNING id"),
+           p, absl::StrCat("insert keyframe ", kf.session_row, ":", kf.seq)));
+  return r.Int(0, 0);
+}
+
+StatusOr<InsertResult> PostgresStore::InsertKeyframe(const KeyframeRecord& kf) {
   InsertResult result;
   LOCI_RETURN_IF_ERROR(Write([&](PGconn* c) -> Status {
     // A duplicate is looked up first (one writer per site), so it takes no id from the sequence.
@@ -388,34 +424,7 @@ StatusOr<InsertResult> PostgresStore::InsertKeyframe(const KeyframeRecord& kf) {
       result.conflict = !dup.Bool(0, 1);
       return absl::OkStatus();
     }
-    LOCI_ASSIGN_OR_RETURN(
-        Result ins,
-        Exec(c,
-             "INSERT INTO keyframes(session, seq, t_ns, tx, ty, tz, qw, qx, qy, qz, fx, fy, cx,"
-             " cy, width_px, height_px, depth_scale, has_gravity, gx, gy, gz, segment,"
-             " tracking_inliers, rgb_jpeg, depth_png, detections, stored_ns, position_odom)"
-             " VALUES($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16, $17,"
-             " $18, $19, $20, $21, $22, $23, $24, $25, $26, $27, ST_MakePoint($4, $5, $6))"
-             " RETURNING id",
-             Params()
-                 .Int(kf.session_row)
-                 .Int(kf.seq)
-                 .Int(kf.t_ns)
-                 .Pose(kf.T_odom_cam)
-                 .Camera(kf.camera)
-                 .Real(kf.depth_scale)
-                 .Bool(kf.has_gravity)
-                 .Real(kf.gravity_cam.x())
-                 .Real(kf.gravity_cam.y())
-                 .Real(kf.gravity_cam.z())
-                 .Int(kf.segment)
-                 .Int(kf.tracking_inliers)
-                 .Bytes(kf.rgb_jpeg)
-                 .Bytes(kf.depth_png)
-                 .Text(detections_json)
-                 .Int(NowNs()),
-             "insert keyframe"));
-    result.keyframe_id = ins.Int(0, 0);
+    LOCI_ASSIGN_OR_RETURN(result.keyframe_id, InsertKeyframeRow(c, kf, false, NowNs()));
     return absl::OkStatus();
   }));
   return result;

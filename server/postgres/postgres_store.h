@@ -121,6 +121,9 @@ class PostgresStore final : public MapStore {
   // Runs `body` on a pooled read connection; a connection that broke is closed, not reused.
   Status Read(const std::function<Status(PGconn*)>& body);
   Status CheckFence(PGconn* conn);
+  // Inserts one keyframe row (its own id when `keep_id`, else the next one); returns the id.
+  static StatusOr<int64_t> InsertKeyframeRow(PGconn* conn, const KeyframeRecord& kf,
+                                             bool keep_id, int64_t stored_ns);
   StatusOr<std::vector<SessionRecord>> QuerySessions(const std::string& where_sql,
                                                      const std::string& arg);
   StatusOr<std::optional<std::string>> ReadKeyed(const std::string& table, int64_t keyframe_id,
