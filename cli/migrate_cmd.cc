@@ -177,10 +177,19 @@ StatusOr<MigrateCounts> Copy(server::SqliteStore& src, sqlite3* raw, server::Pos
   }
   LOCI_ASSIGN_OR_RETURN(std::optional<server::CheckpointRecord> checkpoint, src.LatestCheckpoint());
   if (checkpoint) {
-    // The object table goes with the checkpoint that wrote it.
-    LOCI_ASSIGN_OR_RETURN(checkpoint->objects, src.ListObjects());
     LOCI_RETURN_IF_ERROR(dst.PutCheckpoint(*checkpoint));
     counts.checkpoint_keyframe = checkpoint->last_keyframe_id;
+  }
+  LOCI_ASSIGN_OR_RETURN(server::PublishedMap published, src.ReadPublished());
+  if (published.version > 0) {  // the object table as its writer last published it
+    server::MapPublication whole;
+    whole.replace_all = true;
+    whole.objects = std::move(published.objects);
+    whole.poses = std::move(published.poses);
+    whole.up_map = published.up_map;
+    whole.levelled_by = std::move(published.levelled_by);
+    whole.last_keyframe_id = published.last_keyframe_id;
+    LOCI_RETURN_IF_ERROR(dst.Publish(whole));
   }
   LOCI_RETURN_IF_ERROR(dst.FinishImport());
   return counts;

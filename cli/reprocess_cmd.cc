@@ -9,6 +9,7 @@
 #include "cli/commands.h"
 #include "common/progress.h"
 #include "server/runtime/checkpointer.h"
+#include "server/runtime/map_publisher.h"
 #include "server/runtime/replay.h"
 #include "server/runtime/server_detector.h"
 #include "server/runtime/server_options.h"
@@ -51,6 +52,7 @@ Status Reprocess(const ReprocessArgs& a) {
                         server::LoadMap(*store, &mapper, detection.get(), load));
   const server::CheckpointRecord checkpoint = server::MakeCheckpoint(*mapper);
   if (!checkpoint.data.empty()) LOCI_RETURN_IF_ERROR(store->PutCheckpoint(checkpoint));
+  LOCI_RETURN_IF_ERROR(store->Publish(server::WholePublication(*mapper)));
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const server::MapperStats stats = mapper->Stats();
   std::printf("reprocessed %llu keyframes in %.1f s (%llu skipped: no images), %llu objects "

@@ -223,67 +223,8 @@ Status PostgresStore::PutCheckpoint(const CheckpointRecord& checkpoint) {
     LOCI_RETURN_IF_ERROR(Exec(c, "DELETE FROM checkpoints WHERE id < $1",
                               Params().Int(r.Int(0, 0)), "drop old checkpoints")
                              .status());
-    LOCI_RETURN_IF_ERROR(
-        Exec(c, "DELETE FROM objects", Params(), "clear the object table").status());
-    for (const ObjectRecord& o : checkpoint.objects) {
-      const Vec3d& p = o.centroid_m;
-      LOCI_RETURN_IF_ERROR(
-          Exec(c,
-               "INSERT INTO objects(id, class_name, confidence, confirmed, centroid, box,"
-               " observation_count, last_seen_ns, removed_t_ns) VALUES($1, $2, $3, $4,"
-               " ST_MakePoint($5, $6, $7), ST_3DMakeBox(ST_MakePoint($8, $9, $10),"
-               " ST_MakePoint($11, $12, $13))::geometry, $14, $15, $16)",
-               Params()
-                   .Int(o.id)
-                   .Text(o.class_name)
-                   .Real(o.confidence)
-                   .Bool(o.confirmed)
-                   .Real(p.x())
-                   .Real(p.y())
-                   .Real(p.z())
-                   .Real(o.min_m.x())
-                   .Real(o.min_m.y())
-                   .Real(o.min_m.z())
-                   .Real(o.max_m.x())
-                   .Real(o.max_m.y())
-                   .Real(o.max_m.z())
-                   .Int(o.observation_count)
-                   .Int(o.last_seen_ns)
-                   .Int(o.removed_t_ns),
-               absl::StrCat("store object ", o.id))
-              .status());
-    }
     return absl::OkStatus();
   });
-}
-
-StatusOr<std::vector<ObjectRecord>> PostgresStore::ListObjects() {
-  std::vector<ObjectRecord> out;
-  LOCI_RETURN_IF_ERROR(Read([&](PGconn* c) -> Status {
-    LOCI_ASSIGN_OR_RETURN(
-        Result r, Exec(c,
-                       "SELECT id, class_name, confidence, confirmed, ST_X(centroid),"
-                       " ST_Y(centroid), ST_Z(centroid), ST_XMin(box), ST_YMin(box),"
-                       " ST_ZMin(box), ST_XMax(box), ST_YMax(box), ST_ZMax(box),"
-                       " observation_count, last_seen_ns, removed_t_ns FROM objects ORDER BY id",
-                       Params(), "read the object table"));
-    for (int i = 0; i < r.rows(); ++i) {
-      ObjectRecord o;
-      o.id = r.Int(i, 0);
-      o.class_name = r.Bytes(i, 1);
-      o.confidence = r.Real(i, 2);
-      o.confirmed = r.Bool(i, 3);
-      o.centroid_m = Vec3d(r.Real(i, 4), r.Real(i, 5), r.Real(i, 6));
-      o.min_m = Vec3d(r.Real(i, 7), r.Real(i, 8), r.Real(i, 9));
-      o.max_m = Vec3d(r.Real(i, 10), r.Real(i, 11), r.Real(i, 12));
-      o.observation_count = static_cast<uint32_t>(r.Int(i, 13));
-      o.last_seen_ns = r.Int(i, 14);
-      o.removed_t_ns = r.Int(i, 15);
-      out.push_back(std::move(o));
-    }
-    return absl::OkStatus();
-  }));
-  return out;
 }
 
 StatusOr<std::optional<CheckpointRecord>> PostgresStore::LatestCheckpoint() {
@@ -293,7 +234,7 @@ StatusOr<std::optional<CheckpointRecord>> PostgresStore::LatestCheckpoint() {
         Result r, Exec(c,
                        "SELECT last_keyframe_id, data FROM checkpoints ORDER BY id DESC LIMIT 1",
                        Params(), "read checkpoint"));
-    if (r.rows() > 0) out = CheckpointRecord{r.Int(0, 0), r.Bytes(0, 1), {}};
+    if (r.rows() > 0) out = CheckpointRecord{r.Int(0, 0), r.Bytes(0, 1)};
     return absl::OkStatus();
   }));
   return out;

@@ -92,6 +92,7 @@ PostgresStore::PostgresStore(std::string uri, std::string schema, PostgresStoreO
 
 PostgresStore::~PostgresStore() {
   if (writer_ != nullptr) PQfinish(writer_);
+  if (listener_ != nullptr) PQfinish(listener_);
 }
 
 int PostgresStore::LatestSchemaVersion() {

@@ -9,6 +9,7 @@
 
 #include <libpq-fe.h>
 
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -85,7 +86,14 @@ class PostgresStore final : public MapStore {
   StatusOr<std::vector<PlaceMatchRecord>> ListPlaceMatches() override;
   Status PutCheckpoint(const CheckpointRecord& checkpoint) override;
   StatusOr<std::optional<CheckpointRecord>> LatestCheckpoint() override;
-  StatusOr<std::vector<ObjectRecord>> ListObjects() override;
+  // The published map (postgres_published.cc); Publish notifies channel loci_map with the
+  // site's name on commit.
+  Status Publish(const MapPublication& publication) override;
+  StatusOr<PublishedMap> ReadPublished() override;
+  StatusOr<int64_t> PublishedVersion() override;
+  // Waits until the published version exceeds `known` (LISTEN loci_map on a connection of its
+  // own), at most `timeout`; returns the version then. One waiter at a time.
+  StatusOr<int64_t> WaitPublished(int64_t known, std::chrono::milliseconds timeout);
   Status DeleteCheckpoints() override;
   StatusOr<uint64_t> DropRawImages(int64_t before_stored_ns, int64_t keep_last) override;
   StatusOr<StorageBytes> Bytes() override;
@@ -136,6 +144,8 @@ class PostgresStore final : public MapStore {
   PGconn* writer_ = nullptr;         // guarded by write_mu_
   std::optional<SiteFence> fence_;   // guarded by write_mu_
   mutable ConnectionPool<PGconn*> readers_;
+  std::mutex listen_mu_;
+  PGconn* listener_ = nullptr;  // guarded by listen_mu_; LISTENs on loci_map
 };
 
 }  // namespace loci::server

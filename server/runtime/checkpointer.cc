@@ -8,34 +8,11 @@
 #include "common/time.h"
 
 namespace loci::server {
-namespace {
-
-// The shared map's objects as the object table holds them (islands are in other frames).
-std::vector<ObjectRecord> ObjectTable(const std::vector<MapObject>& objects) {
-  std::vector<ObjectRecord> out;
-  for (const MapObject& o : objects) {
-    if (!o.island.empty()) continue;
-    out.push_back(ObjectRecord{.id = o.id,
-                               .class_name = o.class_name,
-                               .confidence = o.confidence,
-                               .confirmed = o.confirmed,
-                               .centroid_m = o.centroid_m,
-                               .min_m = o.aabb_min_m,
-                               .max_m = o.aabb_max_m,
-                               .observation_count = o.observation_count,
-                               .last_seen_ns = o.last_seen_ns,
-                               .removed_t_ns = o.removed_t_ns});
-  }
-  return out;
-}
-
-}  // namespace
 
 CheckpointRecord MakeCheckpoint(const Mapper& mapper) {
   CheckpointRecord record;
   record.last_keyframe_id = mapper.last_keyframe_id();
   record.data = mapper.SaveCheckpoint();
-  if (!record.data.empty()) record.objects = ObjectTable(mapper.Snapshot());
   return record;
 }
 

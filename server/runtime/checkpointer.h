@@ -22,8 +22,7 @@
 
 namespace loci::server {
 
-// A checkpoint of `mapper`'s map with its object table; empty data while the map frame is not
-// settled.
+// A checkpoint of `mapper`'s map; empty data while the map frame is not settled.
 CheckpointRecord MakeCheckpoint(const Mapper& mapper);
 
 class Checkpointer {

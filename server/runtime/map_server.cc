@@ -45,6 +45,7 @@ MapServer::MapServer(const ServerOptions& options, std::shared_ptr<MapStore> sto
       sessions_(store_.get()),
       gate_(options_, store_.get(), &sessions_, &times_),
       checkpointer_(options_, mapper_, store_.get()),
+      publisher_(mapper_, store_.get(), readiness_, options.publish_interval_s),
       queue_(static_cast<size_t>(options.queue_capacity)),
       align_queue_(static_cast<size_t>(options.queue_capacity)) {}
 
@@ -236,7 +237,12 @@ void MapServer::AlignLoop() {
   }
 }
 
-void MapServer::Flush() { progress_.WaitDrained(); }
+void MapServer::Flush() {
+  progress_.WaitDrained();
+  if (Status s = publisher_.Flush(); !s.ok()) {
+    spdlog::warn("publishing the object table: {}", s.ToString());
+  }
+}
 
 std::optional<LoopStats> MapServer::loop_stats() const {
   if (!closer_) return std::nullopt;

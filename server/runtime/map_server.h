@@ -28,6 +28,7 @@
 #include "server/map/mapper.h"
 #include "server/runtime/ahead_queries.h"
 #include "server/runtime/checkpointer.h"
+#include "server/runtime/map_publisher.h"
 #include "server/runtime/chunked_move.h"
 #include "server/runtime/event_fanout.h"
 #include "server/runtime/ingest_gate.h"
@@ -88,7 +89,7 @@ class MapServer {
   StatusOr<loci::v1::CloseSessionResponse> CloseSession(const loci::v1::CloseSessionRequest& req,
                                                         const std::string* only_robot = nullptr);
 
-  // Blocks until every keyframe queued so far has been mapped.
+  // Blocks until every keyframe queued so far has been mapped, then publishes the object table.
   void Flush();
 
   // Object events go to every queue subscribed here (at most options().max_watchers).
@@ -310,6 +311,7 @@ class MapServer {
   Checkpointer checkpointer_;  // its counters guarded by mapping_mu_ once the worker runs
   PipelineProgress progress_;
   AheadQueries ahead_;
+  MapPublisher publisher_;  // the object table; reads mapper_ once readiness_ says loaded
 
   // The loading thread (LoadLoop, then Reindex).
   std::thread loader_;

@@ -46,7 +46,7 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
         {"listen", "db", "store", "site", "lease_ttl_s", "lease_renew_s", "http", "max_message_mb", "queue_capacity", "max_detections",
          "max_image_px", "map_extent_m", "max_future_s", "stamp_backwards_ms", "decode_slots",
          "max_watchers", "classes_file", "max_event_clients", "checkpoint_keyframes",
-         "checkpoint_interval_s", "raw_keep_days", "raw_keep_last"}));
+         "checkpoint_interval_s", "publish_interval_s", "raw_keep_days", "raw_keep_last"}));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "listen", &listen));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "db", &db_path));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "store", &store));
@@ -67,6 +67,7 @@ Status ServerOptions::FromYamlFile(const std::string& path) {
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "classes_file", &classes_file));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "checkpoint_keyframes", &checkpoint_keyframes));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "checkpoint_interval_s", &checkpoint_interval_s));
+    LOCI_RETURN_IF_ERROR(ReadOptional(s, "publish_interval_s", &publish_interval_s));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "raw_keep_days", &raw_keep_days));
     LOCI_RETURN_IF_ERROR(ReadOptional(s, "raw_keep_last", &raw_keep_last));
     if (!classes_file.empty() && std::filesystem::path(classes_file).is_relative() &&
@@ -127,6 +128,9 @@ Status ServerOptions::ValidateLimits() const {
   if (checkpoint_keyframes < 1 || !(checkpoint_interval_s > 0)) {
     return absl::InvalidArgumentError(
         "server.checkpoint_keyframes must be >= 1 and server.checkpoint_interval_s > 0");
+  }
+  if (!(publish_interval_s > 0 && publish_interval_s <= 60)) {
+    return absl::InvalidArgumentError("server.publish_interval_s must be in (0, 60]");
   }
   if (!(lease_ttl_s >= 1 && lease_ttl_s <= 3600 && lease_renew_s > 0 &&
         lease_renew_s < lease_ttl_s)) {

@@ -48,6 +48,9 @@ struct ServerOptions {
   // seconds with keyframes, whichever comes first, and at shutdown (100, 300 s).
   int checkpoint_keyframes = 100;
   double checkpoint_interval_s = 300.0;
+  // The object table (what read-only query servers and SQL tools read) gets the map's changes
+  // at most this often, s (1.0); in (0, 60].
+  double publish_interval_s = 1.0;
   // Retention of the raw keyframe images, applied after each checkpoint to keyframes whose
   // products are stored: images older than raw_keep_days are dropped (-1 = kept forever,
   // 0 = dropped once the products exist), and only the newest raw_keep_last keyframes keep

@@ -103,15 +103,43 @@ struct ObjectRecord {
   uint32_t observation_count = 0;
   int64_t last_seen_ns = 0;
   int64_t removed_t_ns = 0;  // 0: in the map
+  std::string wire;          // the whole object as loci.v1.Object, for read-only servers
+};
+
+// A robot's latest camera pose in the map frame, published with the objects.
+struct PublishedPose {
+  std::string robot;
+  int64_t t_ns = 0;
+  SE3d T_map_cam = SE3d::Identity();
+};
+
+// What a map's writer publishes for read-only query servers and SQL tools: changes to the
+// object table (the shared map's objects, map frame) and the state a question needs.
+struct MapPublication {
+  bool replace_all = false;           // `objects` is the whole table, else its changes
+  std::vector<ObjectRecord> objects;  // new or changed
+  std::vector<int64_t> gone_ids;      // left the map (merged into another)
+  std::vector<PublishedPose> poses;   // every robot's latest; replaces the published ones
+  std::optional<Vec3d> up_map;        // the clients' gravity up (unit), if any sent it
+  std::string levelled_by;            // how the map frame was levelled ("" = not levelled)
+  int64_t last_keyframe_id = 0;       // the newest keyframe in the published map
+};
+
+// The published map as a reader sees it.
+struct PublishedMap {
+  int64_t version = 0;       // counts publications; 0 = nothing published yet
+  int64_t published_ns = 0;  // wall time of the latest publication
+  std::vector<ObjectRecord> objects;  // by id
+  std::vector<PublishedPose> poses;   // by robot
+  std::optional<Vec3d> up_map;
+  std::string levelled_by;
+  int64_t last_keyframe_id = 0;
 };
 
 // A checkpoint of the derived map.
 struct CheckpointRecord {
   int64_t last_keyframe_id = 0;
   std::string data;  // loci.store.v1.MapperCheckpoint
-  // The shared map's objects at the checkpoint: they replace the object table in the same
-  // transaction (LatestCheckpoint does not read them back; ListObjects does).
-  std::vector<ObjectRecord> objects;
 };
 
 // Bytes the database spends, by kind (payload bytes, without SQLite's overhead).
@@ -198,8 +226,12 @@ class MapStore {
   virtual StatusOr<std::vector<PlaceMatchRecord>> ListPlaceMatches() = 0;
   virtual Status PutCheckpoint(const CheckpointRecord& checkpoint) = 0;
   virtual StatusOr<std::optional<CheckpointRecord>> LatestCheckpoint() = 0;
-  // The object table as the latest checkpoint wrote it, by id.
-  virtual StatusOr<std::vector<ObjectRecord>> ListObjects() = 0;
+  // Applies a publication to the object table and the published state in one transaction and
+  // counts it (PublishedMap::version).
+  virtual Status Publish(const MapPublication& publication) = 0;
+  virtual StatusOr<PublishedMap> ReadPublished() = 0;
+  // Only the published version (cheap: read-only servers poll it).
+  virtual StatusOr<int64_t> PublishedVersion() = 0;
   virtual Status DeleteCheckpoints() = 0;
   // Retention: empties the images of keyframes that have products and match the policy
   // (older than before_ns, or all but the newest keep_last); returns how many were emptied.

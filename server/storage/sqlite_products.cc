@@ -223,58 +223,7 @@ Status SqliteStore::PutCheckpoint(const CheckpointRecord& checkpoint) {
     del.Bind(1, id);
     if (del.Step() != SQLITE_DONE) return SqlError(db, "drop old checkpoints");
   }
-  LOCI_RETURN_IF_ERROR(ReplaceObjects(db, checkpoint.objects));
   return tx.Commit();
-}
-
-Status SqliteStore::ReplaceObjects(sqlite3* db, const std::vector<ObjectRecord>& objects) {
-  {
-    Stmt del(db, "DELETE FROM objects");
-    if (del.Step() != SQLITE_DONE) return SqlError(db, "clear the object table");
-  }
-  Stmt ins(db,
-           "INSERT INTO objects(id, class_name, confidence, confirmed, cx, cy, cz, min_x, min_y,"
-           " min_z, max_x, max_y, max_z, observation_count, last_seen_ns, removed_t_ns)"
-           " VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
-  if (!ins.status().ok()) return SqlError(db, "prepare object table");
-  for (const ObjectRecord& o : objects) {
-    ins.Reset();
-    ins.Bind(1, o.id).BindText(2, o.class_name).Bind(3, o.confidence);
-    ins.Bind(4, static_cast<int64_t>(o.confirmed));
-    for (int i = 0; i < 3; ++i) {
-      ins.Bind(5 + i, o.centroid_m[i]).Bind(8 + i, o.min_m[i]).Bind(11 + i, o.max_m[i]);
-    }
-    ins.Bind(14, static_cast<int64_t>(o.observation_count)).Bind(15, o.last_seen_ns);
-    ins.Bind(16, o.removed_t_ns);
-    if (ins.Step() != SQLITE_DONE) return SqlError(db, absl::StrCat("store object ", o.id));
-  }
-  return absl::OkStatus();
-}
-
-StatusOr<std::vector<ObjectRecord>> SqliteStore::ListObjects() {
-  LOCI_ASSIGN_OR_RETURN(auto reader, readers_.Acquire());
-  Stmt q(reader.get(),
-         "SELECT id, class_name, confidence, confirmed, cx, cy, cz, min_x, min_y, min_z, max_x,"
-         " max_y, max_z, observation_count, last_seen_ns, removed_t_ns FROM objects ORDER BY id");
-  LOCI_RETURN_IF_ERROR(q.status());
-  std::vector<ObjectRecord> out;
-  int rc;
-  while ((rc = q.Step()) == SQLITE_ROW) {
-    ObjectRecord o;
-    o.id = q.Int(0);
-    o.class_name = q.Text(1);
-    o.confidence = q.Real(2);
-    o.confirmed = q.Int(3) != 0;
-    o.centroid_m = Vec3d(q.Real(4), q.Real(5), q.Real(6));
-    o.min_m = Vec3d(q.Real(7), q.Real(8), q.Real(9));
-    o.max_m = Vec3d(q.Real(10), q.Real(11), q.Real(12));
-    o.observation_count = static_cast<uint32_t>(q.Int(13));
-    o.last_seen_ns = q.Int(14);
-    o.removed_t_ns = q.Int(15);
-    out.push_back(std::move(o));
-  }
-  if (rc != SQLITE_DONE) return SqlError(reader.get(), "read the object table");
-  return out;
 }
 
 StatusOr<std::optional<CheckpointRecord>> SqliteStore::LatestCheckpoint() {
@@ -284,7 +233,7 @@ StatusOr<std::optional<CheckpointRecord>> SqliteStore::LatestCheckpoint() {
   const int rc = q.Step();
   if (rc == SQLITE_DONE) return std::optional<CheckpointRecord>();
   if (rc != SQLITE_ROW) return SqlError(reader.get(), "read checkpoint");
-  return std::optional<CheckpointRecord>(CheckpointRecord{q.Int(0), q.Text(1), {}});
+  return std::optional<CheckpointRecord>(CheckpointRecord{q.Int(0), q.Text(1)});
 }
 
 Status SqliteStore::DeleteCheckpoints() {

@@ -69,7 +69,10 @@ class SqliteStore final : public MapStore {
   StatusOr<std::vector<PlaceMatchRecord>> ListPlaceMatches() override;
   Status PutCheckpoint(const CheckpointRecord& checkpoint) override;
   StatusOr<std::optional<CheckpointRecord>> LatestCheckpoint() override;
-  StatusOr<std::vector<ObjectRecord>> ListObjects() override;
+  // The published map (sqlite_published.cc).
+  Status Publish(const MapPublication& publication) override;
+  StatusOr<PublishedMap> ReadPublished() override;
+  StatusOr<int64_t> PublishedVersion() override;
   Status DeleteCheckpoints() override;
   StatusOr<uint64_t> DropRawImages(int64_t before_stored_ns, int64_t keep_last) override;
   StatusOr<StorageBytes> Bytes() override;
@@ -95,8 +98,6 @@ class SqliteStore final : public MapStore {
   StatusOr<std::optional<std::string>> ReadKeyed(const char* sql, int64_t keyframe_id,
                                                  const std::string& fingerprint,
                                                  const char* what);
-  // Replaces the object table's rows (inside the checkpoint's transaction).
-  Status ReplaceObjects(sqlite3* db, const std::vector<ObjectRecord>& objects);
   StatusOr<std::vector<SessionRecord>> QuerySessions(const std::string& where_sql,
                                                      const std::string& arg);
 

@@ -203,12 +203,21 @@ class Migrate : public ::testing::Test {
                           45, 0.03})
             .ok());
     ASSERT_TRUE(db.PutPlaceMatch({12, 39, SE3d::Identity(), 120, 0.005}).ok());
-    ASSERT_TRUE(db.PutCheckpoint({20, std::string("old checkpoint\0", 15), {}}).ok());
+    ASSERT_TRUE(db.PutCheckpoint({20, std::string("old checkpoint\0", 15)}).ok());
     server::ObjectRecord chair{.id = 4, .class_name = "chair", .confidence = 0.9,
                                .confirmed = true, .centroid_m = Vec3d(1, 2, 0.45),
                                .min_m = Vec3d(0.7, 1.7, 0), .max_m = Vec3d(1.3, 2.3, 0.9),
-                               .observation_count = 20, .last_seen_ns = 123};
-    ASSERT_TRUE(db.PutCheckpoint({35, std::string("checkpoint \0 bytes", 18), {chair}}).ok());
+                               .observation_count = 20, .last_seen_ns = 123,
+                               .wire = std::string("chair\0wire", 10)};
+    ASSERT_TRUE(db.PutCheckpoint({35, std::string("checkpoint \0 bytes", 18)}).ok());
+    server::MapPublication published;
+    published.replace_all = true;
+    published.objects = {chair};
+    published.poses = {{"robot1", 456, SE3d::Identity()}};
+    published.up_map = Vec3d(0, 0, 1);
+    published.levelled_by = "gravity";
+    published.last_keyframe_id = 35;
+    ASSERT_TRUE(db.Publish(published).ok());
     // Retention empties the images of the oldest keyframes with products (ids 1..10).
     auto dropped = db.DropRawImages(0, 30);
     ASSERT_TRUE(dropped.ok()) << dropped.status();
@@ -378,12 +387,18 @@ TEST_F(Migrate, CopiesEveryRecordWithItsIds) {
   EXPECT_EQ((*cb)->last_keyframe_id, 35);
   EXPECT_EQ((*cb)->last_keyframe_id, (*ca)->last_keyframe_id);
   EXPECT_EQ((*cb)->data, (*ca)->data);
-  auto table = (*dst)->ListObjects();  // the object table went with its checkpoint
-  ASSERT_TRUE(table.ok()) << table.status();
-  ASSERT_EQ(table->size(), 1u);
-  EXPECT_EQ((*table)[0].id, 4);
-  EXPECT_EQ((*table)[0].class_name, "chair");
-  EXPECT_TRUE((*table)[0].max_m.isApprox(Vec3d(1.3, 2.3, 0.9)));
+  auto published = (*dst)->ReadPublished();  // the object table as last published
+  ASSERT_TRUE(published.ok()) << published.status();
+  const std::vector<server::ObjectRecord>& table = published->objects;
+  ASSERT_EQ(table.size(), 1u);
+  EXPECT_EQ(table[0].id, 4);
+  EXPECT_EQ(table[0].class_name, "chair");
+  EXPECT_TRUE(table[0].max_m.isApprox(Vec3d(1.3, 2.3, 0.9)));
+  EXPECT_EQ(table[0].wire, std::string("chair\0wire", 10));
+  ASSERT_EQ(published->poses.size(), 1u);
+  EXPECT_EQ(published->poses[0].t_ns, 456);
+  EXPECT_EQ(published->levelled_by, "gravity");
+  EXPECT_EQ(published->last_keyframe_id, 35);
 
   // Mapping goes on after the imported ids.
   auto created = (*dst)->CreateSession(MakeSession("robot3"));
@@ -395,7 +410,7 @@ TEST_F(Migrate, CopiesEveryRecordWithItsIds) {
   ASSERT_TRUE(inserted.ok()) << inserted.status();
   EXPECT_FALSE(inserted->duplicate);
   EXPECT_EQ(inserted->keyframe_id, kKeyframes + 1);
-  ASSERT_TRUE((*dst)->PutCheckpoint({inserted->keyframe_id, "newer", {}}).ok());
+  ASSERT_TRUE((*dst)->PutCheckpoint({inserted->keyframe_id, "newer"}).ok());
   EXPECT_EQ((*(*dst)->LatestCheckpoint())->data, "newer");
   // A robot resumes its session by the id it was given before the move.
   auto resumed = (*dst)->FindSession((*src_sessions)[1].session_id);

@@ -81,7 +81,9 @@ class GatedStore final : public MapStore {
   StatusOr<std::optional<CheckpointRecord>> LatestCheckpoint() override {
     return inner_->LatestCheckpoint();
   }
-  StatusOr<std::vector<ObjectRecord>> ListObjects() override { return inner_->ListObjects(); }
+  Status Publish(const MapPublication& p) override { return inner_->Publish(p); }
+  StatusOr<PublishedMap> ReadPublished() override { return inner_->ReadPublished(); }
+  StatusOr<int64_t> PublishedVersion() override { return inner_->PublishedVersion(); }
   Status DeleteCheckpoints() override { return inner_->DeleteCheckpoints(); }
   StatusOr<uint64_t> DropRawImages(int64_t before, int64_t keep) override {
     return inner_->DropRawImages(before, keep);

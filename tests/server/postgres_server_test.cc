@@ -167,19 +167,24 @@ TEST_F(PostgresServer, SameMapAsSqliteLiveAndAfterARestart) {
   ExpectSameObjects(from_sqlite, from_pg);
   EXPECT_EQ(sqlite_points, pg_points);
   EXPECT_GT(pg_points, 0u);
-  {  // The shutdown's checkpoint wrote the object table: every confirmed object is in it.
+  {  // Flush published the object table: every confirmed object is in it, whole.
     auto pg = PostgresStore::Open(pg_->Uri());
     ASSERT_TRUE(pg.ok()) << pg.status();
-    auto table = (*pg)->ListObjects();
-    ASSERT_TRUE(table.ok()) << table.status();
+    auto published = (*pg)->ReadPublished();
+    ASSERT_TRUE(published.ok()) << published.status();
+    EXPECT_GT(published->version, 0);
     std::map<int64_t, ObjectRecord> by_id;
-    for (const ObjectRecord& r : *table) by_id[r.id] = r;
+    for (const ObjectRecord& r : published->objects) by_id[r.id] = r;
     for (const MapObject& o : from_pg) {
       ASSERT_TRUE(by_id.count(o.id)) << "object " << o.id << " not in the object table";
       EXPECT_TRUE(by_id[o.id].confirmed);
       EXPECT_EQ(by_id[o.id].class_name, o.class_name);
       EXPECT_LT((by_id[o.id].centroid_m - o.centroid_m).norm(), 1e-9);
       EXPECT_LT((by_id[o.id].min_m - o.aabb_min_m).norm(), 1e-9);
+      loci::v1::Object wire;
+      ASSERT_TRUE(wire.ParseFromString(by_id[o.id].wire));
+      EXPECT_EQ(wire.id(), o.id);
+      EXPECT_EQ(wire.class_name(), o.class_name);
     }
   }
 

@@ -158,15 +158,19 @@ TEST_F(PostgresSites, OneWriterPerSiteAndTheOldWriterIsFencedOut) {
 TEST_F(PostgresSites, ObjectBoxesAreSpatiallyIndexed) {
   auto store = PostgresStore::Open(uri_);
   ASSERT_TRUE(store.ok()) << store.status();
-  CheckpointRecord checkpoint{1, "x", {}};
+  MapPublication publication;
+  publication.replace_all = true;
   for (int i = 0; i < 5; ++i) {  // 40 cm boxes every metre along x
-    checkpoint.objects.push_back(ObjectRecord{.id = i + 1,
-                                              .class_name = i % 2 ? "chair" : "table",
-                                              .centroid_m = Vec3d(i, 0, 0.4),
-                                              .min_m = Vec3d(i - 0.2, -0.2, 0),
-                                              .max_m = Vec3d(i + 0.2, 0.2, 0.8)});
+    ObjectRecord o;
+    o.id = i + 1;
+    o.class_name = i % 2 ? "chair" : "table";
+    o.centroid_m = Vec3d(i, 0, 0.4);
+    o.min_m = Vec3d(i - 0.2, -0.2, 0);
+    o.max_m = Vec3d(i + 0.2, 0.2, 0.8);
+    publication.objects.push_back(o);
   }
-  ASSERT_TRUE((*store)->PutCheckpoint(checkpoint).ok());
+  publication.poses = {{"robot1", 5, SE3d::Identity()}};
+  ASSERT_TRUE((*store)->Publish(publication).ok());
   EXPECT_EQ(Sql("SELECT string_agg(id::text, ',' ORDER BY id) FROM site_default.objects WHERE"
                 " box &&& ST_3DMakeBox(ST_MakePoint(0.9, -1, 0), ST_MakePoint(3.1, 1, 1))"),
             "2,3,4");
@@ -177,6 +181,10 @@ TEST_F(PostgresSites, ObjectBoxesAreSpatiallyIndexed) {
   EXPECT_EQ(Sql("SELECT count(*) FROM pg_indexes WHERE schemaname = 'site_default' AND"
                 " tablename = 'objects' AND indexdef LIKE '%gist_geometry_ops_nd%'"),
             "2");
+  // The robots' positions are points, indexed too.
+  EXPECT_EQ(Sql("SELECT robot FROM site_default.robot_poses WHERE position &&& ST_3DMakeBox("
+                "ST_MakePoint(-0.5, -0.5, -0.5), ST_MakePoint(0.5, 0.5, 0.5))"),
+            "robot1");
 }
 
 TEST_F(PostgresSites, UnreachableDatabaseIsAClearError) {

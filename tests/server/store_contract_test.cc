@@ -253,7 +253,21 @@ TEST_P(MapStoreContract, ProductsPosesAndRetention) {
   EXPECT_EQ((*(*store)->Bytes()).products, 0u);
 }
 
-// The object table a checkpoint writes, in the map frame; the next checkpoint replaces it.
+TEST_P(MapStoreContract, CheckpointsKeepOnlyTheLatest) {
+  auto store = Fresh("checkpoints");
+  ASSERT_TRUE(store.ok()) << store.status();
+  ASSERT_TRUE((*store)->PutCheckpoint({4, std::string(100, 'a')}).ok());
+  ASSERT_TRUE((*store)->PutCheckpoint({9, std::string(10, 'b')}).ok());
+  auto latest = (*store)->LatestCheckpoint();
+  ASSERT_TRUE(latest.ok() && latest->has_value()) << latest.status();
+  EXPECT_EQ((*latest)->last_keyframe_id, 9);
+  EXPECT_EQ((*latest)->data, std::string(10, 'b'));
+  EXPECT_EQ((*(*store)->Bytes()).checkpoint_bytes, 10u);  // the older one was dropped
+  ASSERT_TRUE((*store)->DeleteCheckpoints().ok());
+  EXPECT_FALSE((*(*store)->LatestCheckpoint()).has_value());
+}
+
+// An object-table row as a publication carries it, in the map frame.
 ObjectRecord Cup(int64_t id, double x) {
   return ObjectRecord{.id = id,
                       .class_name = "cup",
@@ -264,19 +278,51 @@ ObjectRecord Cup(int64_t id, double x) {
                       .max_m = Vec3d(x + 0.04, 2.04, 0.85),
                       .observation_count = 12,
                       .last_seen_ns = 1'700'000'000'000'000'000 + id,
-                      .removed_t_ns = id == 3 ? 1'800'000'000'000'000'000 : 0};
+                      .removed_t_ns = id == 3 ? 1'800'000'000'000'000'000 : 0,
+                      .wire = std::string("\x08\x01\0wire", 7) + std::to_string(x)};
 }
 
-TEST_P(MapStoreContract, CheckpointsKeepOnlyTheLatest) {
-  auto store = Fresh("checkpoints");
+// A whole publication replaces the table; a change publication upserts and deletes rows and
+// replaces the poses and the state; each one counts.
+TEST_P(MapStoreContract, PublicationsChangeTheObjectTable) {
+  auto store = Fresh("published");
   ASSERT_TRUE(store.ok()) << store.status();
-  EXPECT_TRUE((*(*store)->ListObjects()).empty());
-  ASSERT_TRUE((*store)->PutCheckpoint({4, std::string(100, 'a'), {Cup(1, 0.5), Cup(2, 1.5)}}).ok());
-  ASSERT_TRUE((*store)->PutCheckpoint({9, std::string(10, 'b'), {Cup(3, -1.0), Cup(1, 0.6)}}).ok());
-  auto objects = (*store)->ListObjects();
-  ASSERT_TRUE(objects.ok()) << objects.status();
-  ASSERT_EQ(objects->size(), 2u);  // the second checkpoint's
-  const ObjectRecord& one = (*objects)[0];
+  auto empty = (*store)->ReadPublished();
+  ASSERT_TRUE(empty.ok()) << empty.status();
+  EXPECT_EQ(empty->version, 0);
+  EXPECT_TRUE(empty->objects.empty());
+  const SE3d T_map_cam =
+      MakeSE3(Vec3d(1, 2, 1.2), Quatd(Eigen::AngleAxisd(0.3, Vec3d::UnitZ())));
+  MapPublication first;
+  first.replace_all = true;
+  first.objects = {Cup(1, 0.5), Cup(2, 1.5), Cup(5, 3.0)};
+  first.poses = {{"robot1", 77, T_map_cam}};
+  first.up_map = Vec3d(0, 0, 1);
+  first.levelled_by = "gravity";
+  first.last_keyframe_id = 12;
+  ASSERT_TRUE((*store)->Publish(first).ok());
+  MapPublication second;
+  second.objects = {Cup(3, -1.0), Cup(1, 0.6)};
+  second.gone_ids = {2};
+  second.poses = {{"robot1", 99, T_map_cam}, {"robot2", 98, T_map_cam}};
+  second.levelled_by = "gravity";
+  second.last_keyframe_id = 14;
+  ASSERT_TRUE((*store)->Publish(second).ok());
+  auto published = (*store)->ReadPublished();
+  ASSERT_TRUE(published.ok()) << published.status();
+  EXPECT_EQ(published->version, 2);
+  EXPECT_EQ(*(*store)->PublishedVersion(), 2);
+  EXPECT_GT(published->published_ns, 0);
+  EXPECT_EQ(published->last_keyframe_id, 14);
+  EXPECT_FALSE(published->up_map.has_value());  // the second publication had none
+  EXPECT_EQ(published->levelled_by, "gravity");
+  ASSERT_EQ(published->poses.size(), 2u);
+  EXPECT_EQ(published->poses[0].robot, "robot1");
+  EXPECT_EQ(published->poses[0].t_ns, 99);
+  EXPECT_TRUE(published->poses[0].T_map_cam.matrix().isApprox(T_map_cam.matrix()));
+  const std::vector<ObjectRecord>& objects = published->objects;
+  ASSERT_EQ(objects.size(), 3u);  // 1 (moved), 3 (new), 5; 2 is gone
+  const ObjectRecord& one = objects[0];
   EXPECT_EQ(one.id, 1);
   EXPECT_EQ(one.class_name, "cup");
   EXPECT_DOUBLE_EQ(one.confidence, 0.75);
@@ -286,14 +332,19 @@ TEST_P(MapStoreContract, CheckpointsKeepOnlyTheLatest) {
   EXPECT_TRUE(one.max_m.isApprox(Vec3d(0.64, 2.04, 0.85)));
   EXPECT_EQ(one.observation_count, 12u);
   EXPECT_EQ(one.last_seen_ns, Cup(1, 0).last_seen_ns);
-  EXPECT_EQ((*objects)[1].removed_t_ns, Cup(3, 0).removed_t_ns);
-  auto latest = (*store)->LatestCheckpoint();
-  ASSERT_TRUE(latest.ok() && latest->has_value()) << latest.status();
-  EXPECT_EQ((*latest)->last_keyframe_id, 9);
-  EXPECT_EQ((*latest)->data, std::string(10, 'b'));
-  EXPECT_EQ((*(*store)->Bytes()).checkpoint_bytes, 10u);  // the older one was dropped
-  ASSERT_TRUE((*store)->DeleteCheckpoints().ok());
-  EXPECT_FALSE((*(*store)->LatestCheckpoint()).has_value());
+  EXPECT_EQ(one.wire, Cup(1, 0.6).wire);  // bytes, with their zero byte
+  EXPECT_EQ(objects[1].id, 3);
+  EXPECT_EQ(objects[1].removed_t_ns, Cup(3, 0).removed_t_ns);
+  EXPECT_EQ(objects[2].id, 5);
+  MapPublication whole;
+  whole.replace_all = true;
+  whole.objects = {Cup(7, 0.0)};
+  ASSERT_TRUE((*store)->Publish(whole).ok());
+  auto replaced = (*store)->ReadPublished();
+  ASSERT_TRUE(replaced.ok());
+  ASSERT_EQ(replaced->objects.size(), 1u);
+  EXPECT_EQ(replaced->objects[0].id, 7);
+  EXPECT_TRUE(replaced->poses.empty());
 }
 
 // Verified place matches survive a reopen, a pair stored again replaces the first, and a match
