@@ -17,6 +17,7 @@
 #include "server/http/viewer_files.h"
 #include "server/service/grpc_server.h"
 #include "server/runtime/map_server.h"
+#include "server/runtime/replica_map.h"
 #include "server/service/query_adapter.h"
 #include "server/runtime/server_detector.h"
 #include "server/runtime/store_opener.h"
@@ -55,7 +56,7 @@ std::string ViewerDir(const std::string& flag) {
 struct Flags {
   std::string config_path, listen, db, store, site, http, query_config, viewer_dir,
       log_level = "info";
-  bool strict_config = false, print_options = false;
+  bool strict_config = false, print_options = false, read_only = false;
   std::string token_file, detector_config;
   loci::server::TlsFiles tls;
 };
@@ -71,6 +72,9 @@ void AddFlags(CLI::App* app, Flags* f) {
                   "[SQLite at --db]");
   app->add_option("--site", f->site,
                   "the site (map) to serve in a PostgreSQL store, [a-z0-9_-]{1,40} [default]");
+  app->add_flag("--read-only", f->read_only,
+                "serve queries on the map the site's writer publishes (PostgreSQL store), "
+                "reloaded on each publication; robots are sent to the writer");
   app->add_option("--http", f->http, "HTTP/JSON API address HOST:PORT or off [off]");
   app->add_option("--viewer-dir", f->viewer_dir,
                   "web viewer files served at http://HOST:PORT/ (off = none) [$LOCI_HOME/viewer, "
@@ -183,6 +187,38 @@ void AnnounceAddresses(const loci::server::ServerOptions& options, int grpc_port
   }
 }
 
+// The address the site's writer announced, "" when no server holds its lease.
+std::string WriterOf(const loci::server::ServerOptions& options) {
+  auto holder = loci::server::SiteLease::Holder(options.store, options.site);
+  return holder.ok() && holder->has_value() ? (*holder)->address : "";
+}
+
+// `--read-only`: a query server over the map the site's writer publishes, until a signal.
+int ServeReadOnly(Setup& setup, const loci::server::TlsFiles& tls, const sigset_t& signals) {
+  const loci::server::ServerOptions& options = setup.options;
+  if (options.http != "off") {
+    return Fail(absl::InvalidArgumentError(
+                    "a read-only query server has no HTTP API yet: pass --http off and use gRPC"),
+                2);
+  }
+  std::string description;
+  auto store = loci::server::OpenReadOnlyStore(options, &description);
+  if (!store.ok()) return Fail(store.status(), 1);
+  loci::server::ReplicaMap replica(*store);
+  auto grpc = loci::server::GrpcServer::StartReadOnly(
+      &replica, store->get(), options.listen, options.max_message_mb,
+      std::make_shared<loci::server::QueryAdapter>(std::move(setup.query_options)),
+      [options] { return WriterOf(options); }, setup.auth, tls);
+  if (!grpc.ok()) return Fail(grpc.status(), 1);
+  AnnounceAddresses(options, (*grpc)->port(), nullptr, "");
+  spdlog::info("loci-server: {}; loading the published map", description);
+  int sig = 0;
+  sigwait(&signals, &sig);
+  spdlog::info("signal {}: shutting down", sig);
+  (*grpc)->Shutdown();
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -204,6 +240,7 @@ int main(int argc, char** argv) {
   if (!setup.ok()) return Fail(setup.status(), 2);
   const loci::server::ServerOptions& options = setup->options;
   const sigset_t signals = BlockShutdownSignals();
+  if (flags.read_only) return ServeReadOnly(*setup, flags.tls, signals);
 
   auto detection = loci::server::MakeServerDetection(
       options, flags.detector_config.empty() ? flags.config_path : flags.detector_config);
@@ -236,7 +273,7 @@ int main(int argc, char** argv) {
     const loci::server::HttpOptions http_options{.viewer_dir = ViewerDir(flags.viewer_dir),
                                                  .max_event_clients = options.max_event_clients};
     viewer_served = http_options.viewer_dir;
-    auto h = loci::server::HttpApi::Start(&(*grpc)->query_service(), options.http, &(*grpc)->auth(),
+    auto h = loci::server::HttpApi::Start((*grpc)->query_service(), options.http, &(*grpc)->auth(),
                                           flags.tls, http_options);
     if (!h.ok()) return Fail(h.status(), 1);
     http_api = std::move(*h);

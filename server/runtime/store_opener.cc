@@ -60,4 +60,27 @@ StatusOr<OpenedStore> OpenServerStore(const ServerOptions& options,
   return out;
 }
 
+StatusOr<std::shared_ptr<PostgresStore>> OpenReadOnlyStore(const ServerOptions& options,
+                                                           std::string* description) {
+  if (!IsPostgresStore(options.store)) {
+    return absl::InvalidArgumentError(
+        "a read-only query server follows a site of a PostgreSQL store: pass --store "
+        "postgresql://USER@HOST:PORT/DB (SQLite has one server per file)");
+  }
+  PostgresStoreOptions pg_options;
+  pg_options.site = options.site;
+  pg_options.read_only = true;
+  LOCI_ASSIGN_OR_RETURN(std::unique_ptr<PostgresStore> pg,
+                        PostgresStore::Open(options.store, pg_options));
+  LOCI_ASSIGN_OR_RETURN(const int version, pg->SchemaVersion());
+  if (version != PostgresStore::LatestSchemaVersion()) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "site '", options.site, "' has schema version ", version, ", this build reads version ",
+        PostgresStore::LatestSchemaVersion(), ": start the site's writer with this build first"));
+  }
+  *description = absl::StrCat("read-only, PostgreSQL ", Redacted(options.store), ", site '",
+                              options.site, "'");
+  return std::shared_ptr<PostgresStore>(std::move(pg));
+}
+
 }  // namespace loci::server

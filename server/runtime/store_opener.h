@@ -8,6 +8,7 @@
 #include <string>
 
 #include "common/status.h"
+#include "server/postgres/postgres_store.h"
 #include "server/postgres/site_lease.h"
 #include "server/runtime/server_options.h"
 #include "server/storage/map_store.h"
@@ -29,5 +30,11 @@ bool IsPostgresStore(const std::string& store);
 StatusOr<OpenedStore> OpenServerStore(const ServerOptions& options,
                                       const std::function<bool(const LeaseHolder&)>& waiting,
                                       std::function<void(const Status&)> lost);
+
+// A read-only query server's store: the PostgreSQL site `options.site`, opened without the
+// lease and without migrating (NotFound for a site not created yet; FailedPrecondition for a
+// schema of another build: the site's writer migrates it). Also returns the description.
+StatusOr<std::shared_ptr<PostgresStore>> OpenReadOnlyStore(const ServerOptions& options,
+                                                           std::string* description);
 
 }  // namespace loci::server

@@ -32,40 +32,60 @@ StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(MapServer* server,
                                                         int max_message_mb,
                                                         std::shared_ptr<QueryEngine> engine,
                                                         Authorizer auth, const TlsFiles& tls) {
+  std::unique_ptr<GrpcServer> g(new GrpcServer());
+  g->auth_ = std::move(auth);
+  g->services_.push_back(std::make_unique<MappingService>(server, &g->auth_));
+  auto query = std::make_unique<QueryService>(server, std::move(engine), &g->auth_);
+  g->query_ = query.get();
+  g->services_.push_back(std::move(query));
+  LOCI_RETURN_IF_ERROR(g->Serve(listen, max_message_mb, tls));
+  g->ReportHealth([server](std::function<void()> fn) { server->OnReady(std::move(fn)); });
+  return g;
+}
+
+StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::StartReadOnly(
+    ReplicaMap* map, MapStore* store, const std::string& listen, int max_message_mb,
+    std::shared_ptr<QueryAdapter> engine, WriterAddress writer, Authorizer auth,
+    const TlsFiles& tls) {
+  std::unique_ptr<GrpcServer> g(new GrpcServer());
+  g->auth_ = std::move(auth);
+  g->services_.push_back(std::make_unique<ReadOnlyMappingService>(map->site(), writer));
+  g->services_.push_back(std::make_unique<ReadOnlyQueryService>(map, std::move(engine), &g->auth_,
+                                                                std::move(writer), store));
+  LOCI_RETURN_IF_ERROR(g->Serve(listen, max_message_mb, tls));
+  g->ReportHealth([map](std::function<void()> fn) { map->readiness().OnReady(std::move(fn)); });
+  return g;
+}
+
+Status GrpcServer::Serve(const std::string& listen, int max_message_mb, const TlsFiles& tls) {
   if (listen.find(':') == std::string::npos) {
     return absl::InvalidArgumentError(
         absl::StrCat("listen address '", listen, "' must be HOST:PORT"));
   }
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
-  std::unique_ptr<GrpcServer> g(new GrpcServer());
-  g->auth_ = std::move(auth);
-  g->mapping_ = std::make_unique<MappingService>(server, &g->auth_);
-  g->query_ = std::make_unique<QueryService>(server, std::move(engine), &g->auth_);
   LOCI_ASSIGN_OR_RETURN(std::shared_ptr<grpc::ServerCredentials> credentials,
                         ServerCredentials(tls));
   grpc::ServerBuilder builder;
-  builder.AddListeningPort(listen, credentials, &g->port_);
+  builder.AddListeningPort(listen, credentials, &port_);
   // Larger messages are refused by gRPC with RESOURCE_EXHAUSTED before reaching the handlers.
   builder.SetMaxReceiveMessageSize(max_message_mb * 1024 * 1024);
   builder.SetMaxSendMessageSize(1024 * 1024 * 1024);
-  builder.RegisterService(g->mapping_.get());
-  builder.RegisterService(g->query_.get());
-  g->server_ = builder.BuildAndStart();
-  if (!g->server_ || g->port_ == 0) {
+  for (const auto& service : services_) builder.RegisterService(service.get());
+  server_ = builder.BuildAndStart();
+  if (!server_ || port_ == 0) {
     return absl::UnavailableError(absl::StrCat("cannot listen on ", listen));
   }
-  g->ReportHealth(server);
-  return g;
+  return absl::OkStatus();
 }
 
-void GrpcServer::ReportHealth(MapServer* server) {
+void GrpcServer::ReportHealth(const std::function<void(std::function<void()>)>& on_ready) {
   health_ = std::make_shared<HealthHook>();
   health_->service = server_->GetHealthCheckService();
   if (health_->service == nullptr) return;
   // NOT_SERVING while the map loads; the port is open, so clients wait instead of failing.
   health_->service->SetServingStatus(false);
-  server->OnReady([hook = health_] {
+  on_ready([hook = health_] {
     std::lock_guard<std::mutex> lock(hook->mu);
     if (hook->service != nullptr) hook->service->SetServingStatus(true);
   });

@@ -6,11 +6,14 @@
 #include <grpcpp/health_check_service_interface.h>
 #include <grpcpp/server.h>
 
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include "common/status.h"
+#include "server/service/read_only_services.h"
 #include "server/service/services.h"
 
 namespace loci::server {
@@ -24,10 +27,18 @@ class GrpcServer {
                                                      int max_message_mb,
                                                      std::shared_ptr<QueryEngine> engine = nullptr,
                                                      Authorizer auth = {}, const TlsFiles& tls = {});
+  // A read-only query server over the map a site's writer publishes (read_only_services.h);
+  // `writer` tells robots and callers of writer-only calls where to go instead. Health is
+  // SERVING once the first publication is loaded.
+  static StatusOr<std::unique_ptr<GrpcServer>> StartReadOnly(
+      ReplicaMap* map, MapStore* store, const std::string& listen, int max_message_mb,
+      std::shared_ptr<QueryAdapter> engine, WriterAddress writer, Authorizer auth = {},
+      const TlsFiles& tls = {});
   ~GrpcServer();
 
   int port() const { return port_; }
-  QueryService& query_service() { return *query_; }
+  // The Query service of a mapping server (the HTTP API calls it); a read-only one has none.
+  QueryService* query_service() { return query_; }
   const Authorizer& auth() const { return auth_; }
   // Stops accepting calls and ends the running ones (deadline 2 s).
   void Shutdown();
@@ -35,16 +46,19 @@ class GrpcServer {
 
  private:
   GrpcServer() = default;
-  // The gRPC health service answers NOT_SERVING until `server` has loaded its map.
-  void ReportHealth(MapServer* server);
+  // Binds `listen` and serves services_.
+  Status Serve(const std::string& listen, int max_message_mb, const TlsFiles& tls);
+  // The gRPC health service answers NOT_SERVING until the map is loaded: `on_ready` runs its
+  // function then.
+  void ReportHealth(const std::function<void(std::function<void()>)>& on_ready);
   struct HealthHook {
     std::mutex mu;
     grpc::HealthCheckServiceInterface* service = nullptr;  // null once shut down
   };
   std::shared_ptr<HealthHook> health_;
   Authorizer auth_;
-  std::unique_ptr<MappingService> mapping_;
-  std::unique_ptr<QueryService> query_;
+  std::vector<std::unique_ptr<grpc::Service>> services_;
+  QueryService* query_ = nullptr;  // in services_, on a mapping server
   std::unique_ptr<grpc::Server> server_;
   int port_ = 0;
   bool shut_down_ = false;

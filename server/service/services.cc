@@ -119,10 +119,31 @@ grpc::Status MappingService::CloseSession(grpc::ServerContext* ctx,
   return grpc::Status::OK;
 }
 
-grpc::Status QueryService::AllowRead(const grpc::ServerContext& ctx) const {
-  const StatusOr<Principal> who = Caller(*auth_, ctx);
+grpc::Status CheckFindObjects(const loci::v1::FindObjectsRequest& req) {
+  if (!std::isfinite(req.min_confidence()) || !std::isfinite(req.radius_m()) ||
+      req.radius_m() < 0) {
+    return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                        "min_confidence and radius_m must be finite, radius_m >= 0");
+  }
+  return grpc::Status::OK;
+}
+
+void SelectObjects(const loci::v1::FindObjectsRequest& req, const std::vector<MapObject>& objects,
+                   loci::v1::FindObjectsResponse* resp) {
+  for (const MapObject& o : objects) {
+    if (req.limit() > 0 && resp->objects_size() >= static_cast<int>(req.limit())) break;
+    if (Wanted(req, o)) ToProto(o, resp->add_objects());
+  }
+}
+
+grpc::Status AllowRead(const Authorizer& auth, const grpc::ServerContext& ctx) {
+  const StatusOr<Principal> who = Caller(auth, ctx);
   if (!who.ok()) return ToGrpc(who.status());
   return ToGrpc(Authorizer::AllowRead(*who));
+}
+
+grpc::Status QueryService::AllowRead(const grpc::ServerContext& ctx) const {
+  return ::loci::server::AllowRead(*auth_, ctx);
 }
 
 grpc::Status QueryService::Ask(grpc::ServerContext* ctx, const loci::v1::AskRequest* req,
@@ -167,11 +188,7 @@ grpc::Status QueryService::Ask(const loci::v1::AskRequest& req,
 grpc::Status QueryService::FindObjects(const loci::v1::FindObjectsRequest& req,
                                        loci::v1::FindObjectsResponse* resp) {
   if (Status ready = server_->CheckReady(); !ready.ok()) return ToGrpc(ready);
-  if (!std::isfinite(req.min_confidence()) || !std::isfinite(req.radius_m()) ||
-      req.radius_m() < 0) {
-    return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
-                        "min_confidence and radius_m must be finite, radius_m >= 0");
-  }
+  if (grpc::Status s = CheckFindObjects(req); !s.ok()) return s;
   std::vector<MapObject> objects = server_->mapper().Snapshot(req.confirmed_only());
   const bool region = req.has_within_box() || req.radius_m() > 0;
   if (req.include_islands() && !region && server_->islands() != nullptr) {
@@ -182,10 +199,7 @@ grpc::Status QueryService::FindObjects(const loci::v1::FindObjectsRequest& req,
   if (req.include_removed()) {
     for (MapObject& o : server_->mapper().Removed()) objects.push_back(std::move(o));
   }
-  for (const MapObject& o : objects) {
-    if (req.limit() > 0 && resp->objects_size() >= static_cast<int>(req.limit())) break;
-    if (Wanted(req, o)) ToProto(o, resp->add_objects());
-  }
+  SelectObjects(req, objects, resp);
   return grpc::Status::OK;
 }
 

@@ -16,6 +16,14 @@ namespace loci::server {
 
 // The caller of a gRPC call, from its `authorization` metadata.
 StatusOr<Principal> Caller(const Authorizer& auth, const grpc::ServerContext& ctx);
+// OK when the call's caller may read the map (auth.h).
+grpc::Status AllowRead(const Authorizer& auth, const grpc::ServerContext& ctx);
+
+// FindObjects on any list of objects: the request's check (INVALID_ARGUMENT), then the objects
+// it selects, in the list's order, up to its limit.
+grpc::Status CheckFindObjects(const loci::v1::FindObjectsRequest& req);
+void SelectObjects(const loci::v1::FindObjectsRequest& req, const std::vector<MapObject>& objects,
+                   loci::v1::FindObjectsResponse* resp);
 
 class MappingService final : public loci::v1::Mapping::Service {
  public:

@@ -136,7 +136,7 @@ class HttpViewerTest : public ::testing::Test {
     grpc_ = std::move(*g);
     const HttpOptions ho{.viewer_dir = (dir_ / "viewer").string(),
                          .max_event_clients = max_event_clients};
-    auto h = HttpApi::Start(&grpc_->query_service(), "127.0.0.1:0", &grpc_->auth(), {}, ho);
+    auto h = HttpApi::Start(grpc_->query_service(), "127.0.0.1:0", &grpc_->auth(), {}, ho);
     ASSERT_TRUE(h.ok()) << h.status();
     http_ = std::move(*h);
     client_ = std::make_unique<httplib::Client>("127.0.0.1", http_->port());
@@ -216,7 +216,7 @@ TEST_F(HttpViewerTest, MissingViewerFolderIsRefusedAtStart) {
   ASSERT_TRUE(g.ok());
   HttpOptions http_options;
   http_options.viewer_dir = (dir_ / "nowhere").string();
-  auto h = HttpApi::Start(&(*g)->query_service(), "127.0.0.1:0", nullptr, {}, http_options);
+  auto h = HttpApi::Start((*g)->query_service(), "127.0.0.1:0", nullptr, {}, http_options);
   EXPECT_EQ(h.status().code(), absl::StatusCode::kInvalidArgument);
 }
 
@@ -226,7 +226,7 @@ TEST_F(HttpViewerTest, CloudTrajectoriesAndStatsMatchTheQueryService) {
   loci::v1::GetCloudRequest cloud_req;
   cloud_req.set_voxel_m(0.05);
   loci::v1::GetCloudResponse cloud;
-  ASSERT_TRUE(grpc_->query_service().GetCloud(cloud_req, &cloud).ok());
+  ASSERT_TRUE(grpc_->query_service()->GetCloud(cloud_req, &cloud).ok());
   ASSERT_GT(cloud.points_size(), 100);
   EXPECT_EQ(Get("/api/cloud?voxel_m=0.05").second, ProtoToJson(cloud));
   EXPECT_EQ(Get("/api/cloud").second, ProtoToJson(cloud));  // 0.05 m by default
@@ -239,7 +239,7 @@ TEST_F(HttpViewerTest, CloudTrajectoriesAndStatsMatchTheQueryService) {
   }
 
   loci::v1::GetTrajectoriesResponse traj;
-  ASSERT_TRUE(grpc_->query_service().GetTrajectories({}, &traj).ok());
+  ASSERT_TRUE(grpc_->query_service()->GetTrajectories({}, &traj).ok());
   ASSERT_EQ(traj.trajectories_size(), 1);
   EXPECT_EQ(traj.trajectories(0).poses_size(), 4);
   EXPECT_EQ(Get("/api/trajectories").second, ProtoToJson(traj));

@@ -184,7 +184,7 @@ TEST_F(Islands, UnalignedRobotGetsAnExactIslandMapThatAlignmentDissolves) {
     ASSERT_TRUE(r.query->Ask(&ctx, ask, &answer).ok());
     std::printf("  %s? %s\n", ask.text().c_str(), answer.answer().c_str());
     // HTTP gives the same objects, islands only when asked for.
-    auto http = HttpApi::Start(&r.grpc->query_service(), "127.0.0.1:0");
+    auto http = HttpApi::Start(r.grpc->query_service(), "127.0.0.1:0");
     ASSERT_TRUE(http.ok()) << http.status();
     httplib::Client client("127.0.0.1", (*http)->port());
     const auto with = client.Get("/api/objects?confirmed_only=1&include_islands=1");

@@ -314,5 +314,116 @@ TEST_F(PostgresServer, TwoSitesMappedAtOnceByTwoServers) {
   EXPECT_EQ(static_cast<int>(StoredSeqs("site-b").size()), n - n / 2);
 }
 
+// Every object of a FindObjects answer: id, class and centroid, by id.
+std::map<int64_t, std::pair<std::string, Vec3d>> AllObjects(loci::v1::Query::Stub* stub) {
+  grpc::ClientContext ctx;
+  ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+  loci::v1::FindObjectsRequest req;
+  loci::v1::FindObjectsResponse resp;
+  const grpc::Status s = stub->FindObjects(&ctx, req, &resp);
+  EXPECT_TRUE(s.ok()) << s.error_message();
+  std::map<int64_t, std::pair<std::string, Vec3d>> out;
+  for (const auto& o : resp.objects()) {
+    out[o.id()] = {o.class_name(), Vec3d(o.centroid_m().x(), o.centroid_m().y(),
+                                         o.centroid_m().z())};
+  }
+  return out;
+}
+
+bool SameObjects(const std::map<int64_t, std::pair<std::string, Vec3d>>& a,
+                 const std::map<int64_t, std::pair<std::string, Vec3d>>& b) {
+  if (a.size() != b.size()) return false;
+  for (const auto& [id, o] : a) {
+    const auto it = b.find(id);
+    if (it == b.end() || it->second.first != o.first ||
+        (it->second.second - o.second).norm() > 1e-9) {
+      return false;
+    }
+  }
+  return true;
+}
+
+// A read-only query server of a site answers from the map its writer publishes: the same
+// objects and answers as the writer once the writer's map has settled, the writer's address for
+// robots and for what only the writer serves, and the last map still after the writer stopped.
+TEST_F(PostgresServer, ReadOnlyServerAnswersFromTheWritersPublishedMap) {
+  ServerProcess writer(Process("lab"));
+  ASSERT_GT(writer.port(), 0);
+  ServerProcessOptions replica_options = Process("lab");
+  replica_options.extra_args.push_back("--read-only");
+  ServerProcess replica(replica_options);  // returns once it is SERVING
+  ASSERT_GT(replica.port(), 0);
+  ASSERT_TRUE(replica.serving().ok()) << replica.serving();
+  auto writer_channel = grpc::CreateChannel(writer.address(), grpc::InsecureChannelCredentials());
+  auto replica_channel =
+      grpc::CreateChannel(replica.address(), grpc::InsecureChannelCredentials());
+  auto writer_query = loci::v1::Query::NewStub(writer_channel);
+  auto replica_query = loci::v1::Query::NewStub(replica_channel);
+  EXPECT_TRUE(AllObjects(replica_query.get()).empty());
+  {  // Robots are sent to the writer.
+    auto mapping = loci::v1::Mapping::NewStub(replica_channel);
+    grpc::ClientContext ctx;
+    loci::v1::OpenSessionResponse resp;
+    const grpc::Status s = mapping->OpenSession(
+        &ctx, testing::OpenRequest("robot1", PinholeCamera::TumFr1(), false), &resp);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+    EXPECT_NE(s.error_message().find(writer.address()), std::string::npos) << s.error_message();
+  }
+  {
+    auto mapping = loci::v1::Mapping::NewStub(writer_channel);
+    const std::string session =
+        testing::OpenSessionOn(mapping.get(), "robot1", false, nullptr, "lab");
+    EXPECT_EQ(static_cast<int>(
+                  testing::StreamAcked(mapping.get(), session, *keyframes_, 0, Size()).size()),
+              Size());
+  }
+  // The writer publishes about once a second while its map changes, and the read-only server
+  // reloads on each publication; it has no push signal of its own, so the test asks both until
+  // they agree (the writer's map settles once its queue drained).
+  std::map<int64_t, std::pair<std::string, Vec3d>> on_writer, on_replica;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (std::chrono::steady_clock::now() < deadline) {
+    on_writer = AllObjects(writer_query.get());
+    on_replica = AllObjects(replica_query.get());
+    if (!on_writer.empty() && Stats(writer_query.get()).mapped_keyframes() ==
+                                  static_cast<uint64_t>(Size()) &&
+        SameObjects(on_writer, on_replica)) {
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_GE(on_writer.size(), 5u);
+  ASSERT_TRUE(SameObjects(on_writer, on_replica))
+      << on_writer.size() << " objects on the writer, " << on_replica.size() << " read-only";
+  const std::string cls = on_writer.begin()->second.first;
+  auto ask = [&](loci::v1::Query::Stub* stub) {
+    grpc::ClientContext ctx;
+    loci::v1::AskRequest req;
+    req.set_text("where is the " + cls + "?");
+    loci::v1::AskResponse resp;
+    const grpc::Status s = stub->Ask(&ctx, req, &resp);
+    EXPECT_TRUE(s.ok()) << s.error_message();
+    std::vector<int64_t> ids;
+    for (const auto& o : resp.objects()) ids.push_back(o.id());
+    return ids;
+  };
+  const std::vector<int64_t> asked = ask(writer_query.get());
+  EXPECT_FALSE(asked.empty());
+  EXPECT_EQ(ask(replica_query.get()), asked);
+  const loci::v1::GetStatsResponse stats = Stats(replica_query.get());
+  EXPECT_EQ(stats.keyframes(), static_cast<uint64_t>(Size()));
+  EXPECT_EQ(stats.objects(), on_writer.size());
+  {  // The cloud stays with the writer.
+    grpc::ClientContext ctx;
+    loci::v1::GetCloudResponse cloud;
+    const grpc::Status s = replica_query->GetCloud(&ctx, {}, &cloud);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+    EXPECT_NE(s.error_message().find(writer.address()), std::string::npos) << s.error_message();
+  }
+  EXPECT_EQ(writer.Stop(SIGTERM), 0);
+  EXPECT_TRUE(SameObjects(AllObjects(replica_query.get()), on_writer));
+  EXPECT_EQ(replica.Stop(SIGTERM), 0);
+}
+
 }  // namespace
 }  // namespace loci::server

@@ -54,7 +54,7 @@ struct LiveServer {
     auto g = GrpcServer::Start(map.get(), "127.0.0.1:0", 64, adapter);
     ASSERT_TRUE(g.ok()) << g.status();
     grpc = std::move(*g);
-    auto h = HttpApi::Start(&grpc->query_service(), "127.0.0.1:0");
+    auto h = HttpApi::Start(grpc->query_service(), "127.0.0.1:0");
     ASSERT_TRUE(h.ok()) << h.status();
     http = std::move(*h);
     auto channel = grpc::CreateChannel(absl::StrCat("127.0.0.1:", grpc->port()),
