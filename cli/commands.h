@@ -35,6 +35,7 @@ void RegisterEvalLoopsCommand(CLI::App& app);
 void RegisterBenchIngestCommand(CLI::App& app);
 void RegisterBenchLoadCommand(CLI::App& app);
 void RegisterBenchFleetCommand(CLI::App& app);
+void RegisterBenchReplicaCommand(CLI::App& app);
 // `loci bench merge`: time for a robot that starts anywhere to join the map (server/align/).
 void RegisterBenchMergeCommand(CLI::App& app);
 // `loci reprocess` and `loci bench restart` (server/: products, checkpoints, restart).

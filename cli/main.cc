@@ -83,6 +83,7 @@ int main(int argc, char** argv) {
   loci::cli::RegisterBenchIngestCommand(app);
   loci::cli::RegisterBenchLoadCommand(app);
   loci::cli::RegisterBenchFleetCommand(app);
+  loci::cli::RegisterBenchReplicaCommand(app);
   loci::cli::RegisterBenchMergeCommand(app);
   loci::cli::RegisterReprocessCommand(app);
   loci::cli::RegisterMigrateCommand(app);

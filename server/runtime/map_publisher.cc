@@ -11,7 +11,17 @@
 namespace loci::server {
 namespace {
 
-ObjectRecord RowOf(const MapObject& o) {
+// What besides the objects a publication carries, as one comparable string.
+std::string StateKey(const MapPublication& p) {
+  std::string key = absl::StrCat(p.last_keyframe_id, "|", p.levelled_by, "|");
+  if (p.up_map) absl::StrAppend(&key, p.up_map->x(), ",", p.up_map->y(), ",", p.up_map->z());
+  for (const PublishedPose& pose : p.poses) absl::StrAppend(&key, "|", pose.robot, "@", pose.t_ns);
+  return key;
+}
+
+}  // namespace
+
+ObjectRecord ObjectRow(const MapObject& o) {
   loci::v1::Object wire;
   ToProto(o, &wire);
   return ObjectRecord{.id = o.id,
@@ -27,16 +37,6 @@ ObjectRecord RowOf(const MapObject& o) {
                       .wire = wire.SerializeAsString()};
 }
 
-// What besides the objects a publication carries, as one comparable string.
-std::string StateKey(const MapPublication& p) {
-  std::string key = absl::StrCat(p.last_keyframe_id, "|", p.levelled_by, "|");
-  if (p.up_map) absl::StrAppend(&key, p.up_map->x(), ",", p.up_map->y(), ",", p.up_map->z());
-  for (const PublishedPose& pose : p.poses) absl::StrAppend(&key, "|", pose.robot, "@", pose.t_ns);
-  return key;
-}
-
-}  // namespace
-
 MapPublication WholePublication(const Mapper& mapper) {
   MapPublication p;
   p.replace_all = true;
@@ -46,9 +46,9 @@ MapPublication WholePublication(const Mapper& mapper) {
   }
   p.last_keyframe_id = mapper.last_keyframe_id();
   for (const MapObject& o : mapper.Snapshot()) {
-    if (o.island.empty()) p.objects.push_back(RowOf(o));
+    if (o.island.empty()) p.objects.push_back(ObjectRow(o));
   }
-  for (const MapObject& o : mapper.Removed()) p.objects.push_back(RowOf(o));
+  for (const MapObject& o : mapper.Removed()) p.objects.push_back(ObjectRow(o));
   p.up_map = mapper.UpDirection();
   p.levelled_by = mapper.FrameSource();
   return p;

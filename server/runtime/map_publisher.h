@@ -20,6 +20,9 @@
 
 namespace loci::server {
 
+// An object as its object-table row, with its wire form (loci.v1.Object).
+ObjectRecord ObjectRow(const MapObject& o);
+
 // The shared map as a whole publication (replace_all): its objects (islands are in other
 // frames) as object-table rows with their wire form, every robot's latest pose, the up and how
 // the frame was levelled.
