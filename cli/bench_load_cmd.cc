@@ -127,7 +127,7 @@ int RunBenchLoad(const BenchLoadArgs& a) {
   std::printf("  query errors %llu; map %llu objects; queue depth at the end %zu\n",
               static_cast<unsigned long long>(lat.errors.load()),
               static_cast<unsigned long long>((*srv)->mapper().Stats().objects),
-              (*srv)->queue_depth());
+              (*srv)->stats().queue_depth);
   grpc_server->reset();
   srv->reset();
   std::filesystem::remove_all(dir);

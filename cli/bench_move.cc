@@ -66,7 +66,7 @@ Status TimeMoveWhileMapping(int64_t n, int64_t chunk_keyframes, server::Mapper& 
   std::vector<double> waits_ms;
   double map_ms_total = 0;
   int64_t mapped = 0;
-  std::thread worker([&] {  // as MapServer::WorkerLoop, with its queue always full
+  std::thread worker([&] {  // as the server's MapWorker, with its queue always full
     while (moving.load()) {
       {
         const Clock::time_point asked = Clock::now();

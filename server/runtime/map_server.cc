@@ -43,11 +43,16 @@ MapServer::MapServer(const ServerOptions& options, std::shared_ptr<MapStore> sto
                    : nullptr),
       events_(options_.max_watchers),
       sessions_(store_.get()),
-      gate_(options_, store_.get(), &sessions_, &times_),
       checkpointer_(options_, mapper_, store_.get()),
-      publisher_(mapper_, store_.get(), readiness_, options.publish_interval_s),
-      queue_(static_cast<size_t>(options.queue_capacity)),
-      align_queue_(static_cast<size_t>(options.queue_capacity)) {}
+      ctx_{options_,        *store_,        detection_.get(), sessions_,
+           events_,         checkpointer_,  mapper_,          aligner_.get(),
+           closer_.get(),   islands_.get(), features_.get(),  stop_loading_},
+      gate_(options_, store_.get(), &sessions_, &times_),
+      worker_(ctx_, store_, &times_, &progress_),
+      graph_(ctx_, &worker_),
+      align_(ctx_, &worker_, &graph_, &progress_),
+      reindexer_(ctx_, &worker_, &graph_, &align_),
+      publisher_(mapper_, store_.get(), readiness_, options.publish_interval_s) {}
 
 StatusOr<std::unique_ptr<MapServer>> MapServer::OpenAsync(
     const ServerOptions& options, std::shared_ptr<MapStore> store,
@@ -73,7 +78,7 @@ StatusOr<std::unique_ptr<MapServer>> MapServer::Open(
     std::shared_ptr<KeyframeDetection> detection) {
   LOCI_ASSIGN_OR_RETURN(std::unique_ptr<MapServer> server,
                         OpenAsync(options, std::move(store), std::move(detection)));
-  LOCI_RETURN_IF_ERROR(server->WaitReady());
+  LOCI_RETURN_IF_ERROR(server->readiness().Wait());
   return server;
 }
 
@@ -95,77 +100,33 @@ void MapServer::LoadLoop() {
     if (report->keyframes() >= static_cast<uint64_t>(options_.checkpoint_keyframes)) {
       if (Status s = Checkpoint(); !s.ok()) spdlog::warn("checkpoint: {}", s.ToString());
     }
-    LoadIslands();
-    DeclareStoredSessions();
+    align_.LoadIslands();
+    worker_.DeclareStoredSessions();
     mapper_->SetEventListener(
         [this](const std::vector<ObjectEventOut>& events) { events_.Publish(events); });
-    worker_ = NamedThread("loci-worker", [this] { WorkerLoop(); });
-    if (aligner_) align_thread_ = NamedThread("loci-align", [this] { AlignLoop(); });
+    worker_.Start(aligner_ ? &align_.input() : nullptr);
+    if (aligner_) align_.Start();
   } else {
     spdlog::error("the map failed to load: {}", report.status().ToString());
   }
   readiness_.Finish(report.status());
   if (report.ok()) {
-    Reindex();  // the stored keyframes into place recognition
+    reindexer_.Run();  // the stored keyframes into place recognition
   }
 }
 
 StatusOr<size_t> MapServer::UpdateKeyframePoses(
     const std::vector<Mapper::KeyframePoseUpdate>& updates) {
   LOCI_RETURN_IF_ERROR(CheckReady());
-  std::lock_guard<FifoMutex> lock(mapping_mu_);
-  return UpdateKeyframePosesLocked(updates);
+  std::lock_guard<FifoMutex> lock(worker_.mapping_mutex());
+  return worker_.Move(updates);
 }
-
-Mapper::ProductSource MapServer::ProductsFromStore() const {
-  // By value: the OctoMap rebuild reads products on its own thread after a move returns (the
-  // store is shared with it).
-  return [store = store_, fingerprint = mapper_->options().ProductsFingerprint()](
-             int64_t id) -> StatusOr<KeyframeProducts> {
-    LOCI_ASSIGN_OR_RETURN(std::optional<std::string> bytes, store->GetProducts(id, fingerprint));
-    if (!bytes) {
-      return absl::FailedPreconditionError(
-          absl::StrCat("keyframe ", id, " has no stored products (run loci reprocess)"));
-    }
-    return DecodeProducts(*bytes, fingerprint, /*with_visibility=*/false);
-  };
-}
-
-StatusOr<size_t> MapServer::UpdateKeyframePosesLocked(
-    const std::vector<Mapper::KeyframePoseUpdate>& updates, bool rebuild_octomap) {
-  auto moved = mapper_->UpdateKeyframePoses(updates, ProductsFromStore(), rebuild_octomap);
-  if (!moved.ok()) return moved;
-  checkpointer_.Changed(*moved);  // the next checkpoint keeps the moved map
-  // The poses themselves, so that a restart from an older checkpoint, a replay and a reprocess
-  // all map these keyframes where they are now.
-  LOCI_RETURN_IF_ERROR(StoreCorrectedPoses(updates, kSharedGraph));
-  return moved;
-}
-
-Status MapServer::StoreCorrectedPoses(const std::vector<Mapper::KeyframePoseUpdate>& updates,
-                                      int64_t map_row) {
-  std::vector<KeyframePoseRecord> poses;
-  poses.reserve(updates.size());
-  std::vector<std::pair<int64_t, SE3d>> mapped;
-  mapped.reserve(updates.size());
-  for (const Mapper::KeyframePoseUpdate& u : updates) {
-    poses.push_back({u.keyframe_id, u.T_base_kf});
-    mapped.emplace_back(u.keyframe_id, u.T_base_kf);
-  }
-  // Where the keyframes are mapped now, stored or not: later merges and joins start from it.
-  if (aligner_) aligner_->SetMappedPoses(map_row, mapped);
-  return store_->PutKeyframePoses(poses);
-}
-
-Status MapServer::Checkpoint() { return checkpointer_.Write(); }
 
 MapServer::~MapServer() {
   stop_loading_ = true;
   if (loader_.joinable()) loader_.join();
-  queue_.Close();
-  if (worker_.joinable()) worker_.join();
-  align_queue_.Close();  // after the worker: it drains what the worker handed over
-  if (align_thread_.joinable()) align_thread_.join();
+  worker_.Stop();
+  align_.Stop();  // after the worker: it drains what the worker handed over
   if (readiness_.ready() && checkpointer_.dirty()) {
     if (Status s = Checkpoint(); !s.ok()) spdlog::warn("checkpoint at shutdown: {}", s.ToString());
   }
@@ -189,52 +150,14 @@ loci::v1::KeyframeAck MapServer::Ingest(const loci::v1::Keyframe& kf,
   IngestGate::Admitted admitted = gate_.Admit(kf, only_robot);
   if (!admitted.keyframe) return admitted.ack;
   progress_.Queued();
-  OfferAhead(*admitted.keyframe);
+  align_.OfferAhead(*admitted.keyframe);
   // Detected on the detection threads while the worker maps the keyframes before it.
   if (detection_) detection_->Prefetch(*admitted.keyframe);
   // Blocks while the mapping worker is behind: back-pressure on this client's stream.
-  if (!queue_.Push(std::move(*admitted.keyframe))) {
+  if (!worker_.Push(std::move(*admitted.keyframe))) {
     progress_.Unqueued();  // shutting down; the keyframe is stored and will be mapped on restart
   }
   return admitted.ack;
-}
-
-void MapServer::WorkerLoop() {
-  while (std::optional<MapperKeyframe> kf = queue_.Pop()) {
-    const auto t0 = std::chrono::steady_clock::now();
-    bool recognise = false;
-    {
-      std::lock_guard<FifoMutex> mapping(mapping_mu_);
-      times_.NoteWorkerWait(MsSince(t0));
-      const Queued queued = MapQueued(*kf);
-      recognise = queued.recognise;
-      times_.AddMapped(MsSince(t0));
-      checkpointer_.MaybeWrite(queued.shared_map);
-    }
-    if (recognise) {  // outside mapping_mu_: the aligning thread takes it after each keyframe
-      progress_.ToRecognise();
-      if (!align_queue_.Push(std::move(*kf))) progress_.NotRecognised();  // shutting down
-    }
-    progress_.Mapped();
-  }
-}
-
-void MapServer::AlignLoop() {
-  while (true) {
-    if (std::optional<MapperKeyframe> ahead = ahead_.Take(align_queue_.size() == 0)) {
-      QueryAhead(*ahead);
-      continue;
-    }
-    // A short wait: a keyframe offered ahead meanwhile is taken within it.
-    std::optional<MapperKeyframe> kf = align_queue_.PopFor(std::chrono::milliseconds(20));
-    if (!kf) {
-      if (align_queue_.closed()) return;
-      continue;
-    }
-    ahead_.NoteRecognised();
-    RecognisePlace(*kf);
-    progress_.Recognised();
-  }
 }
 
 void MapServer::Flush() {
@@ -244,14 +167,16 @@ void MapServer::Flush() {
   }
 }
 
-std::optional<LoopStats> MapServer::loop_stats() const {
-  if (!closer_) return std::nullopt;
-  return closer_->Stats();
-}
-
-std::optional<AlignStats> MapServer::align_stats() const {
-  if (!aligner_) return std::nullopt;
-  return aligner_->Stats();
+RuntimeStats MapServer::stats() const {
+  RuntimeStats s;
+  s.queue_depth = worker_.waiting() + progress_.recognition_pending();
+  s.replayed_keyframes = replayed_;
+  s.reindexed = graph_.indexed();
+  s.checkpoints_written = checkpointer_.written();
+  s.held_merge = align_.held_merge_stats();
+  if (aligner_) s.align = aligner_->Stats();
+  if (closer_) s.loops = closer_->Stats();
+  return s;
 }
 
 }  // namespace loci::server

@@ -39,7 +39,7 @@ StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::Start(MapServer* server,
   g->query_ = query.get();
   g->services_.push_back(std::move(query));
   LOCI_RETURN_IF_ERROR(g->Serve(listen, max_message_mb, tls));
-  g->ReportHealth([server](std::function<void()> fn) { server->OnReady(std::move(fn)); });
+  g->ReportHealth([server](std::function<void()> fn) { server->readiness().OnReady(std::move(fn)); });
   return g;
 }
 

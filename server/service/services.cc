@@ -344,7 +344,7 @@ grpc::Status QueryService::GetStats(loci::v1::GetStatsResponse* resp) {
   resp->set_octomap_rebuilds(s.octomap_rebuilds);
   resp->set_octomap_rebuilds_skipped(s.octomap_rebuilds_skipped);
   resp->set_db_bytes(server_->store().DbBytes());
-  resp->set_queue_depth(server_->queue_depth());
+  resp->set_queue_depth(server_->stats().queue_depth);
   resp->set_ingest_ms_mean(server_->times().mapping_ms_mean());
   resp->set_worker_longest_wait_ms(server_->times().worker_longest_wait_ms());
   resp->set_frame_up_source(server_->mapper().FrameSource());
@@ -358,7 +358,7 @@ grpc::Status QueryService::GetStats(loci::v1::GetStatsResponse* resp) {
   resp->set_keyframes_with_raw(bytes->keyframes_with_raw);
   resp->set_keyframes_with_products(bytes->products);
   resp->set_checkpoint_bytes(bytes->checkpoint_bytes);
-  resp->set_checkpoints_written(server_->checkpoints_written());
+  resp->set_checkpoints_written(server_->stats().checkpoints_written);
   resp->set_place_feature_bytes_per_keyframe(per(bytes->place_feature_bytes, bytes->place_features));
   resp->set_keyframes_with_place_features(bytes->place_features);
   return FillAlignment(*sessions, resp);
@@ -390,7 +390,8 @@ grpc::Status QueryService::FillAlignment(const std::vector<SessionRecord>& sessi
     }
   }
   loci::v1::AlignmentStats* a = resp->mutable_alignment();
-  const std::optional<AlignStats> st = server_->align_stats();
+  const RuntimeStats runtime = server_->stats();
+  const std::optional<AlignStats>& st = runtime.align;
   a->set_enabled(st.has_value());
   if (!st) return grpc::Status::OK;
   a->set_keyframes_indexed(st->keyframes);
@@ -402,8 +403,8 @@ grpc::Status QueryService::FillAlignment(const std::vector<SessionRecord>& sessi
   a->set_queries_ahead(st->queries_ahead);
   a->set_merges_ahead(st->merges_ahead);
   a->set_islands_pulled(st->islands_pulled);
-  a->set_merged_keyframes(server_->merged_keyframes());
-  const MapServer::HeldMergeStats held = server_->held_merge_stats();
+  const HeldMergeStats& held = runtime.held_merge;
+  a->set_merged_keyframes(held.merged_keyframes);
   a->set_last_merge_ms(held.last_ms);
   a->set_last_merge_chunks(held.last_chunks);
   a->set_last_merge_keyframes(held.last_keyframes);
@@ -423,7 +424,7 @@ grpc::Status QueryService::FillAlignment(const std::vector<SessionRecord>& sessi
 }
 
 void QueryService::FillPoseGraph(loci::v1::PoseGraphStats* out) {
-  const std::optional<LoopStats> st = server_->loop_stats();
+  const std::optional<LoopStats> st = server_->stats().loops;
   out->set_enabled(st.has_value());
   if (!st) return;
   out->set_loop_matches(st->loop_matches);
@@ -452,7 +453,7 @@ void QueryService::FillPoseGraph(loci::v1::PoseGraphStats* out) {
 }
 
 void QueryService::FillIslandGraph(int64_t island_row, loci::v1::SessionAlignment* out) {
-  const std::optional<LoopStats> st = server_->loop_stats();
+  const std::optional<LoopStats> st = server_->stats().loops;
   if (!st) return;
   auto it = st->islands.find(island_row);
   if (it == st->islands.end()) return;

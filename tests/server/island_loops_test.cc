@@ -224,7 +224,7 @@ TEST(IslandLoops, AnUnalignedRobotsDriftIsCutToAThirdInItsIsland) {
   // solve at B's corrected placement): the same island, with no solve.
   Running again = Start(db);
   ASSERT_TRUE(again.server);
-  ASSERT_TRUE(again.server->WaitReady().ok());
+  ASSERT_TRUE(again.server->readiness().Wait().ok());
   const Trajectory reloaded = IslandTrajectory(again.query.get(), island, "B");
   ASSERT_EQ(reloaded.size(), in_island.size());
   const double restarted = Ate(truth, reloaded), moved = Ate(in_island, reloaded);
@@ -264,7 +264,7 @@ TEST(IslandLoops, MatchesLeftUnsolvedAtAStopAreSolvedAtTheNextStart) {
   LogLines log;
   Running again = Start(db);
   ASSERT_TRUE(again.server);
-  ASSERT_TRUE(again.server->WaitReady().ok());
+  ASSERT_TRUE(again.server->readiness().Wait().ok());
   EXPECT_TRUE(log.WaitFor("island " + island + "'s pose graph:", std::chrono::seconds(60)))
       << "B's island was not solved at the start";
   const loci::v1::SessionAlignment s = SessionOfB(again.query.get());

@@ -542,7 +542,7 @@ TEST_F(Islands, HeldKeyframesTheCheckpointLacksAreMappedOnTheNextStart) {
   }
   Running r = Start(db);
   ASSERT_TRUE(r.server);
-  ASSERT_TRUE(r.server->WaitReady().ok());
+  ASSERT_TRUE(r.server->readiness().Wait().ok());
   std::multiset<std::string> far_classes;
   for (const auto& o : Find(r.query.get(), true)) {
     EXPECT_EQ(o.island(), "") << "B is aligned: no island";

@@ -136,13 +136,13 @@ TEST(LoadHealth, NotServingAndUnavailableWhileLoadingThenServing) {
   EXPECT_NE(find.error_message().find("loading its map"), std::string::npos)
       << find.error_message();
   EXPECT_EQ(OpenSession(channel).error_code(), grpc::StatusCode::UNAVAILABLE);
-  EXPECT_FALSE((*server)->ready());
+  EXPECT_FALSE((*server)->readiness().ready());
 
   open_gate.set_value();
   const Status served =
       WaitForServing(*channel, std::chrono::system_clock::now() + std::chrono::seconds(60));
   EXPECT_TRUE(served.ok()) << served;
-  EXPECT_TRUE((*server)->ready());
+  EXPECT_TRUE((*server)->readiness().ready());
   EXPECT_TRUE(FindObjects(channel).ok());
   EXPECT_TRUE(OpenSession(channel).ok());
   grpc_server->reset();

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 #include <libpq-fe.h>
 
+#include <future>
+
 #include "server/postgres/postgres_store.h"
 #include "server/postgres/site_lease.h"
 #include "tests/server/store_records.h"
@@ -115,7 +117,10 @@ TEST_F(PostgresSites, OneWriterPerSiteAndTheOldWriterIsFencedOut) {
 
   // While the first renews, a second one waits and sees who holds the site.
   std::atomic<bool> lost{false};
-  (*first)->StartRenewing([&](const Status&) { lost = true; });
+  std::promise<void> lost_signal;
+  (*first)->StartRenewing([&](const Status&) {
+    if (!lost.exchange(true)) lost_signal.set_value();
+  });
   int attempts = 0;
   LeaseHolder seen;
   auto second = SiteLease::Acquire(uri_, "default", lease_options, [&](const LeaseHolder& h) {
@@ -135,7 +140,8 @@ TEST_F(PostgresSites, OneWriterPerSiteAndTheOldWriterIsFencedOut) {
                                   [](const LeaseHolder&) { return true; });
   ASSERT_TRUE(third.ok()) << third.status();
   EXPECT_EQ((*third)->fence().epoch, 2);
-  for (int i = 0; i < 50 && !lost; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  // The renewal's own callback, waited on with a deadline of a few renewal periods.
+  lost_signal.get_future().wait_for(std::chrono::seconds(5));
   EXPECT_TRUE(lost) << "the first holder's renewal did not notice the takeover";
   const uint64_t before = *(*first_store)->CountKeyframes(std::nullopt);
   const auto fenced = (*first_store)->InsertKeyframe(MakeKeyframe(session->row_id, 1));

@@ -406,7 +406,7 @@ TEST_F(ServiceTest, ResumeAfterRestartReturnsLastStoredSeqAndSameObjects) {
   ASSERT_EQ(before.size(), 3u);
   Stop();
   Start();  // same DB: the map is rebuilt from the stored keyframes
-  EXPECT_EQ(server_->replayed_keyframes(), 4u);
+  EXPECT_EQ(server_->stats().replayed_keyframes, 4u);
   const auto after = server_->mapper().Snapshot(true);
   ASSERT_EQ(after.size(), before.size());
   for (size_t i = 0; i < before.size(); ++i) {
