@@ -18,6 +18,7 @@
 
 #include "server/postgres/postgres_store.h"
 #include "server/runtime/map_server.h"
+#include "server/runtime/server_detector.h"
 #include "server/service/grpc_server.h"
 #include "server/storage/sqlite_store.h"
 #include "synth/scene.h"
@@ -83,7 +84,13 @@ class PostgresServer : public ::testing::Test {
   // Streams the whole scene through an in-process server on `store`; its confirmed objects and
   // cloud size after the queue drained.
   static std::vector<MapObject> Run(std::shared_ptr<MapStore> store, uint64_t* cloud_points) {
-    auto server = MapServer::Open(Options(), std::move(store));
+    return Run(std::move(store), cloud_points, Options(), nullptr, *keyframes_);
+  }
+  static std::vector<MapObject> Run(std::shared_ptr<MapStore> store, uint64_t* cloud_points,
+                                    const ServerOptions& options,
+                                    std::shared_ptr<KeyframeDetection> detection,
+                                    const std::vector<loci::v1::Keyframe>& keyframes) {
+    auto server = MapServer::Open(options, std::move(store), std::move(detection));
     EXPECT_TRUE(server.ok()) << server.status();
     if (!server.ok()) return {};
     auto grpc_server = GrpcServer::Start(server->get(), "127.0.0.1:0", 64);
@@ -92,8 +99,9 @@ class PostgresServer : public ::testing::Test {
                                        grpc::InsecureChannelCredentials());
     auto mapping = loci::v1::Mapping::NewStub(channel);
     const std::string session = testing::OpenSessionOn(mapping.get(), "robot1", false);
-    const auto acks = testing::StreamAcked(mapping.get(), session, *keyframes_, 0, Size());
-    EXPECT_EQ(static_cast<int>(acks.size()), Size());
+    const int n = static_cast<int>(keyframes.size());
+    const auto acks = testing::StreamAcked(mapping.get(), session, keyframes, 0, n);
+    EXPECT_EQ(static_cast<int>(acks.size()), n);
     (*server)->Flush();
     auto query = loci::v1::Query::NewStub(channel);
     std::vector<MapObject> objects = testing::ConfirmedObjects(query.get());
@@ -205,6 +213,43 @@ TEST_F(PostgresServer, SameMapAsSqliteLiveAndAfterARestart) {
     }
     ExpectSameObjects(from_sqlite, reloaded);
   }
+}
+
+// The repository's real sample (60 fr1_rpy frames at their ground-truth poses), detected on the
+// server by the shipped YOLOX-Nano: the same objects and cloud from SQLite and PostgreSQL.
+TEST_F(PostgresServer, SameMapAsSqliteOnTheShippedRealSample) {
+  const std::string src = LOCI_SOURCE_DIR;
+  auto kfs = testing::LoadSceneKeyframes(src + "/tests/data/tum_fr1_rpy_sample");
+  ASSERT_TRUE(kfs.ok()) << kfs.status();
+  const std::string config = *dir_ + "/sample.yaml";
+  std::ofstream(config) << "align:\n  loops:\n    enabled: false\n"
+                        << "detector:\n  enabled: true\n  mode: all\n  threads: 1\n"
+                        << "  type: yolox\n  model: " << src << "/models/yolox_nano/yolox_nano.onnx\n"
+                        << "  class_names: " << src << "/models/yolox_nano/coco80.names\n"
+                        << "  input_size_px: 416\n  score_threshold: 0.3\n"
+                        << "  classes_file: " << src << "/config/classes.yaml\n";
+  ServerOptions options;
+  ASSERT_TRUE(options.FromYamlFile(config).ok());
+  auto detection = MakeServerDetection(options, config);
+  if (!detection.ok() && detection.status().code() == absl::StatusCode::kFailedPrecondition) {
+    GTEST_SKIP() << detection.status();  // a build without the detection module
+  }
+  ASSERT_TRUE(detection.ok()) << detection.status();
+  const std::string db = *dir_ + "/sample.db";
+  for (const char* s : {"", "-wal", "-shm"}) fs::remove(db + s);
+  uint64_t sqlite_points = 0, pg_points = 0;
+  auto sqlite = SqliteStore::Open(db);
+  ASSERT_TRUE(sqlite.ok()) << sqlite.status();
+  const std::vector<MapObject> from_sqlite = Run(std::shared_ptr<MapStore>(std::move(*sqlite)),
+                                                 &sqlite_points, options, *detection, *kfs);
+  auto pg = PostgresStore::Open(pg_->Uri());
+  ASSERT_TRUE(pg.ok()) << pg.status();
+  const std::vector<MapObject> from_pg = Run(std::shared_ptr<MapStore>(std::move(*pg)),
+                                             &pg_points, options, *detection, *kfs);
+  ASSERT_GE(from_sqlite.size(), 1u) << "the sample gave no confirmed object to compare";
+  ExpectSameObjects(from_sqlite, from_pg);
+  EXPECT_EQ(sqlite_points, pg_points);
+  EXPECT_GT(pg_points, 0u);
 }
 
 // The writer dies with SIGKILL while keyframes stream in; the standby, waiting on the site's

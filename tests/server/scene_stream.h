@@ -1,5 +1,6 @@
 // Test-side streamer: turns a TUM-layout folder written by `loci synth` (images, groundtruth
-// poses, detections.jsonl, accelerometer) into protocol v1 keyframes, as a client would send.
+// poses, detections.jsonl, accelerometer) into protocol v1 keyframes, as a client would send;
+// a real TUM recording without detections.jsonl gives keyframes without boxes.
 #pragma once
 
 #include <string>
