@@ -367,6 +367,7 @@ grpc::Status QueryService::GetStats(loci::v1::GetStatsResponse* resp) {
 grpc::Status QueryService::FillAlignment(const std::vector<SessionRecord>& sessions,
                                          loci::v1::GetStatsResponse* resp) {
   const SE3d T_map_base = server_->mapper().MapFromBaseFrame();
+  const RuntimeStats runtime = server_->stats();
   for (const SessionRecord& s : sessions) {
     loci::v1::SessionAlignment* out = resp->add_session_alignments();
     out->set_session_id(s.session_id);
@@ -378,7 +379,7 @@ grpc::Status QueryService::FillAlignment(const std::vector<SessionRecord>& sessi
         out->set_island(island->name);
         out->set_island_objects(island->map->Stats().confirmed_objects);
         ToProto(island->map->MapFromBaseFrame() * s.T_island_odom, out->mutable_t_island_odom());
-        FillIslandGraph(island->session_row, out);
+        FillIslandGraph(runtime.loops, island->session_row, out);
       }
     }
     auto n = server_->store().CountKeyframes(s.row_id);
@@ -390,7 +391,6 @@ grpc::Status QueryService::FillAlignment(const std::vector<SessionRecord>& sessi
     }
   }
   loci::v1::AlignmentStats* a = resp->mutable_alignment();
-  const RuntimeStats runtime = server_->stats();
   const std::optional<AlignStats>& st = runtime.align;
   a->set_enabled(st.has_value());
   if (!st) return grpc::Status::OK;
@@ -419,12 +419,12 @@ grpc::Status QueryService::FillAlignment(const std::vector<SessionRecord>& sessi
   a->set_dense_refused(st->dense_refused);
   a->set_dense_without_images(st->dense_without_images);
   a->set_dense_frames_read(st->dense_frames_read);
-  FillPoseGraph(resp->mutable_pose_graph());
+  FillPoseGraph(runtime.loops, resp->mutable_pose_graph());
   return grpc::Status::OK;
 }
 
-void QueryService::FillPoseGraph(loci::v1::PoseGraphStats* out) {
-  const std::optional<LoopStats> st = server_->stats().loops;
+void QueryService::FillPoseGraph(const std::optional<LoopStats>& st,
+                                 loci::v1::PoseGraphStats* out) {
   out->set_enabled(st.has_value());
   if (!st) return;
   out->set_loop_matches(st->loop_matches);
@@ -452,8 +452,8 @@ void QueryService::FillPoseGraph(loci::v1::PoseGraphStats* out) {
   out->set_longest_hold_ms(st->longest_hold_ms);
 }
 
-void QueryService::FillIslandGraph(int64_t island_row, loci::v1::SessionAlignment* out) {
-  const std::optional<LoopStats> st = server_->stats().loops;
+void QueryService::FillIslandGraph(const std::optional<LoopStats>& st, int64_t island_row,
+                                   loci::v1::SessionAlignment* out) {
   if (!st) return;
   auto it = st->islands.find(island_row);
   if (it == st->islands.end()) return;

@@ -89,9 +89,10 @@ class QueryService final : public loci::v1::Query::Service {
   // GetStats' sessions and alignment figures.
   grpc::Status FillAlignment(const std::vector<SessionRecord>& sessions,
                              loci::v1::GetStatsResponse* resp);
-  void FillPoseGraph(loci::v1::PoseGraphStats* out);
+  static void FillPoseGraph(const std::optional<LoopStats>& st, loci::v1::PoseGraphStats* out);
   // An island's own pose-graph figures (SessionAlignment.island_*).
-  void FillIslandGraph(int64_t island_row, loci::v1::SessionAlignment* out);
+  static void FillIslandGraph(const std::optional<LoopStats>& st, int64_t island_row,
+                              loci::v1::SessionAlignment* out);
   // The shared map ("") or the map island named `island`; NOT_FOUND for an unknown island.
   StatusOr<std::shared_ptr<const Mapper>> MapNamed(const std::string& island) const;
 
