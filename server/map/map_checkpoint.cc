@@ -292,10 +292,7 @@ std::string Mapper::SaveCheckpoint() const {
     }
     out.set_keyframe_count(stats_.keyframes);
   }
-  if (options_.octomap.enabled) {
-    std::lock_guard<std::mutex> lock(octo_mu_);
-    out.set_octomap_ot(octomap_->SerializeState());
-  }
+  if (octomap_) out.set_octomap_ot(octomap_->SerializeState());
   return out.SerializeAsString();
 }
 
@@ -307,8 +304,7 @@ Status Mapper::LoadCheckpoint(const std::string& bytes) {
                                                       in.fingerprint(), ", not ",
                                                       options_.MapFingerprint()));
   }
-  if (options_.octomap.enabled && !in.octomap_ot().empty()) {
-    std::lock_guard<std::mutex> lock(octo_mu_);
+  if (octomap_ && !in.octomap_ot().empty()) {
     LOCI_RETURN_IF_ERROR(octomap_->LoadState(in.octomap_ot()));
   }
   std::lock_guard<std::mutex> lock(mu_);

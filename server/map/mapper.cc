@@ -32,27 +32,11 @@ Mapper::Mapper(const MapOptions& options)
     : options_(options),
       objects_(FusionWithFlatTops(options), options.observation.voxel_m),
       cloud_(options.cloud.voxel_m),
-      octomap_(options.octomap.enabled ? std::make_unique<OccupancyMap>(options.octomap)
-                                       : nullptr) {
-  // octomap_ is non-null exactly when options_.octomap.enabled, but the OctoMap thread replaces
-  // it (RebuildOctomap), as does SettleFrame: read the pointer only under octo_mu_, and test
-  // options_.octomap.enabled instead of the pointer.
-  if (options_.octomap.enabled) {
-    octomap_thread_ = NamedThread("loci-octomap", [this] { OctomapLoop(); });
-    rebuild_thread_ = NamedThread("loci-rebuild", [this] { RebuildLoop(); });
-  }
-}
+      octomap_(options.octomap.enabled ? std::make_unique<LiveOctomap>(options.octomap)
+                                       : nullptr) {}
 
 Mapper::~Mapper() {
-  rebuild_stopping_ = true;  // a running rebuild stops (its product source may be gone)
-  {
-    std::lock_guard<std::mutex> lock(rebuild_mu_);
-    rebuild_stop_ = true;
-  }
-  rebuild_cv_.notify_all();
-  if (rebuild_thread_.joinable()) rebuild_thread_.join();
-  octomap_queue_.Close();
-  if (octomap_thread_.joinable()) octomap_thread_.join();
+  octomap_.reset();  // first: a running rebuild stops (its product source may be gone)
 }
 
 Status Mapper::SetFirstObjectId(int64_t first_id) {
@@ -239,10 +223,7 @@ void Mapper::SettleFrame(std::vector<ObjectEventOut>* events) {
     latest_poses_.clear();
     stats_.keyframes = 0;
   }
-  if (options_.octomap.enabled) {
-    std::lock_guard<std::mutex> lock(octo_mu_);
-    octomap_ = std::make_unique<OccupancyMap>(options_.octomap);
-  }
+  if (octomap_) octomap_->Clear();
   std::vector<Settling> settling = std::move(settling_);
   settling_.clear();
   evidence_.points_base.clear();
@@ -308,41 +289,13 @@ Mapper::Observed Mapper::IntegrateProducts(const MapperKeyframe& kf,
     if (kf.t_ns >= pose.t_ns) pose = {kf.t_ns, T_map_kf};
     ++stats_.keyframes;
   }
-  if (options_.octomap.enabled) {
+  if (octomap_) {
     OctomapScan scan = ThinScan(points, T_map_kf.translation(), options_.octomap.resolution_m);
     scan.keyframe_id = kf.keyframe_id;
-    PushOctomap(std::move(scan));
+    octomap_->Push(std::move(scan));
   }
   AddTimes(*times);
   return observed;
-}
-
-Mapper::OctomapScan Mapper::ThinScan(const std::vector<SemanticPoint>& static_points_m,
-                                     const Vec3d& origin_m, double resolution_m) {
-  // One ray per OctoMap leaf is enough: thin the cloud to the OctoMap resolution first.
-  OctomapScan scan;
-  scan.origin_m = origin_m;
-  struct LeafSum {
-    Eigen::Vector3f sum_m = Eigen::Vector3f::Zero();
-    int n = 0;
-  };
-  VoxelMap<LeafSum> leaves;
-  for (const SemanticPoint& sp : static_points_m) {
-    LeafSum& leaf = leaves[KeyOf(sp.p_m.cast<double>(), resolution_m)];
-    leaf.sum_m += sp.p_m;
-    ++leaf.n;
-  }
-  scan.points_m.reserve(leaves.size());
-  for (const auto& [key, leaf] : leaves) scan.points_m.push_back(leaf.sum_m / leaf.n);
-  return scan;
-}
-
-void Mapper::PushOctomap(OctomapScan scan) {
-  {
-    std::lock_guard<std::mutex> lock(octomap_progress_mu_);
-    ++octomap_pushed_;
-  }
-  octomap_queue_.Push(std::move(scan));
 }
 
 void Mapper::AddTimes(const StageTimes& times) {
@@ -394,18 +347,22 @@ std::vector<SemanticPoint> Mapper::Cloud(double voxel_m,
 }
 
 std::string Mapper::OctomapBt(bool wait_for_rebuild) const {
-  if (!options_.octomap.enabled) return {};
-  FlushOctomap(wait_for_rebuild);
-  std::lock_guard<std::mutex> lock(octo_mu_);
+  if (!octomap_) return {};
+  octomap_->Flush(wait_for_rebuild);
   return octomap_->SerializeBt();
 }
 
 std::vector<Eigen::Vector3d> Mapper::OccupiedCenters() const {
-  if (!options_.octomap.enabled) return {};
-  FlushOctomap();
-  std::lock_guard<std::mutex> lock(octo_mu_);
+  if (!octomap_) return {};
+  octomap_->Flush(true);
   return octomap_->OccupiedCenters();
 }
+
+void Mapper::FlushOctomap(bool wait_for_rebuild) const {
+  if (octomap_) octomap_->Flush(wait_for_rebuild);
+}
+
+bool Mapper::OctomapRebuilding() const { return octomap_ && octomap_->Rebuilding(); }
 
 std::optional<Vec3d> Mapper::UpDirection() const {
   std::lock_guard<std::mutex> lock(mu_);
@@ -476,13 +433,10 @@ MapperStats Mapper::Stats() const {
     s.confirmed_objects = objects_.confirmed_count();
     s.cloud_points = cloud_.size();
   }
-  if (options_.octomap.enabled) {
-    std::lock_guard<std::mutex> lock(octo_mu_);
+  if (octomap_) {
     s.octomap_nodes = octomap_->node_count();
-  }
-  {
-    std::lock_guard<std::mutex> lock(octomap_progress_mu_);
-    s.octomap_pending_scans = octomap_pushed_ - std::min(octomap_pushed_, octomap_done_);
+    s.octomap_pending_scans = octomap_->pending_scans();
+    s.total.octomap_ms = octomap_->cpu_ms();
   }
   return s;
 }

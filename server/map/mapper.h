@@ -7,8 +7,6 @@
 // until every integrated keyframe is in.
 #pragma once
 
-#include <atomic>
-#include <condition_variable>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -17,7 +15,6 @@
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "common/camera.h"
@@ -25,12 +22,11 @@
 #include "common/map_object.h"
 #include "common/se3.h"
 #include "common/tum_io.h"
-#include "common/bounded_queue.h"
 #include "server/map/keyframe_products.h"
+#include "server/map/live_octomap.h"
 #include "server/map/map_frame.h"
 #include "server/map/map_options.h"
 #include "server/map/object_map.h"
-#include "server/map/occupancy_map.h"
 #include "server/map/semantic_cloud.h"
 
 namespace loci::server {
@@ -130,7 +126,7 @@ class Mapper {
   // at the current poses (log-odds clamping makes taking scans back out inexact), while the old
   // one keeps answering and keyframes mapped meanwhile do not wait for it (their scans join the
   // new tree); FlushOctomap waits for it. `source` must stay valid until then.
-  using ProductSource = std::function<StatusOr<KeyframeProducts>(int64_t keyframe_id)>;
+  using ProductSource = LiveOctomap::ProductSource;
   struct KeyframePoseUpdate {
     int64_t keyframe_id = 0;
     SE3d T_base_kf = SE3d::Identity();
@@ -199,30 +195,6 @@ class Mapper {
   bool OctomapRebuilding() const;
 
  private:
-  struct OctomapScan {
-    int64_t keyframe_id = 0;
-    std::vector<Eigen::Vector3f> points_m;  // static points at the OctoMap resolution
-    Vec3d origin_m = Vec3d::Zero();         // camera centre
-  };
-  // A new tree from every keyframe's products at these poses (after a pose update).
-  struct OctomapRebuild {
-    std::vector<std::pair<int64_t, SE3d>> T_map_kf;  // keyframe id, pose; in id order
-    ProductSource source;
-    uint64_t generation = 0;  // of the pose update that requested it
-  };
-  static OctomapScan ThinScan(const std::vector<SemanticPoint>& static_points_m,
-                              const Vec3d& origin_m, double resolution_m);
-  // The OctoMap's two threads (mapper_octomap.cc). OctomapLoop inserts new keyframes' scans
-  // into the live tree; RebuildLoop builds a new tree after a pose update from every keyframe's
-  // products (seconds per 1000 keyframes) beside it, then adds the scans of the keyframes mapped
-  // since the update was requested, and swaps it in. New keyframes never wait for a rebuild.
-  void RebuildLoop();
-  void RebuildOctomap(const OctomapRebuild& rebuild);
-  // mu_ held, when a rebuild's keyframe list is taken: scans inserted from now on are also kept
-  // for the new tree.
-  void CollectScansForRebuild();
-  void RequestRebuild(OctomapRebuild rebuild);
-  void OctomapLoop();
   // A keyframe kept until the map frame is settled, to re-derive the map from.
   struct Settling {
     MapperKeyframe keyframe;
@@ -255,9 +227,6 @@ class Mapper {
   void FixFirstFrame(const MapperKeyframe& kf, const std::optional<Vec3d>& gravity_cam);
   void CollectFrameEvidence(const MapperKeyframe& kf, const std::optional<Vec3d>& gravity_cam,
                             const KeyframeProducts& products);
-  // Queues a scan for the OctoMap (call without mu_: the queue is bounded and its thread takes
-  // mu_).
-  void PushOctomap(OctomapScan scan);
   // Where a keyframe's pose goes in keyframe_poses_ (id order) / where it is (end() when
   // absent); mu_ held.
   std::vector<KeyframePose>::iterator KeyframePoseAfter(int64_t keyframe_id);
@@ -293,25 +262,9 @@ class Mapper {
   std::map<std::string, RobotPose> latest_poses_;
   MapperStats stats_;
 
-  mutable std::mutex octo_mu_;  // the OctoMap alone, so ray casting does not block queries
-  std::unique_ptr<OccupancyMap> octomap_;
-  BoundedQueue<OctomapScan> octomap_queue_{8};
-  // Scans inserted since a rebuild was requested, for the new tree (guarded by octo_mu_).
-  bool collecting_scans_ = false;
-  std::vector<OctomapScan> scans_since_request_;
-  std::mutex rebuild_mu_;
-  std::condition_variable rebuild_cv_;
-  std::optional<OctomapRebuild> rebuild_request_;  // the newest; guarded by rebuild_mu_
-  bool rebuild_stop_ = false;                       // guarded by rebuild_mu_
-  std::atomic<bool> rebuild_stopping_{false};       // a running rebuild stops (destructor)
-  uint64_t rebuilt_generation_ = 0;  // of the last rebuild swapped in; octomap_progress_mu_
-  std::thread rebuild_thread_;
-  mutable std::mutex octomap_progress_mu_;
-  mutable std::condition_variable octomap_progress_cv_;
-  uint64_t octomap_pushed_ = 0;  // guarded by octomap_progress_mu_
-  uint64_t octomap_done_ = 0;    // guarded by octomap_progress_mu_
-  std::atomic<uint64_t> octomap_generation_{0};  // of the latest requested rebuild
-  std::thread octomap_thread_;
+  // The OctoMap on its own threads; null when options_.octomap.enabled is false. Scans are
+  // pushed without mu_ held (the queue is bounded).
+  std::unique_ptr<LiveOctomap> octomap_;
 };
 
 }  // namespace loci::server

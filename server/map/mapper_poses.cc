@@ -55,7 +55,7 @@ StatusOr<size_t> Mapper::UpdateKeyframePoses(const std::vector<KeyframePoseUpdat
     ++moved;
   }
   std::vector<ObjectEventOut> events;
-  std::optional<OctomapRebuild> rebuild;
+  std::optional<LiveOctomap::Rebuild> rebuild;
   {
     std::lock_guard<std::mutex> lock(mu_);
     // A move in parts merges once, after its last part: a part moved onto objects that the rest
@@ -67,22 +67,22 @@ StatusOr<size_t> Mapper::UpdateKeyframePoses(const std::vector<KeyframePoseUpdat
       moved_since_merge_.clear();
     }
     AppendEvents(changes, &events);
-    if (options_.octomap.enabled && rebuild_octomap && moved > 0) {
+    if (octomap_ && rebuild_octomap && moved > 0) {
       if (OctomapOutOfTolerance()) {
-        rebuild = OctomapRebuild{{}, source, ++octomap_generation_};
+        // Keyframes mapped from here on are not in the list: their scans join the new tree.
+        rebuild = LiveOctomap::Rebuild{{}, source, octomap_->BeginRebuild()};
         rebuild->T_map_kf.reserve(keyframe_poses_.size());
         for (KeyframePose& k : keyframe_poses_) {
           rebuild->T_map_kf.emplace_back(k.keyframe_id, T_map_base_ * k.T_base_kf);
           k.T_base_kf_octomap = k.T_base_kf;
         }
-        CollectScansForRebuild();  // keyframes mapped from here on are not in the list
         ++stats_.octomap_rebuilds;
       } else {
         ++stats_.octomap_rebuilds_skipped;
       }
     }
   }
-  if (rebuild) RequestRebuild(std::move(*rebuild));
+  if (rebuild) octomap_->RequestRebuild(std::move(*rebuild));
   if (listener_ && !events.empty()) listener_(events);
   if (!status.ok()) return status;
   return moved;
