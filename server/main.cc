@@ -193,28 +193,41 @@ std::string WriterOf(const loci::server::ServerOptions& options) {
   return holder.ok() && holder->has_value() ? (*holder)->address : "";
 }
 
+// The HTTP API and viewer over `grpc`'s Query calls (null with --http off), and the viewer
+// folder it serves ("" = none) in *viewer_served.
+loci::StatusOr<std::unique_ptr<loci::server::HttpApi>> StartHttp(
+    const loci::server::ServerOptions& options, const Flags& flags, loci::server::GrpcServer& grpc,
+    std::string* viewer_served) {
+  viewer_served->clear();
+  if (options.http == "off") return std::unique_ptr<loci::server::HttpApi>();
+  const loci::server::HttpOptions http_options{.viewer_dir = ViewerDir(flags.viewer_dir),
+                                               .max_event_clients = options.max_event_clients};
+  *viewer_served = http_options.viewer_dir;
+  return loci::server::HttpApi::Start(grpc.query_service(), options.http, &grpc.auth(), flags.tls,
+                                      http_options);
+}
+
 // `--read-only`: a query server over the map the site's writer publishes, until a signal.
-int ServeReadOnly(Setup& setup, const loci::server::TlsFiles& tls, const sigset_t& signals) {
+int ServeReadOnly(Setup& setup, const Flags& flags, const sigset_t& signals) {
   const loci::server::ServerOptions& options = setup.options;
-  if (options.http != "off") {
-    return Fail(absl::InvalidArgumentError(
-                    "a read-only query server has no HTTP API yet: pass --http off and use gRPC"),
-                2);
-  }
   std::string description;
   auto store = loci::server::OpenReadOnlyStore(options, &description);
   if (!store.ok()) return Fail(store.status(), 1);
-  loci::server::ReplicaMap replica(*store);
+  loci::server::ReplicaMap replica(*store, options.max_watchers);
   auto grpc = loci::server::GrpcServer::StartReadOnly(
       &replica, store->get(), options.listen, options.max_message_mb,
       std::make_shared<loci::server::QueryAdapter>(std::move(setup.query_options)),
-      [options] { return WriterOf(options); }, setup.auth, tls);
+      [options] { return WriterOf(options); }, setup.auth, flags.tls);
   if (!grpc.ok()) return Fail(grpc.status(), 1);
-  AnnounceAddresses(options, (*grpc)->port(), nullptr, "");
+  std::string viewer_served;
+  auto http_api = StartHttp(options, flags, **grpc, &viewer_served);
+  if (!http_api.ok()) return Fail(http_api.status(), 1);
+  AnnounceAddresses(options, (*grpc)->port(), http_api->get(), viewer_served);
   spdlog::info("loci-server: {}; loading the published map", description);
   int sig = 0;
   sigwait(&signals, &sig);
   spdlog::info("signal {}: shutting down", sig);
+  if (*http_api) (*http_api)->Shutdown();
   (*grpc)->Shutdown();
   return 0;
 }
@@ -240,7 +253,7 @@ int main(int argc, char** argv) {
   if (!setup.ok()) return Fail(setup.status(), 2);
   const loci::server::ServerOptions& options = setup->options;
   const sigset_t signals = BlockShutdownSignals();
-  if (flags.read_only) return ServeReadOnly(*setup, flags.tls, signals);
+  if (flags.read_only) return ServeReadOnly(*setup, flags, signals);
 
   auto detection = loci::server::MakeServerDetection(
       options, flags.detector_config.empty() ? flags.config_path : flags.detector_config);
@@ -267,17 +280,10 @@ int main(int argc, char** argv) {
       std::make_shared<loci::server::QueryAdapter>(std::move(setup->query_options)), setup->auth,
       flags.tls);
   if (!grpc.ok()) return Fail(grpc.status(), 1);
-  std::unique_ptr<loci::server::HttpApi> http_api;
   std::string viewer_served;
-  if (options.http != "off") {
-    const loci::server::HttpOptions http_options{.viewer_dir = ViewerDir(flags.viewer_dir),
-                                                 .max_event_clients = options.max_event_clients};
-    viewer_served = http_options.viewer_dir;
-    auto h = loci::server::HttpApi::Start((*grpc)->query_service(), options.http, &(*grpc)->auth(),
-                                          flags.tls, http_options);
-    if (!h.ok()) return Fail(h.status(), 1);
-    http_api = std::move(*h);
-  }
+  auto http = StartHttp(options, flags, **grpc, &viewer_served);
+  if (!http.ok()) return Fail(http.status(), 1);
+  std::unique_ptr<loci::server::HttpApi> http_api = std::move(*http);
   AnnounceAddresses(options, (*grpc)->port(), http_api.get(), viewer_served);
   spdlog::info("loci-server: {}; loading the map", opened->description);
   if (opened->lease) {

@@ -3,6 +3,7 @@
 #include "common/time.h"
 #include "proto/json.h"
 #include "server/http/http_reply.h"
+#include "server/service/services.h"
 
 // Last: httplib pulls <resolv.h>, whose `_res` macro breaks Eigen headers included after it.
 #include <httplib.h>

@@ -10,7 +10,7 @@
 #include <chrono>
 #include <memory>
 
-#include "server/service/services.h"
+#include "server/service/query_api.h"
 
 namespace httplib {
 struct Request;
@@ -22,7 +22,7 @@ namespace loci::server {
 
 class EventStreams {
  public:
-  EventStreams(QueryService* service, int max_clients) : service_(service), max_(max_clients) {}
+  EventStreams(QueryApi* service, int max_clients) : service_(service), max_(max_clients) {}
 
   void Serve(const httplib::Request& req, httplib::Response& res);
   // Ends every open stream within one poll interval (the HTTP server's shutdown).
@@ -38,7 +38,7 @@ class EventStreams {
   // Writes events to `sink` until the client leaves or Stop(); false when a write failed.
   bool Pump(ObjectEventQueue& queue, httplib::DataSink& sink);
 
-  QueryService* const service_;
+  QueryApi* const service_;
   const int max_;
   std::atomic<int> open_{0};
   std::atomic<bool> stopping_{false};

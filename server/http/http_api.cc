@@ -40,7 +40,7 @@ bool ReadBoolParam(const httplib::Request& req, httplib::Response& res, const ch
   return false;
 }
 
-void HandleAsk(QueryService& service, const httplib::Request& req, httplib::Response& res) {
+void HandleAsk(QueryApi& service, const httplib::Request& req, httplib::Response& res) {
   if (!req.has_param("q")) {
     return SendInvalid(res,
                        "missing query parameter q (the question), e.g. /api/ask?q=where+is+the+book");
@@ -52,7 +52,7 @@ void HandleAsk(QueryService& service, const httplib::Request& req, httplib::Resp
   SendGrpc(res, service.Ask(ask, &resp), resp);
 }
 
-void HandleObjects(QueryService& service, const httplib::Request& req, httplib::Response& res) {
+void HandleObjects(QueryApi& service, const httplib::Request& req, httplib::Response& res) {
   loci::v1::FindObjectsRequest find;
   for (const std::string& c : ParamList(req, "class")) find.add_classes(c);
   if (req.has_param("min_confidence")) {
@@ -82,7 +82,7 @@ void HandleObjects(QueryService& service, const httplib::Request& req, httplib::
   SendGrpc(res, service.FindObjects(find, &resp), resp);
 }
 
-void HandleObject(QueryService& service, const httplib::Request& req, httplib::Response& res) {
+void HandleObject(QueryApi& service, const httplib::Request& req, httplib::Response& res) {
   loci::v1::GetObjectRequest get;
   int64_t id = 0;
   if (!ParseInt(req.matches[1].str(), &id)) {
@@ -96,7 +96,7 @@ void HandleObject(QueryService& service, const httplib::Request& req, httplib::R
   SendGrpc(res, service.GetObject(get, &resp), resp);
 }
 
-void HandleCloud(QueryService& service, const httplib::Request& req, httplib::Response& res) {
+void HandleCloud(QueryApi& service, const httplib::Request& req, httplib::Response& res) {
   loci::v1::GetCloudRequest get;
   double voxel_m = kDefaultCloudVoxelM;
   if (req.has_param("voxel_m") &&
@@ -109,7 +109,7 @@ void HandleCloud(QueryService& service, const httplib::Request& req, httplib::Re
   SendGrpc(res, service.GetCloud(get, &resp), resp);
 }
 
-void HandleTrajectories(QueryService& service, const httplib::Request& req,
+void HandleTrajectories(QueryApi& service, const httplib::Request& req,
                         httplib::Response& res) {
   loci::v1::GetTrajectoriesRequest get;
   for (const std::string& r : ParamList(req, "robot")) get.add_robots(r);
@@ -119,7 +119,7 @@ void HandleTrajectories(QueryService& service, const httplib::Request& req,
 
 }  // namespace
 
-StatusOr<std::unique_ptr<HttpApi>> HttpApi::Start(QueryService* service,
+StatusOr<std::unique_ptr<HttpApi>> HttpApi::Start(QueryApi* service,
                                                   const std::string& listen,
                                                   const Authorizer* auth, const TlsFiles& tls,
                                                   const HttpOptions& options) {
@@ -158,7 +158,7 @@ StatusOr<std::unique_ptr<HttpApi>> HttpApi::Start(QueryService* service,
 }
 
 StatusOr<std::unique_ptr<HttpApi>> HttpApi::Attach(std::unique_ptr<httplib::Server> http,
-                                                   QueryService* service,
+                                                   QueryApi* service,
                                                    const Authorizer* auth,
                                                    const HttpOptions& options) {
   if (!options.viewer_dir.empty() && !HasViewer(options.viewer_dir)) {
@@ -224,9 +224,9 @@ void HttpApi::Route() {
       });
 }
 
-// The request/response endpoints, each one QueryService call.
+// The request/response endpoints, each one QueryApi call.
 void HttpApi::RouteMap() {
-  using Handler = void (*)(QueryService&, const httplib::Request&, httplib::Response&);
+  using Handler = void (*)(QueryApi&, const httplib::Request&, httplib::Response&);
   const std::pair<const char*, Handler> routes[] = {
       {"/api/ask", HandleAsk},
       {"/api/objects", HandleObjects},

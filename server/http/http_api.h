@@ -1,5 +1,5 @@
 // JSON over HTTP for the Query service (cpp-httplib), on its own port next to gRPC, and the web
-// viewer. Every /api endpoint calls the same QueryService method as gRPC and prints its response
+// viewer. Every /api endpoint calls the same QueryApi method as gRPC and prints its response
 // message with the proto3 JSON mapping (proto/json.h), so HTTP and gRPC answers agree.
 //
 //   GET /api/ask?q=QUESTION[&robot=NAME]   AskResponse (400 for a question it cannot take)
@@ -34,7 +34,8 @@
 #include <thread>
 
 #include "common/status.h"
-#include "server/service/services.h"
+#include "server/service/auth.h"
+#include "server/service/query_api.h"
 
 namespace httplib {
 class Server;
@@ -54,7 +55,7 @@ class HttpApi {
   // Binds `listen` (HOST:PORT, port 0 = any free port) and serves on a background thread;
   // HTTPS when tls.cert_file is set. `auth` (default: no tokens) outlives the API.
   // INVALID_ARGUMENT when options.viewer_dir is set but holds no index.html.
-  static StatusOr<std::unique_ptr<HttpApi>> Start(QueryService* service, const std::string& listen,
+  static StatusOr<std::unique_ptr<HttpApi>> Start(QueryApi* service, const std::string& listen,
                                                   const Authorizer* auth = nullptr,
                                                   const TlsFiles& tls = {},
                                                   const HttpOptions& options = {});
@@ -62,7 +63,7 @@ class HttpApi {
   // is bound and no thread runs. For in-process drivers that hand request bytes to httplib's
   // request processing (tests/fuzz/fuzz_http.cc); Start() is Attach plus a listening socket.
   static StatusOr<std::unique_ptr<HttpApi>> Attach(std::unique_ptr<httplib::Server> http,
-                                                   QueryService* service,
+                                                   QueryApi* service,
                                                    const Authorizer* auth = nullptr,
                                                    const HttpOptions& options = {});
   ~HttpApi();  // stops serving
@@ -78,7 +79,7 @@ class HttpApi {
   void RouteMap();
   void Harden();
 
-  QueryService* service_ = nullptr;
+  QueryApi* service_ = nullptr;
   const Authorizer* auth_ = nullptr;
   std::unique_ptr<EventStreams> events_;  // outlives http_ (declared first)
   std::unique_ptr<httplib::Server> http_;

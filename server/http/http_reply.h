@@ -25,7 +25,7 @@ int HttpStatus(absl::StatusCode code);
 // A failed status as HTTP: its status code and {"error": {"code", "message"}}.
 void SendError(httplib::Response& res, const Status& status);
 void SendInvalid(httplib::Response& res, const std::string& message);
-// A QueryService call's result: the message as proto3 JSON, or the error.
+// A QueryApi call's result: the message as proto3 JSON, or the error.
 void SendGrpc(httplib::Response& res, const grpc::Status& s,
               const google::protobuf::Message& message);
 // The status behind an HTTP error reply that has no body yet (httplib's own 400, 413, 414 ...).

@@ -2,10 +2,13 @@
 
 #include <spdlog/spdlog.h>
 
+#include <utility>
+
 #include "absl/strings/str_cat.h"
 #include "common/thread_name.h"
 #include "common/time.h"
 #include "server/runtime/proto_convert.h"
+#include "server/runtime/replica_changes.h"
 
 namespace loci::server {
 namespace {
@@ -59,8 +62,9 @@ StatusOr<ReplicaSnapshot> SnapshotOf(PublishedMap published) {
   return s;
 }
 
-ReplicaMap::ReplicaMap(std::shared_ptr<PostgresStore> store)
-    : store_(std::move(store)), snapshot_(std::make_shared<ReplicaSnapshot>()) {
+ReplicaMap::ReplicaMap(std::shared_ptr<PostgresStore> store, int max_watchers)
+    : store_(std::move(store)), snapshot_(std::make_shared<ReplicaSnapshot>()),
+      events_(max_watchers) {
   thread_ = NamedThread("loci-replica", [this] { Run(); });
 }
 
@@ -68,6 +72,7 @@ ReplicaMap::~ReplicaMap() {
   stop_ = true;
   stop_cv_.notify_all();
   thread_.join();
+  events_.CloseAll();
 }
 
 std::shared_ptr<const ReplicaSnapshot> ReplicaMap::Snapshot() const {
@@ -103,11 +108,14 @@ Status ReplicaMap::Follow(std::chrono::milliseconds wait) {
   LOCI_ASSIGN_OR_RETURN(PublishedMap published, store_->ReadPublished());
   LOCI_ASSIGN_OR_RETURN(ReplicaSnapshot snapshot, SnapshotOf(std::move(published)));
   auto next = std::make_shared<const ReplicaSnapshot>(std::move(snapshot));
+  std::shared_ptr<const ReplicaSnapshot> before;
   {
     std::lock_guard<std::mutex> lock(mu_);
-    snapshot_ = std::move(next);
+    before = std::exchange(snapshot_, next);
   }
   ++reloads_;
+  // The first load is the map as it is, not a change; only this thread swaps snapshots.
+  if (loaded >= 0) events_.Publish(ChangesBetween(*before, *next));
   return absl::OkStatus();
 }
 

@@ -2,6 +2,7 @@
 // publishes (MapStore::Publish, server/runtime/map_publisher.h). It loads them at start and again
 // whenever the writer publishes (PostgresStore::WaitPublished: LISTEN, so within milliseconds of
 // the commit), on its own thread; queries read immutable snapshots and never wait for a reload.
+// Each reload's changes (replica_changes.h) go to the watchers of events().
 #pragma once
 
 #include <atomic>
@@ -19,6 +20,7 @@
 #include "common/status.h"
 #include "server/map/mapper.h"
 #include "server/postgres/postgres_store.h"
+#include "server/runtime/event_fanout.h"
 #include "server/runtime/readiness.h"
 
 namespace loci::server {
@@ -42,8 +44,9 @@ StatusOr<ReplicaSnapshot> SnapshotOf(PublishedMap published);
 
 class ReplicaMap {
  public:
-  // Starts following `store`'s site; ready once the first read of it succeeded.
-  explicit ReplicaMap(std::shared_ptr<PostgresStore> store);
+  // Starts following `store`'s site; ready once the first read of it succeeded. At most
+  // `max_watchers` subscribers of events() (server.max_watchers).
+  explicit ReplicaMap(std::shared_ptr<PostgresStore> store, int max_watchers = 64);
   ~ReplicaMap();
   ReplicaMap(const ReplicaMap&) = delete;
   ReplicaMap& operator=(const ReplicaMap&) = delete;
@@ -53,6 +56,8 @@ class ReplicaMap {
   const Readiness& readiness() const { return readiness_; }
   Readiness& readiness() { return readiness_; }
   uint64_t reloads() const { return reloads_; }
+  // The object changes of every publication loaded after the first (closed at destruction).
+  EventFanout& events() { return events_; }
   const std::string& site() const { return store_->site(); }
 
  private:
@@ -64,6 +69,7 @@ class ReplicaMap {
   Readiness readiness_;
   mutable std::mutex mu_;
   std::shared_ptr<const ReplicaSnapshot> snapshot_;  // guarded by mu_
+  EventFanout events_;
   std::atomic<uint64_t> reloads_{0};
   std::atomic<bool> stop_{false};
   std::mutex stop_mu_;

@@ -50,8 +50,10 @@ StatusOr<std::unique_ptr<GrpcServer>> GrpcServer::StartReadOnly(
   std::unique_ptr<GrpcServer> g(new GrpcServer());
   g->auth_ = std::move(auth);
   g->services_.push_back(std::make_unique<ReadOnlyMappingService>(map->site(), writer));
-  g->services_.push_back(std::make_unique<ReadOnlyQueryService>(map, std::move(engine), &g->auth_,
-                                                                std::move(writer), store));
+  auto query = std::make_unique<ReadOnlyQueryService>(map, std::move(engine), &g->auth_,
+                                                      std::move(writer), store);
+  g->query_ = query.get();
+  g->services_.push_back(std::move(query));
   LOCI_RETURN_IF_ERROR(g->Serve(listen, max_message_mb, tls));
   g->ReportHealth([map](std::function<void()> fn) { map->readiness().OnReady(std::move(fn)); });
   return g;

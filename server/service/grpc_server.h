@@ -37,8 +37,8 @@ class GrpcServer {
   ~GrpcServer();
 
   int port() const { return port_; }
-  // The Query service of a mapping server (the HTTP API calls it); a read-only one has none.
-  QueryService* query_service() { return query_; }
+  // The Query service's calls for the HTTP API: the mapping server's or the read-only one's.
+  QueryApi* query_service() { return query_; }
   const Authorizer& auth() const { return auth_; }
   // Stops accepting calls and ends the running ones (deadline 2 s).
   void Shutdown();
@@ -58,7 +58,7 @@ class GrpcServer {
   std::shared_ptr<HealthHook> health_;
   Authorizer auth_;
   std::vector<std::unique_ptr<grpc::Service>> services_;
-  QueryService* query_ = nullptr;  // in services_, on a mapping server
+  QueryApi* query_ = nullptr;  // in services_
   std::unique_ptr<grpc::Server> server_;
   int port_ = 0;
   bool shut_down_ = false;

@@ -1,7 +1,8 @@
 // gRPC services of a read-only query server (`loci-server --read-only`): the Query service over
 // the map a site's writer publishes (server/runtime/replica_map.h), and a Mapping service that
-// sends robots to that writer. Objects, questions and stats are answered here; the cloud, the
-// OctoMap, trajectories and object events stay with the writer, which holds them.
+// sends robots to that writer. Objects, questions, stats and object events (the changes between
+// consecutive publications, replica_changes.h) are answered here; the cloud, the OctoMap and
+// trajectories stay with the writer, which holds them.
 #pragma once
 
 #include <functional>
@@ -12,6 +13,7 @@
 #include "loci/v1/query.grpc.pb.h"
 #include "server/runtime/replica_map.h"
 #include "server/service/auth.h"
+#include "server/service/query_api.h"
 #include "server/service/query_adapter.h"
 
 namespace loci::server {
@@ -36,25 +38,39 @@ class PublishedSource final : public QueryMapSource {
   std::shared_ptr<const ReplicaSnapshot> s_;
 };
 
-class ReadOnlyQueryService final : public loci::v1::Query::Service {
+class ReadOnlyQueryService final : public loci::v1::Query::Service, public QueryApi {
  public:
-  // All outlive the service.
-  ReadOnlyQueryService(const ReplicaMap* map, std::shared_ptr<QueryAdapter> engine,
+  // All outlive the service. Every gRPC call needs a caller that may read (auth.h); the HTTP
+  // API authenticates its own requests and calls the QueryApi methods.
+  ReadOnlyQueryService(ReplicaMap* map, std::shared_ptr<QueryAdapter> engine,
                        const Authorizer* auth, WriterAddress writer, MapStore* store)
       : map_(map), engine_(std::move(engine)), auth_(auth), writer_(std::move(writer)),
         store_(store) {}
+
+  grpc::Status Ask(const loci::v1::AskRequest& req, loci::v1::AskResponse* resp) override;
+  grpc::Status FindObjects(const loci::v1::FindObjectsRequest& req,
+                           loci::v1::FindObjectsResponse* resp) override;
+  // Without the cloud and keyframes (with_cloud: FAILED_PRECONDITION naming the writer).
+  grpc::Status GetObject(const loci::v1::GetObjectRequest& req,
+                         loci::v1::GetObjectResponse* resp) override;
+  // Sessions, keyframes and database size from the store; objects from the published map.
+  grpc::Status GetStats(loci::v1::GetStatsResponse* resp) override;
+  // FAILED_PRECONDITION naming the writer: these are served where the map is built.
+  grpc::Status GetCloud(const loci::v1::GetCloudRequest& req,
+                        loci::v1::GetCloudResponse* resp) override;
+  grpc::Status GetTrajectories(const loci::v1::GetTrajectoriesRequest& req,
+                               loci::v1::GetTrajectoriesResponse* resp) override;
+  Status SubscribeObjects(std::shared_ptr<ObjectEventQueue> queue) override;
+  void UnsubscribeObjects(const std::shared_ptr<ObjectEventQueue>& queue) override;
 
   grpc::Status Ask(grpc::ServerContext* ctx, const loci::v1::AskRequest* req,
                    loci::v1::AskResponse* resp) override;
   grpc::Status FindObjects(grpc::ServerContext* ctx, const loci::v1::FindObjectsRequest* req,
                            loci::v1::FindObjectsResponse* resp) override;
-  // Without the cloud and keyframes (with_cloud: FAILED_PRECONDITION naming the writer).
   grpc::Status GetObject(grpc::ServerContext* ctx, const loci::v1::GetObjectRequest* req,
                          loci::v1::GetObjectResponse* resp) override;
-  // Sessions, keyframes and database size from the store; objects from the published map.
   grpc::Status GetStats(grpc::ServerContext* ctx, const loci::v1::GetStatsRequest* req,
                         loci::v1::GetStatsResponse* resp) override;
-  // FAILED_PRECONDITION naming the writer: these are served where the map is built.
   grpc::Status GetCloud(grpc::ServerContext* ctx, const loci::v1::GetCloudRequest* req,
                         loci::v1::GetCloudResponse* resp) override;
   grpc::Status GetOctomap(grpc::ServerContext* ctx, const loci::v1::GetOctomapRequest* req,
@@ -62,16 +78,16 @@ class ReadOnlyQueryService final : public loci::v1::Query::Service {
   grpc::Status GetTrajectories(grpc::ServerContext* ctx,
                                const loci::v1::GetTrajectoriesRequest* req,
                                loci::v1::GetTrajectoriesResponse* resp) override;
+  // The changes of each publication loaded after the call (ReplicaMap::events).
   grpc::Status WatchObjects(grpc::ServerContext* ctx, const loci::v1::WatchObjectsRequest* req,
                             grpc::ServerWriter<loci::v1::ObjectEvent>* writer) override;
 
  private:
-  // The caller may read and the map is loaded: the snapshot to answer from.
-  grpc::Status Begin(const grpc::ServerContext& ctx,
-                     std::shared_ptr<const ReplicaSnapshot>* snapshot) const;
-  grpc::Status AtWriter(const grpc::ServerContext& ctx, const std::string& what) const;
+  // The map is loaded: the snapshot to answer from.
+  grpc::Status Loaded(std::shared_ptr<const ReplicaSnapshot>* snapshot) const;
+  grpc::Status AtWriter(const std::string& what) const;
 
-  const ReplicaMap* const map_;
+  ReplicaMap* const map_;
   const std::shared_ptr<QueryAdapter> engine_;
   const Authorizer* const auth_;
   const WriterAddress writer_;

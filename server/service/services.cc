@@ -312,18 +312,25 @@ grpc::Status QueryService::WatchObjects(grpc::ServerContext* ctx,
                                         grpc::ServerWriter<loci::v1::ObjectEvent>* writer) {
   if (grpc::Status s = AllowRead(*ctx); !s.ok()) return s;
   if (Status ready = server_->CheckReady(); !ready.ok()) return ToGrpc(ready);
+  return StreamObjectEvents(*this, ctx, writer);
+}
+
+grpc::Status StreamObjectEvents(QueryApi& api, grpc::ServerContext* ctx,
+                                grpc::ServerWriter<loci::v1::ObjectEvent>* writer) {
   auto queue = std::make_shared<ObjectEventQueue>(1024);
-  if (Status s = server_->events().Subscribe(queue); !s.ok()) return ToGrpc(s);
-  // Initial metadata tells the client that the watch is registered: every later event comes.
+  if (Status s = api.SubscribeObjects(queue); !s.ok()) return ToGrpc(s);
   writer->SendInitialMetadata();
   while (!ctx->IsCancelled()) {
     std::optional<ObjectEventOut> e = queue->PopFor(std::chrono::milliseconds(200));
-    if (!e) continue;
+    if (!e) {
+      if (queue->closed()) break;
+      continue;
+    }
     loci::v1::ObjectEvent msg;
     ToProto(*e, NowNs(), &msg);
     if (!writer->Write(msg)) break;
   }
-  server_->events().Unsubscribe(queue);
+  api.UnsubscribeObjects(queue);
   return grpc::Status::OK;
 }
 

@@ -9,6 +9,7 @@
 #include "loci/v1/mapping.grpc.pb.h"
 #include "loci/v1/query.grpc.pb.h"
 #include "server/service/auth.h"
+#include "server/service/query_api.h"
 #include "server/runtime/map_server.h"
 #include "server/service/query_engine.h"
 
@@ -45,7 +46,7 @@ class MappingService final : public loci::v1::Mapping::Service {
   const Authorizer* auth_;
 };
 
-class QueryService final : public loci::v1::Query::Service {
+class QueryService final : public loci::v1::Query::Service, public QueryApi {
  public:
   // `engine` answers Ask (null: Ask is UNIMPLEMENTED). Both are fixed before serving starts.
   // Every gRPC call needs a caller that may read (auth.h); the HTTP API authenticates its own
@@ -53,18 +54,18 @@ class QueryService final : public loci::v1::Query::Service {
   QueryService(MapServer* server, std::shared_ptr<QueryEngine> engine, const Authorizer* auth)
       : server_(server), engine_(std::move(engine)), auth_(auth) {}
 
-  grpc::Status Ask(const loci::v1::AskRequest& req, loci::v1::AskResponse* resp);
+  grpc::Status Ask(const loci::v1::AskRequest& req, loci::v1::AskResponse* resp) override;
   grpc::Status FindObjects(const loci::v1::FindObjectsRequest& req,
-                           loci::v1::FindObjectsResponse* resp);
-  grpc::Status GetObject(const loci::v1::GetObjectRequest& req, loci::v1::GetObjectResponse* resp);
-  grpc::Status GetStats(loci::v1::GetStatsResponse* resp);
-  grpc::Status GetCloud(const loci::v1::GetCloudRequest& req, loci::v1::GetCloudResponse* resp);
+                           loci::v1::FindObjectsResponse* resp) override;
+  grpc::Status GetObject(const loci::v1::GetObjectRequest& req,
+                         loci::v1::GetObjectResponse* resp) override;
+  grpc::Status GetStats(loci::v1::GetStatsResponse* resp) override;
+  grpc::Status GetCloud(const loci::v1::GetCloudRequest& req,
+                        loci::v1::GetCloudResponse* resp) override;
   grpc::Status GetTrajectories(const loci::v1::GetTrajectoriesRequest& req,
-                               loci::v1::GetTrajectoriesResponse* resp);
-  // The object events WatchObjects streams, for other transports (the HTTP event stream): the
-  // same fan-out, RESOURCE_EXHAUSTED beyond server.max_watchers subscribers.
-  Status SubscribeObjects(std::shared_ptr<ObjectEventQueue> queue);
-  void UnsubscribeObjects(const std::shared_ptr<ObjectEventQueue>& queue);
+                               loci::v1::GetTrajectoriesResponse* resp) override;
+  Status SubscribeObjects(std::shared_ptr<ObjectEventQueue> queue) override;
+  void UnsubscribeObjects(const std::shared_ptr<ObjectEventQueue>& queue) override;
 
   grpc::Status Ask(grpc::ServerContext* ctx, const loci::v1::AskRequest* req,
                    loci::v1::AskResponse* resp) override;
@@ -100,6 +101,12 @@ class QueryService final : public loci::v1::Query::Service {
   const std::shared_ptr<QueryEngine> engine_;
   const Authorizer* const auth_;
 };
+
+// WatchObjects on `api`'s events: subscribes, sends the initial metadata (the watch is
+// registered: every later event comes), then writes each event until the call is cancelled, the
+// client is gone or the event queue closes (the server shuts down).
+grpc::Status StreamObjectEvents(QueryApi& api, grpc::ServerContext* ctx,
+                                grpc::ServerWriter<loci::v1::ObjectEvent>* writer);
 
 // An object event as WatchObjects sends it, stamped t_ns (server wall time).
 void ToProto(const ObjectEventOut& in, int64_t t_ns, loci::v1::ObjectEvent* out);

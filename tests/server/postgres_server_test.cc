@@ -9,14 +9,18 @@
 #include <sys/wait.h>
 
 #include <chrono>
+#include <condition_variable>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <mutex>
 #include <set>
 #include <thread>
 
+#include "proto/json.h"
 #include "server/postgres/postgres_store.h"
+#include "server/runtime/proto_convert.h"
 #include "server/runtime/map_server.h"
 #include "server/runtime/server_detector.h"
 #include "server/service/grpc_server.h"
@@ -28,6 +32,9 @@
 #include "tests/server/scene_stream.h"
 #include "tests/support/server_process.h"
 #include "tests/support/temp_postgres.h"
+
+// Last: httplib pulls <resolv.h>, whose `_res` macro breaks Eigen headers included after it.
+#include <httplib.h>
 
 namespace loci::server {
 namespace {
@@ -388,16 +395,74 @@ bool SameObjects(const std::map<int64_t, std::pair<std::string, Vec3d>>& a,
   return true;
 }
 
+// A WatchObjects stream read on its own thread: every event, and a wait for the next ones.
+class EventLog {
+ public:
+  explicit EventLog(loci::v1::Query::Stub* stub) : reader_(stub->WatchObjects(&ctx_, {})) {
+    reader_->WaitForInitialMetadata();  // sent once the watch is registered
+    thread_ = std::thread([this] {
+      loci::v1::ObjectEvent e;
+      while (reader_->Read(&e)) {
+        std::lock_guard<std::mutex> lock(mu_);
+        events_.push_back(e);
+        cv_.notify_all();
+      }
+    });
+  }
+  ~EventLog() {
+    ctx_.TryCancel();
+    thread_.join();
+  }
+  // Once more than `seen` events arrived, or after `timeout`: how many there are.
+  size_t WaitBeyond(size_t seen, std::chrono::seconds timeout) {
+    std::unique_lock<std::mutex> lock(mu_);
+    cv_.wait_for(lock, timeout, [&] { return events_.size() > seen; });
+    return events_.size();
+  }
+  std::vector<loci::v1::ObjectEvent> events() {
+    std::lock_guard<std::mutex> lock(mu_);
+    return events_;
+  }
+
+ private:
+  grpc::ClientContext ctx_;
+  std::unique_ptr<grpc::ClientReader<loci::v1::ObjectEvent>> reader_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::vector<loci::v1::ObjectEvent> events_;  // guarded by mu_
+  std::thread thread_;
+};
+
+// The map the events build from an empty one: the objects of CREATED, UPDATED and MOVED, less
+// the REMOVED.
+std::map<int64_t, std::pair<std::string, Vec3d>> Replayed(
+    const std::vector<loci::v1::ObjectEvent>& events) {
+  std::map<int64_t, std::pair<std::string, Vec3d>> out;
+  for (const loci::v1::ObjectEvent& e : events) {
+    const MapObject o = FromProto(e.object());
+    if (e.kind() == loci::v1::ObjectEvent::REMOVED) {
+      out.erase(o.id);
+    } else {
+      out[o.id] = {o.class_name, o.centroid_m};
+    }
+  }
+  return out;
+}
+
 // A read-only query server of a site answers from the map its writer publishes: the same
-// objects and answers as the writer once the writer's map has settled, the writer's address for
-// robots and for what only the writer serves, and the last map still after the writer stopped.
+// objects and answers as the writer once the writer's map has settled, over gRPC and HTTP;
+// WatchObjects streams each publication's changes, which rebuild the same map, each object
+// created once; the writer's address for robots and for what only the writer serves; the last
+// map still after the writer stopped.
 TEST_F(PostgresServer, ReadOnlyServerAnswersFromTheWritersPublishedMap) {
   ServerProcess writer(Process("lab"));
   ASSERT_GT(writer.port(), 0);
   ServerProcessOptions replica_options = Process("lab");
-  replica_options.extra_args.push_back("--read-only");
+  replica_options.extra_args.insert(replica_options.extra_args.end(),
+                                    {"--read-only", "--http", "127.0.0.1:0"});
   ServerProcess replica(replica_options);  // returns once it is SERVING
   ASSERT_GT(replica.port(), 0);
+  ASSERT_GT(replica.http_port(), 0);
   ASSERT_TRUE(replica.serving().ok()) << replica.serving();
   auto writer_channel = grpc::CreateChannel(writer.address(), grpc::InsecureChannelCredentials());
   auto replica_channel =
@@ -405,6 +470,7 @@ TEST_F(PostgresServer, ReadOnlyServerAnswersFromTheWritersPublishedMap) {
   auto writer_query = loci::v1::Query::NewStub(writer_channel);
   auto replica_query = loci::v1::Query::NewStub(replica_channel);
   EXPECT_TRUE(AllObjects(replica_query.get()).empty());
+  EventLog watch(replica_query.get());
   {  // Robots are sent to the writer.
     auto mapping = loci::v1::Mapping::NewStub(replica_channel);
     grpc::ClientContext ctx;
@@ -422,10 +488,12 @@ TEST_F(PostgresServer, ReadOnlyServerAnswersFromTheWritersPublishedMap) {
                   testing::StreamAcked(mapping.get(), session, *keyframes_, 0, Size()).size()),
               Size());
   }
-  // The writer publishes about once a second while its map changes, and the read-only server
-  // reloads on each publication; it has no push signal of its own, so the test asks both until
-  // they agree (the writer's map settles once its queue drained).
+  // The writer publishes about once a second while its map changes; each publication the
+  // read-only server loads is an event batch, the signal to compare again (the writer's map
+  // settles once its queue drained; a last publication without object changes sends nothing,
+  // hence the 2 s bound on a wait).
   std::map<int64_t, std::pair<std::string, Vec3d>> on_writer, on_replica;
+  size_t seen = 0;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   while (std::chrono::steady_clock::now() < deadline) {
     on_writer = AllObjects(writer_query.get());
@@ -435,11 +503,24 @@ TEST_F(PostgresServer, ReadOnlyServerAnswersFromTheWritersPublishedMap) {
         SameObjects(on_writer, on_replica)) {
       break;
     }
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    seen = watch.WaitBeyond(seen, std::chrono::seconds(2));
   }
   ASSERT_GE(on_writer.size(), 5u);
   ASSERT_TRUE(SameObjects(on_writer, on_replica))
       << on_writer.size() << " objects on the writer, " << on_replica.size() << " read-only";
+  // A query may see a publication just before its events are queued: wait for them.
+  while (!SameObjects(Replayed(watch.events()), on_replica) &&
+         watch.WaitBeyond(seen, std::chrono::seconds(5)) > seen) {
+    seen = watch.events().size();
+  }
+  const std::vector<loci::v1::ObjectEvent> events = watch.events();
+  EXPECT_TRUE(SameObjects(Replayed(events), on_replica)) << events.size() << " events";
+  std::map<int64_t, int> created;
+  for (const loci::v1::ObjectEvent& e : events) {
+    if (e.kind() == loci::v1::ObjectEvent::CREATED) ++created[e.object().id()];
+  }
+  for (const auto& [id, o] : on_replica) EXPECT_EQ(created[id], 1) << "object " << id;
+
   const std::string cls = on_writer.begin()->second.first;
   auto ask = [&](loci::v1::Query::Stub* stub) {
     grpc::ClientContext ctx;
@@ -464,6 +545,31 @@ TEST_F(PostgresServer, ReadOnlyServerAnswersFromTheWritersPublishedMap) {
     const grpc::Status s = replica_query->GetCloud(&ctx, {}, &cloud);
     EXPECT_EQ(s.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
     EXPECT_NE(s.error_message().find(writer.address()), std::string::npos) << s.error_message();
+  }
+  {  // HTTP: the same objects and answers; the cloud at the writer.
+    httplib::Client http("127.0.0.1", replica.http_port());
+    auto objects = http.Get("/api/objects");
+    ASSERT_TRUE(objects) << httplib::to_string(objects.error());
+    EXPECT_EQ(objects->status, 200) << objects->body;
+    loci::v1::FindObjectsResponse found;
+    ASSERT_TRUE(JsonToProto(objects->body, &found).ok()) << objects->body;
+    std::map<int64_t, std::pair<std::string, Vec3d>> over_http;
+    for (const auto& o : found.objects()) {
+      over_http[o.id()] = {o.class_name(), FromProto(o).centroid_m};
+    }
+    EXPECT_TRUE(SameObjects(over_http, on_replica));
+    auto answer = http.Get(("/api/ask?q=where+is+the+" + cls).c_str());
+    ASSERT_TRUE(answer);
+    loci::v1::AskResponse asked_http;
+    ASSERT_TRUE(JsonToProto(answer->body, &asked_http).ok()) << answer->body;
+    std::vector<int64_t> ids;
+    for (const auto& o : asked_http.objects()) ids.push_back(o.id());
+    EXPECT_EQ(ids, asked);
+    auto cloud = http.Get("/api/cloud");
+    ASSERT_TRUE(cloud);
+    EXPECT_NE(cloud->status, 200);
+    EXPECT_NE(cloud->body.find("FAILED_PRECONDITION"), std::string::npos) << cloud->body;
+    EXPECT_NE(cloud->body.find(writer.address()), std::string::npos) << cloud->body;
   }
   EXPECT_EQ(writer.Stop(SIGTERM), 0);
   EXPECT_TRUE(SameObjects(AllObjects(replica_query.get()), on_writer));
