@@ -202,9 +202,11 @@ TEST(SegmentObjectDepth, ABoxOverTheBareDeskHasNoMask) {
   DeskView view = RenderDesk(cam);
   std::mt19937 rng(7);
   std::normal_distribution<float> noise(0.f, 1.f);
-  view.depth_m.forEach<float>([&](float& z, const int*) {
+  // One generator, so one thread: cv::Mat::forEach runs in parallel (a race on rng).
+  for (auto it = view.depth_m.begin<float>(); it != view.depth_m.end<float>(); ++it) {
+    float& z = *it;
     if (z > 0.f) z += 0.0015f * z * z * noise(rng);  // Kinect axial noise
-  });
+  }
   const Eigen::Vector3d gravity =
       -(Eigen::AngleAxisd(3.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()) * view.up);
   const Eigen::Vector3d right(1, 0, 0), fwd = view.up.cross(right);

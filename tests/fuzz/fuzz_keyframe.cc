@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <opencv2/core.hpp>
 
 #include "loci/v1/mapping.pb.h"
@@ -56,10 +57,9 @@ void CheckAccepted(const loci::server::KeyframeRecord& rec, const MapperKeyframe
         "colour image is CV_8UC3 of the camera's size");
   Check(kf.depth_m.type() == CV_32FC1 && kf.depth_m.size() == kf.bgr.size(),
         "depth image is CV_32FC1 of the camera's size");
-  bool depth_ok = true;
-  kf.depth_m.forEach<float>([&](float d, const int*) {
-    if (!std::isfinite(d) || d < 0) depth_ok = false;
-  });
+  // Finite and in [0, max): NaN and infinities fail checkRange.
+  const bool depth_ok =
+      cv::checkRange(kf.depth_m, true, nullptr, 0.0, std::numeric_limits<double>::max());
   Check(depth_ok, "depth is finite and >= 0 m");
   const Eigen::Vector3d t = kf.T_base_kf.translation();
   Check(t.allFinite() && t.cwiseAbs().maxCoeff() <= limits.map_extent_m,
