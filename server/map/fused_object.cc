@@ -199,7 +199,7 @@ double FusedObject::ExistenceLogOdds(const ExistenceModel& m) const {
     if (!first) log_odds = Forget(log_odds, 1e-9 * static_cast<double>(t_ns - last_ns), m.stays_s);
     first = false;
     last_ns = t_ns;
-    log_odds += seen ? hit : miss;
+    log_odds = std::min(log_odds + (seen ? hit : miss), m.max_log_odds);
   }
   return log_odds;
 }

@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <set>
 #include <string>
@@ -123,6 +124,7 @@ class FusedObject {
     double prior = 0.03, p_detect = 0.5, p_false = 0.1;
     int64_t window_ns = 500'000'000;
     double stays_s = 0;
+    double max_log_odds = std::numeric_limits<double>::infinity();  // clamp after each window
   };
   struct Evidence {
     int hits = 0, misses = 0;  // windows

@@ -108,6 +108,8 @@ const FusionRow kFusion[] = {
      "an object is confirmed at this P(real)"},
     {"remove_belief", &FusionOptions::remove_belief, 0, 1,
      "an object is removed when P(real) falls to this"},
+    {"max_belief", &FusionOptions::max_belief, 0.5, 1,
+     "P(real) is held at or below this, so a place seen empty long enough is empty (1 = off)"},
 };
 
 using VisibilityRow = OptionRow<VisibilityOptions>;
@@ -288,6 +290,7 @@ Status CheckRelations(const MapOptions& m) {
   if (!(f.remove_belief < f.existence_prior && f.existence_prior < f.confirm_belief)) {
     return BadMapOption("fusion: remove_belief < existence_prior < confirm_belief");
   }
+  if (!(f.confirm_belief < f.max_belief)) return BadMapOption("fusion: confirm_belief < max_belief");
   return absl::OkStatus();
 }
 

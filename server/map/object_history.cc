@@ -27,44 +27,26 @@ void ObjectMap::TrackPlaces(std::vector<ObjectChange>* changes) {
   }
 }
 
-void ObjectMap::OnConfirmed(int64_t id, std::vector<ObjectChange>* changes) {
-  const FusedObject& object = objects_.at(id);
+int64_t ObjectMap::MovedFrom(const FusedObject& object) const {
   int64_t old_id = 0;
   double best_d = std::numeric_limits<double>::infinity();
-  for (const auto& [gone_id, before] : gone_) {
+  auto consider = [&](int64_t before_id, const FusedObject& before) {
     const double d = (before.centroid_m() - object.centroid_m()).norm();
     if (CouldBeMoved(before, object) && d < best_d) {
       best_d = d;
-      old_id = gone_id;
+      old_id = before_id;
     }
+  };
+  for (const auto& [gone_id, before] : gone_) consider(gone_id, before);
+  // One that was confirmed and is now doubted (its place seen empty since) is also explained
+  // by the move: more likely gone than there, and a thing like it has appeared.
+  for (const auto& [live_id, before] : objects_) {
+    if (!before.confirmed() && history_.count(live_id)) consider(live_id, before);
   }
-  if (old_id == 0) {
-    ObjectPlaceChange appeared;
-    appeared.t_ns = object.first_seen_ns();
-    appeared.centroid_m = object.centroid_m();
-    history_[id].push_back(std::move(appeared));
-    return;
-  }
-  // Its old place was seen empty before: that removal was a move, or, seen again where it was
-  // (within its size), a spell out of sight.
-  std::vector<ObjectPlaceChange>& old_history = history_.at(old_id);
-  ObjectPlaceChange moved = old_history.back();
-  old_history.pop_back();
-  moved.t_ns = std::max(moved.t_ns, object.first_seen_ns());
-  const FusedObject& before = gone_.at(old_id);
-  const bool back = (before.centroid_m() - object.centroid_m()).norm() <=
-                    std::max(before.half_size_m(), object.half_size_m());
-  moved.kind = back ? ObjectPlaceChange::Kind::kAppeared : ObjectPlaceChange::Kind::kMoved;
-  Adopt(old_id, id, std::move(moved), changes);
+  return old_id;
 }
 
-void ObjectMap::OnGone(int64_t id, std::vector<ObjectChange>* changes) {
-  FusedObject& object = objects_.at(id);
-  ObjectPlaceChange gone;
-  gone.kind = ObjectPlaceChange::Kind::kRemoved;
-  gone.from_m = object.centroid_m();
-  gone.centroid_m = object.centroid_m();
-  gone.t_ns = object.MissesSinceLastHit(&gone.evidence_keyframe_ids);
+int64_t ObjectMap::FreshTwinOf(const FusedObject& object) const {
   // A confirmed object that only ever appeared, first seen after this one's last sighting, may
   // be this one at its new place; the nearest one is.
   int64_t fresh_id = 0;
@@ -81,24 +63,67 @@ void ObjectMap::OnGone(int64_t id, std::vector<ObjectChange>* changes) {
       fresh_id = other_id;
     }
   }
-  spdlog::debug("object {} ({}) gone{}", id, object.labels().Argmax(),
+  return fresh_id;
+}
+
+ObjectPlaceChange ObjectMap::Withdraw(int64_t id) {
+  FusedObject& object = objects_.at(id);
+  ObjectPlaceChange gone;
+  gone.kind = ObjectPlaceChange::Kind::kRemoved;
+  gone.from_m = object.centroid_m();
+  gone.centroid_m = object.centroid_m();
+  gone.t_ns = object.MissesSinceLastHit(&gone.evidence_keyframe_ids);
+  gone_.emplace(id, std::move(object));
+  objects_.erase(id);
+  return gone;
+}
+
+void ObjectMap::OnConfirmed(int64_t id, std::vector<ObjectChange>* changes) {
+  const int64_t old_id = MovedFrom(objects_.at(id));
+  if (old_id == 0) {
+    const FusedObject& object = objects_.at(id);
+    ObjectPlaceChange appeared;
+    appeared.t_ns = object.first_seen_ns();
+    appeared.centroid_m = object.centroid_m();
+    history_[id].push_back(std::move(appeared));
+    return;
+  }
+  // Its old place was seen empty before: that removal (or doubt) was a move, or, seen again
+  // where it was (within its size), a spell out of sight.
+  ObjectPlaceChange moved;
+  if (objects_.count(old_id)) {
+    moved = Withdraw(old_id);
+  } else {
+    moved = history_.at(old_id).back();
+    history_.at(old_id).pop_back();
+  }
+  const FusedObject& object = objects_.at(id);
+  moved.t_ns = std::max(moved.t_ns, object.first_seen_ns());
+  const FusedObject& before = gone_.at(old_id);
+  const bool back = (before.centroid_m() - object.centroid_m()).norm() <=
+                    std::max(before.half_size_m(), object.half_size_m());
+  moved.kind = back ? ObjectPlaceChange::Kind::kAppeared : ObjectPlaceChange::Kind::kMoved;
+  Adopt(old_id, id, std::move(moved), changes);
+}
+
+void ObjectMap::OnGone(int64_t id, std::vector<ObjectChange>* changes) {
+  const int64_t fresh_id = FreshTwinOf(objects_.at(id));
+  spdlog::debug("object {} ({}) gone{}", id, objects_.at(id).labels().Argmax(),
                 fresh_id ? fmt::format(", seen again as {}", fresh_id) : "");
+  const MapObject last_state = objects_.at(id).Snapshot();
+  ObjectPlaceChange gone = Withdraw(id);
   if (fresh_id != 0) {
     gone.t_ns = std::max(gone.t_ns, objects_.at(fresh_id).first_seen_ns());
     gone.kind = ObjectPlaceChange::Kind::kMoved;
-    gone_.emplace(id, std::move(object));
-    objects_.erase(id);
     Adopt(id, fresh_id, std::move(gone), changes);
     return;
   }
   ObjectChange removed = ChangeOf(ObjectChange::Kind::kRemoved, id);
-  removed.removed_state = object.Snapshot();
+  removed.removed_state = last_state;
   removed.evidence_keyframe_ids = gone.evidence_keyframe_ids;
   removed.evidence_t_ns = gone.t_ns;
   changes->push_back(std::move(removed));
   history_[id].push_back(std::move(gone));
-  gone_.emplace(id, std::move(object));
-  objects_.erase(id);
 }
 
 void ObjectMap::Adopt(int64_t old_id, int64_t fresh_id, ObjectPlaceChange moved,

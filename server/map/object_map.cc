@@ -33,9 +33,11 @@ FusedObject ObjectMap::NewObject(int64_t id) const {
 
 FusedObject::ExistenceModel ObjectMap::Existence(const FusedObject& object) const {
   const auto stays = options_.stays_s.find(object.labels().Argmax());
+  const double max_p = options_.max_belief;
   return {options_.existence_prior, options_.p_detect, options_.p_false,
           static_cast<int64_t>(options_.evidence_window_s * 1e9),
-          stays == options_.stays_s.end() ? 0.0 : stays->second};
+          stays == options_.stays_s.end() ? 0.0 : stays->second,
+          max_p >= 1 ? std::numeric_limits<double>::infinity() : std::log(max_p / (1 - max_p))};
 }
 
 bool ObjectMap::FitsClassShape(const FusedObject& object) const {
@@ -245,7 +247,11 @@ void ObjectMap::ObserveView(int64_t keyframe_id, int64_t t_ns, const KeyframeVie
     }
     object.Miss(keyframe_id, t_ns);
     const bool was_confirmed = object.confirmed();
-    if (Judge(&object) <= remove) {
+    const double log_odds = Judge(&object);
+    // Gone at remove_belief; sooner when a thing like it has newly appeared elsewhere, since
+    // one thing is in one place and the move explains both sightings.
+    const bool doubted = was_confirmed && !object.confirmed() && history_.count(id);
+    if (log_odds <= remove || (doubted && FreshTwinOf(object) != 0)) {
       gone.push_back(id);
     } else if (object.confirmed() != was_confirmed) {
       changes->push_back(ChangeOf(ObjectChange::Kind::kUpdated, id));

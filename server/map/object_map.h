@@ -146,6 +146,12 @@ class ObjectMap {
   // `after` may be `before` seen again at a new place: the same likely class and size, first
   // seen after `before` was last seen. Of several, the nearest is taken.
   bool CouldBeMoved(const FusedObject& before, const FusedObject& after) const;
+  // The removed or doubted object that `object` is at a new place (0: none), and the newly
+  // confirmed object that a doubted `object` is at its new place (0: none).
+  int64_t MovedFrom(const FusedObject& object) const;
+  int64_t FreshTwinOf(const FusedObject& object) const;
+  // Moves a live object to the removed ones; returns its removal, not yet in its history.
+  ObjectPlaceChange Withdraw(int64_t id);
   // `fresh_id` becomes `old_id` at its new place (`moved`: kMoved, or kAppeared when it is
   // back where it was): kRemoved of the provisional id, then kMoved (kCreated) of old_id with
   // the evidence that the old place was empty.

@@ -2,6 +2,7 @@
 // winning class's views, the box-centre centroid) and its checkpoint state.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 #include "loci/store/v1/map_state.pb.h"
@@ -204,6 +205,36 @@ TEST(FusedObject, MergedPiecesMissAKeyframeOnce) {
   EXPECT_FALSE(restored.LoadState(state).ok());
 }
 
+
+// The belief is clamped: a thing seen in 200 windows and one seen in 10 need the same number of
+// windows that show their place empty before they are removed; without the clamp the first
+// needs about ten times as many.
+TEST(FusedObject, ClampedBeliefLetsALongSeenThingGoAsSoonAsABrieflySeenOne) {
+  constexpr int64_t kWindowNs = 500'000'000;
+  const auto seen_for = [&](int windows) {
+    FusedObject o(1, 0.01, true, LabelDistribution(13, 0.05), {0.05, 0.0, 0.0, {}, 0.03});
+    for (int w = 0; w < windows; ++w) o.Observe("cup", 0.8, 1, 0, "r", w + 1, w * kWindowNs);
+    return std::make_pair(o, static_cast<int64_t>(windows));
+  };
+  const auto misses_to_remove = [&](std::pair<FusedObject, int64_t> seen, double max_belief) {
+    FusedObject::ExistenceModel m;
+    m.window_ns = kWindowNs;
+    if (max_belief < 1) m.max_log_odds = std::log(max_belief / (1 - max_belief));
+    const double remove = std::log(0.001 / 0.999);
+    auto& [o, next] = seen;
+    for (int missed = 1; missed < 10000; ++missed, ++next) {
+      o.Miss(1000 + next, next * kWindowNs);
+      if (o.ExistenceLogOdds(m) <= remove) return missed;
+    }
+    return -1;
+  };
+  const int long_seen = misses_to_remove(seen_for(200), 0.97);
+  const int brief = misses_to_remove(seen_for(10), 0.97);
+  EXPECT_EQ(long_seen, brief);
+  EXPECT_GT(long_seen, 10);  // a glance at an empty place removes nothing
+  EXPECT_LE(long_seen, 20);
+  EXPECT_GT(misses_to_remove(seen_for(200), 1.0), 5 * long_seen);
+}
 
 // Two books lie side by side, and 2 of the 12 boxes of the front one also hold the back one.
 // A shape cell needs a quarter of the views: that keeps the back book out of the front one's

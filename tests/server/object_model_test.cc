@@ -162,10 +162,10 @@ TEST(ObjectModel, OldSightingsFadeAtTheClassRate) {
 }
 
 // A camera at the map origin (optical frame = map frame) sees a flat surface 1 m ahead with a
-// 10 cm mouse detected at x = -0.2 m in `hits` views 0.6 s apart; then 20 views 0.6 s apart
-// show the same place without a box. Returns whether the mouse was confirmed after the
+// 10 cm mouse detected at x = -0.2 m in `hits` views 0.6 s apart; then `misses` views 0.6 s
+// apart show the same place without a box. Returns whether the mouse was confirmed after the
 // hits, and whether it is still in the map at the end.
-std::pair<bool, bool> MouseMissed(int hits) {
+std::pair<bool, bool> MouseMissed(int hits, int misses) {
   ObjectMap map(WithSizes(1.5), 0.01);
   const PinholeCamera camera = PinholeCamera::TumFr1();
   const cv::Mat depth_m(480, 640, CV_32FC1, cv::Scalar(1.0f));
@@ -178,7 +178,7 @@ std::pair<bool, bool> MouseMissed(int hits) {
     id = map.Integrate({o}, &changes)[0];
   }
   const bool confirmed = map.Find(id)->confirmed();
-  for (int i = 0; i < 20; ++i) {
+  for (int i = 0; i < misses; ++i) {
     ++kf;
     map.ObserveView(kf, kf * 600'000'000LL, {&camera, &depth_m, 1, SE3d::Identity(), &no_boxes},
                     {}, &changes);
@@ -187,11 +187,14 @@ std::pair<bool, bool> MouseMissed(int hits) {
 }
 
 TEST(ObjectModel, ViewsThatShouldHaveSeenAnObjectLowerItsBelief) {
-  // Five windows with a box: log-odds -3.48 + 5 x 1.61 = 4.57; 20 windows that missed it, at
-  // log(0.5 / 0.9) = -0.59 each, take it to -7.2, below the removal belief's -6.9.
-  EXPECT_EQ(MouseMissed(5), std::make_pair(true, false));
-  // Ten: 12.6, and the same misses leave it at 0.9: still there.
-  EXPECT_EQ(MouseMissed(10), std::make_pair(true, true));
+  // Five windows with a box: log-odds -3.48 + 5 x 1.61 = 4.57, clamped at max_belief's 3.48;
+  // each window that missed it adds log(0.5 / 0.9) = -0.59. Ten leave it at -2.4: still
+  // there; twenty take it to -8.3, below the removal belief's -6.9.
+  EXPECT_EQ(MouseMissed(5, 10), std::make_pair(true, true));
+  EXPECT_EQ(MouseMissed(5, 20), std::make_pair(true, false));
+  // Thirty windows with a box weigh no more than five: the clamp lets an empty place win.
+  EXPECT_EQ(MouseMissed(30, 10), std::make_pair(true, true));
+  EXPECT_EQ(MouseMissed(30, 20), std::make_pair(true, false));
 }
 
 bool MouseConfirmed(double length_m, double class_size_slack) {
