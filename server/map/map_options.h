@@ -93,7 +93,7 @@ struct FusionOptions {
   // Existence (FusedObject::ExistenceLogOdds): the prior probability of a new object, the
   // probability that a real object is boxed in a time window of evidence_window_s whose views
   // should show it, that a false box recurs at its place in such a window, and the beliefs at
-  // which an object is confirmed and removed (0.03, 0.5, 0.1, 0.5 s, 0.5, 0.001). The belief
+  // which an object is confirmed and removed (0.03, 0.5, 0.1, 0.5 s, 0.5, 0.02). The belief
   // is held at or below max_belief (0.97, OctoMap's clamping), so a place seen empty for a
   // bounded time always removes what stood there, however long it was seen before.
   double existence_prior = 0.03;
@@ -101,7 +101,7 @@ struct FusionOptions {
   double p_false = 0.1;
   double evidence_window_s = 0.5;
   double confirm_belief = 0.5;
-  double remove_belief = 0.001;
+  double remove_belief = 0.02;
   double max_belief = 0.97;
   VisibilityOptions visibility;
   // Class data (config/classes.yaml, set by Mapper): furniture with a top, size limits.

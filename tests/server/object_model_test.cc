@@ -189,7 +189,7 @@ std::pair<bool, bool> MouseMissed(int hits, int misses) {
 TEST(ObjectModel, ViewsThatShouldHaveSeenAnObjectLowerItsBelief) {
   // Five windows with a box: log-odds -3.48 + 5 x 1.61 = 4.57, clamped at max_belief's 3.48;
   // each window that missed it adds log(0.5 / 0.9) = -0.59. Ten leave it at -2.4: still
-  // there; twenty take it to -8.3, below the removal belief's -6.9.
+  // there; twenty take it to -8.3, below the removal belief's -3.9.
   EXPECT_EQ(MouseMissed(5, 10), std::make_pair(true, true));
   EXPECT_EQ(MouseMissed(5, 20), std::make_pair(true, false));
   // Thirty windows with a box weigh no more than five: the clamp lets an empty place win.
